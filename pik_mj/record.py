@@ -1,0 +1,1031 @@
+"""Rerun recording of solves and simulations: one place for entity paths and logging.
+
+A :class:`Recorder` wraps an explicit :class:`rerun.RecordingStream` (never the
+global one). Model geometry is logged once as static data; per-iteration data
+(body poses, frames, points, scalars) is buffered and sent in columns with
+``send_columns``, which is ~20x cheaper per iteration than one ``log`` call per
+entity. Everything else (polygons, contacts, text) is logged directly.
+
+Every entity path is built by :class:`EntityPaths` (module constant
+:data:`PATHS`); quaternions are MuJoCo's (w, x, y, z) everywhere in pik_mj and are
+converted to rerun's (x, y, z, w) only inside this module (:func:`_xyzw`).
+
+Typical use::
+
+    with Recorder.to_file("run.rrd") as rec:
+        rec.log_model_geometry(model, robot_root_body="torso")
+        rec.send_blueprint(levels=[1, 2])
+        for k in range(n_iter):
+            rec.log_body_poses(data, timeline="iteration", time=k)
+            rec.log_com(data.subtree_com[1], target=p_WC_target)
+            rec.log_task_errors({(1, "com"): e_com, (2, "posture"): e_post})
+"""
+
+from __future__ import annotations
+
+import math
+import uuid
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import mujoco
+import numpy as np
+import numpy.typing as npt
+import rerun as rr
+import rerun.blueprint as rrb
+
+from pik_mj.exceptions import InvalidInput, PikError, UnknownName
+
+__all__ = [
+    "PATHS",
+    "TIMELINES",
+    "EntityData",
+    "EntityPaths",
+    "Recorder",
+    "blueprint",
+    "read_recording",
+]
+
+#: Kind of every timeline pik_mj uses: ``iteration`` counts IK solver iterations,
+#: ``sim_time`` is physics time in [s]. Other timelines need an explicit ``kind``.
+TIMELINES: dict[str, str] = {"iteration": "sequence", "sim_time": "duration"}
+
+_TEXT_LEVELS = ("TRACE", "DEBUG", "INFO", "WARN", "ERROR", "CRITICAL")
+
+
+def _part(name: str) -> str:
+    """Escape one entity-path part (MJCF names may hold '/', spaces, ...)."""
+    return rr.escape_entity_path_part(name)
+
+
+@dataclass(frozen=True)
+class EntityPaths:
+    """Every rerun entity path pik_mj writes. Names are escaped path parts.
+
+    Attributes:
+        world: Root of the 3D scene (z up).
+        robot: Parent of the robot's bodies: ``world/robot/<body>``.
+        scene: Parent of environment bodies: ``world/scene/<body>``.
+        com: Centre of mass ``p_WC`` [m].
+        com_target: Target of the centre of mass [m].
+        support_polygon: Support polygon outline (child ``margin``: shrunk outline).
+        scfr: Static centroid feasible region outline.
+        zmp: Zero-moment point [m].
+        contact_points: Contact points [m].
+        contact_forces: Contact forces drawn as arrows (scaled, [m/N]).
+        tasks: Parent of task frames: ``world/tasks/<task>/target|current``.
+        errors: Parent of task error series: ``errors/level_<k>/<task>``.
+        events: Text log of the run.
+        hold: Parent of physics-hold metrics: ``hold/<metric>`` (e.g. ``hold/drift``).
+    """
+
+    world: str = "world"
+    robot: str = "world/robot"
+    scene: str = "world/scene"
+    com: str = "world/com"
+    com_target: str = "world/com_target"
+    support_polygon: str = "world/support_polygon"
+    scfr: str = "world/scfr"
+    zmp: str = "world/zmp"
+    contact_points: str = "world/contacts/points"
+    contact_forces: str = "world/contacts/forces"
+    tasks: str = "world/tasks"
+    errors: str = "errors"
+    events: str = "log/events"
+    hold: str = "hold"
+
+    def body(self, name: str, *, robot: bool = True) -> str:
+        """Path of a body's frame ``X_WB`` (its geoms are children)."""
+        return f"{self.robot if robot else self.scene}/{_part(name)}"
+
+    def geom(self, body_path: str, name: str) -> str:
+        """Path of a geom, a child of its body's path."""
+        return f"{body_path}/{_part(name)}"
+
+    def task_target(self, task: str) -> str:
+        """Path of a task's target frame."""
+        return f"{self.tasks}/{_part(task)}/target"
+
+    def task_current(self, task: str) -> str:
+        """Path of a task's current frame."""
+        return f"{self.tasks}/{_part(task)}/current"
+
+    def level_errors(self, level: int) -> str:
+        """Parent path of the error series of priority level ``level``."""
+        return f"{self.errors}/level_{int(level)}"
+
+    def task_error(self, level: int, task: str) -> str:
+        """Path of the scalar error series of ``task`` on priority level ``level``."""
+        return f"{self.level_errors(level)}/{_part(task)}"
+
+    def hold_metric(self, name: str) -> str:
+        """Path of a physics-hold metric series, e.g. ``hold/drift``."""
+        return f"{self.hold}/{_part(name)}"
+
+
+#: The one entity-path table of pik_mj.
+PATHS = EntityPaths()
+
+
+def _xyzw(q_wxyz: np.ndarray) -> np.ndarray:
+    """MuJoCo (w, x, y, z) -> rerun (x, y, z, w), along the last axis."""
+    return q_wxyz[..., [1, 2, 3, 0]]
+
+
+def _vec(value: npt.ArrayLike, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """``value`` as a finite float array of ``shape`` (-1 = any length), or raise."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim != len(shape) or any(
+        s not in (-1, n) for s, n in zip(shape, a.shape, strict=True)
+    ):
+        want = "(" + ", ".join("n" if s == -1 else str(s) for s in shape) + ")"
+        raise InvalidInput(f"{what} must have shape {want}, got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise InvalidInput(f"{what} must be finite, got {a.tolist()}")
+    return a
+
+
+def _rgba8(rgba: npt.ArrayLike) -> np.ndarray:
+    """RGBA in [0, 1] -> uint8 RGBA."""
+    return np.clip(np.round(np.asarray(rgba, dtype=float) * 255.0), 0, 255).astype(
+        np.uint8
+    )
+
+
+# ---------------------------------------------------------------------------
+# Model geometry
+
+
+_DEFAULT_GEOM_RGBA = np.array([0.5, 0.5, 0.5, 1.0])
+
+
+def _geom_rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
+    """Colour MuJoCo renders geom ``g`` with.
+
+    The geom's own ``rgba`` wins when it differs from MuJoCo's default
+    (0.5, 0.5, 0.5, 1); otherwise the material's ``rgba`` is used, if any.
+    """
+    rgba = np.asarray(model.geom_rgba[g], dtype=float)
+    mat = int(model.geom_matid[g])
+    if mat >= 0 and np.allclose(rgba, _DEFAULT_GEOM_RGBA, atol=1e-6):
+        return np.asarray(model.mat_rgba[mat], dtype=float)
+    return rgba
+
+
+def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals of a triangle mesh (unit length, or zero)."""
+    v0, v1, v2 = (vertices[faces[:, i]] for i in range(3))
+    n_face = np.cross(v1 - v0, v2 - v0)
+    normals = np.zeros_like(vertices)
+    for i in range(3):
+        np.add.at(normals, faces[:, i], n_face)
+    norm = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, norm, out=np.zeros_like(normals), where=norm > 0)
+
+
+def _hfield_mesh(model: mujoco.MjModel, h: int) -> tuple[np.ndarray, np.ndarray]:
+    """Top surface of height field ``h`` as (vertices (n, 3), triangles (m, 3)).
+
+    .. math::
+        x_c = -s_x + 2 s_x c / (n_{col} - 1),\\quad
+        y_r = -s_y + 2 s_y r / (n_{row} - 1),\\quad
+        z_{rc} = s_z \\, d_{r n_{col} + c}
+    """
+    nrow, ncol = int(model.hfield_nrow[h]), int(model.hfield_ncol[h])
+    sx, sy, sz, _ = (float(s) for s in model.hfield_size[h])
+    adr = int(model.hfield_adr[h])
+    z = np.asarray(model.hfield_data[adr : adr + nrow * ncol]).reshape(nrow, ncol)
+    yy, xx = np.meshgrid(
+        np.linspace(-sy, sy, nrow), np.linspace(-sx, sx, ncol), indexing="ij"
+    )
+    vertices = np.column_stack([xx.ravel(), yy.ravel(), sz * z.ravel()])
+    r, c = np.meshgrid(np.arange(nrow - 1), np.arange(ncol - 1), indexing="ij")
+    i00 = (r * ncol + c).ravel()
+    i01, i10 = i00 + 1, i00 + ncol
+    i11 = i10 + 1
+    faces = np.concatenate(
+        [np.column_stack([i00, i01, i11]), np.column_stack([i00, i11, i10])]
+    )
+    return vertices, faces.astype(np.uint32)
+
+
+def _geom_archetype(
+    model: mujoco.MjModel, g: int, plane_half_size: float
+) -> rr.AsComponents | None:
+    """Rerun primitive of geom ``g`` in the geom's own frame, or None (unsupported).
+
+    MuJoCo geoms are centred on their frame; a rerun capsule runs from (0, 0, 0)
+    to (0, 0, length) along +z, so it is shifted by ``-h`` along z; rerun
+    cylinders are centred and along +z like MuJoCo's.
+    """
+    t = int(model.geom_type[g])
+    size = np.asarray(model.geom_size[g], dtype=float)
+    color = _rgba8(_geom_rgba(model, g))
+    G = mujoco.mjtGeom
+    if t == G.mjGEOM_BOX:
+        return rr.Boxes3D(half_sizes=[size], colors=[color], fill_mode="solid")
+    if t == G.mjGEOM_SPHERE:
+        return rr.Ellipsoids3D(
+            half_sizes=[[size[0]] * 3], colors=[color], fill_mode="solid"
+        )
+    if t == G.mjGEOM_ELLIPSOID:
+        return rr.Ellipsoids3D(half_sizes=[size], colors=[color], fill_mode="solid")
+    if t == G.mjGEOM_CAPSULE:
+        radius, half_length = size[0], size[1]
+        return rr.Capsules3D(
+            lengths=[2.0 * half_length],
+            radii=[radius],
+            translations=[[0.0, 0.0, -half_length]],
+            colors=[color],
+            fill_mode="solid",
+        )
+    if t == G.mjGEOM_CYLINDER:
+        return rr.Cylinders3D(
+            lengths=[2.0 * size[1]], radii=[size[0]], colors=[color], fill_mode="solid"
+        )
+    if t == G.mjGEOM_PLANE:
+        # MuJoCo planes are infinite when a size is 0; draw a thin slab whose top
+        # face is the plane z = 0 of the geom frame.
+        hx = size[0] if size[0] > 0 else plane_half_size
+        hy = size[1] if size[1] > 0 else plane_half_size
+        thickness = 1e-3
+        return rr.Boxes3D(
+            half_sizes=[[hx, hy, thickness]],
+            centers=[[0.0, 0.0, -thickness]],
+            colors=[color],
+            fill_mode="solid",
+        )
+    if t == G.mjGEOM_MESH:
+        m = int(model.geom_dataid[g])
+        va, vn = int(model.mesh_vertadr[m]), int(model.mesh_vertnum[m])
+        fa, fn = int(model.mesh_faceadr[m]), int(model.mesh_facenum[m])
+        vertices = np.asarray(model.mesh_vert[va : va + vn], dtype=np.float32)
+        faces = np.asarray(model.mesh_face[fa : fa + fn], dtype=np.uint32)
+        return rr.Mesh3D(
+            vertex_positions=vertices,
+            triangle_indices=faces,
+            vertex_normals=_vertex_normals(vertices, faces),
+            albedo_factor=color,
+        )
+    if t == G.mjGEOM_HFIELD:
+        vertices, faces = _hfield_mesh(model, int(model.geom_dataid[g]))
+        return rr.Mesh3D(
+            vertex_positions=vertices,
+            triangle_indices=faces,
+            vertex_normals=_vertex_normals(vertices, faces),
+            albedo_factor=color,
+        )
+    return None
+
+
+def _subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
+    """Boolean mask of the bodies in the kinematic subtree of ``root``."""
+    inside = np.zeros(model.nbody, dtype=bool)
+    inside[root] = True
+    for b in range(root + 1, model.nbody):  # parents have smaller ids
+        inside[b] = inside[model.body_parentid[b]]
+    return inside
+
+
+def _unique_names(kind: str, names: Sequence[str]) -> list[str]:
+    """MJCF names with ``<kind>_<id>`` for unnamed ones, made unique."""
+    out: list[str] = []
+    seen: set[str] = set()
+    for i, name in enumerate(names):
+        n = name or f"{kind}_{i}"
+        if n in seen:
+            n = f"{n}_{i}"
+        seen.add(n)
+        out.append(n)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Buffered rows
+
+
+def _time_columns(
+    names: tuple[str, ...], kinds: tuple[str, ...], times: np.ndarray
+) -> list[rr.TimeColumn]:
+    """TimeColumns for ``times`` (rows x timelines)."""
+    cols = []
+    for j, (name, kind) in enumerate(zip(names, kinds, strict=True)):
+        if kind == "sequence":
+            cols.append(rr.TimeColumn(name, sequence=times[:, j].astype(np.int64)))
+        else:
+            cols.append(rr.TimeColumn(name, duration=times[:, j].astype(float)))
+    return cols
+
+
+@dataclass(frozen=True)
+class _RowKind:
+    """How rows of one archetype are sent: stacked in columns, or one by one."""
+
+    columns: Callable[[np.ndarray], Any]  # stacked row values -> component columns
+    row: Callable[[Any], Any]  # one row value -> archetype for ``log``
+
+
+def _translation_quat(v: np.ndarray) -> dict[str, np.ndarray]:
+    """(..., 7) [p, q_wxyz] -> Transform3D fields (rerun quaternion order)."""
+    return {"translation": v[..., :3], "quaternion": _xyzw(v[..., 3:])}
+
+
+_SCALAR = _RowKind(
+    columns=lambda v: rr.Scalars.columns(scalars=v.astype(float)),
+    row=lambda v: rr.Scalars(v),
+)
+_POINT = _RowKind(
+    columns=lambda v: rr.Points3D.columns(positions=v.reshape(-1, 3)),
+    row=lambda v: rr.Points3D.from_fields(positions=[v]),
+)
+_TRANSFORM = _RowKind(
+    columns=lambda v: rr.Transform3D.columns(**_translation_quat(v)),
+    row=lambda v: rr.Transform3D(**_translation_quat(v)),
+)
+
+
+@dataclass
+class _Rows:
+    """Rows of one entity on one set of timelines, sent with one ``send_columns``."""
+
+    path: str
+    names: tuple[str, ...]
+    kinds: tuple[str, ...]
+    kind: _RowKind
+    times: list[tuple[float, ...]] = field(default_factory=list)
+    values: list[Any] = field(default_factory=list)
+
+    def send(self, stream: rr.RecordingStream) -> None:
+        if not self.times:
+            return
+        times = np.asarray(self.times, dtype=float).reshape(len(self.times), -1)
+        stream.send_columns(
+            self.path,
+            indexes=_time_columns(self.names, self.kinds, times),
+            columns=self.kind.columns(np.asarray(self.values)),
+        )
+        self.times.clear()
+        self.values.clear()
+
+
+@dataclass
+class _PoseBuffer:
+    """Dense buffer of body poses (rows x bodies) on one set of timelines."""
+
+    names: tuple[str, ...]
+    kinds: tuple[str, ...]
+    capacity: int
+    n_bodies: int
+    times: list[tuple[float, ...]] = field(default_factory=list)
+    pos: np.ndarray = field(init=False)
+    quat: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.pos = np.empty((self.capacity, self.n_bodies, 3))
+        self.quat = np.empty((self.capacity, self.n_bodies, 4))
+
+    def send(self, stream: rr.RecordingStream, paths: Sequence[str]) -> None:
+        n = len(self.times)
+        if n == 0:
+            return
+        times = np.asarray(self.times, dtype=float).reshape(n, -1)
+        indexes = _time_columns(self.names, self.kinds, times)
+        quat_xyzw = _xyzw(self.quat[:n])
+        for i, path in enumerate(paths):
+            stream.send_columns(
+                path,
+                indexes=indexes,
+                columns=rr.Transform3D.columns(
+                    translation=self.pos[:n, i], quaternion=quat_xyzw[:, i]
+                ),
+            )
+        self.times.clear()
+
+
+# ---------------------------------------------------------------------------
+# Recorder
+
+
+def _check_flush_every(flush_every: int) -> None:
+    if isinstance(flush_every, bool) or not isinstance(flush_every, (int, np.integer)):
+        raise InvalidInput(f"flush_every must be an integer >= 1, got {flush_every!r}")
+    if flush_every < 1:
+        raise InvalidInput(f"flush_every must be an integer >= 1, got {flush_every}")
+
+
+class Recorder:
+    """Logs pik_mj data to an explicit rerun recording stream.
+
+    Per-iteration data (body poses, frames, points, scalars) is buffered and sent
+    every ``flush_every`` rows per entity, and on :meth:`flush` / :meth:`close` /
+    leaving the ``with`` block (also when the block raised). ``flush_every=1``
+    logs each row at once (for a live viewer; ~60 us per entity per row instead
+    of ~1 us buffered).
+
+    Time is set with :meth:`set_time` (or by :meth:`log_body_poses`); set it
+    through the Recorder, not on the stream, so buffered rows carry it.
+
+    Args:
+        stream: The recording stream to log to (never the global one).
+        flush_every: Rows buffered per entity before they are sent (>= 1).
+        owns_stream: Whether :meth:`close` disconnects ``stream`` (finalizing its
+            file sinks). A stream you pass in is only flushed by default.
+        paths: Entity-path table.
+    """
+
+    def __init__(
+        self,
+        stream: rr.RecordingStream,
+        *,
+        flush_every: int = 256,
+        owns_stream: bool = False,
+        paths: EntityPaths = PATHS,
+    ):
+        if not isinstance(stream, rr.RecordingStream):
+            raise InvalidInput(
+                f"stream must be a rerun.RecordingStream, got {type(stream).__name__}"
+            )
+        _check_flush_every(flush_every)
+        self.stream = stream
+        self.paths = paths
+        self.flush_every = int(flush_every)
+        self.owns_stream = owns_stream
+        self.closed = False
+        # Current time: timeline -> value, and its kind (fixed once used).
+        self._time: dict[str, float] = {}
+        self._kinds: dict[str, str] = dict(TIMELINES)
+        self._time_key: tuple[tuple[str, ...], tuple[str, ...]] = ((), ())
+        self._time_vals: tuple[float, ...] = ()
+        self._stream_time_dirty = False
+        self._rows: dict[tuple[str, tuple[str, ...]], _Rows] = {}
+        self._pose_buffers: dict[tuple[str, ...], _PoseBuffer] = {}
+        self._static_style: dict[str, tuple[Any, ...]] = {}
+        self._error_paths: dict[tuple[int, str], str] = {}
+        # Filled by log_model_geometry.
+        self._dyn_ids: np.ndarray | None = None
+        self._dyn_paths: list[str] = []
+        self._nbody = -1
+        self.skipped_geoms: list[str] = []
+
+    @classmethod
+    def to_file(
+        cls,
+        path: str | Path,
+        application_id: str = "pik_mj",
+        *,
+        recording_id: str | None = None,
+        flush_every: int = 256,
+    ) -> Recorder:
+        """A Recorder on a new stream that saves to the ``.rrd`` file ``path``.
+
+        The Recorder owns the stream: :meth:`close` (or leaving the ``with`` block)
+        flushes and disconnects it, which writes the file's footer.
+        """
+        _check_flush_every(flush_every)
+        path = Path(path)
+        if not path.parent.is_dir():
+            raise InvalidInput(
+                f"directory of the recording {str(path)!r} does not exist"
+            )
+        stream = rr.RecordingStream(
+            application_id, recording_id=recording_id or uuid.uuid4().hex
+        )
+        stream.save(path)
+        return cls(stream, flush_every=flush_every, owns_stream=True)
+
+    # -- lifetime ---------------------------------------------------------------
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def flush(self) -> None:
+        """Send every buffered row and wait until the stream has written them."""
+        self._send_buffers()
+        self.stream.flush()
+
+    def close(self) -> None:
+        """Flush; disconnect the stream if this Recorder owns it. Idempotent."""
+        if self.closed:
+            return
+        try:
+            self._send_buffers()
+            self.stream.flush()
+        finally:
+            self.closed = True
+            if self.owns_stream:
+                self.stream.disconnect()
+
+    def _send_buffers(self) -> None:
+        for rows in self._rows.values():
+            rows.send(self.stream)
+        for buf in self._pose_buffers.values():
+            buf.send(self.stream, self._dyn_paths)
+
+    def _check_open(self) -> None:
+        if self.closed:
+            raise PikError("the Recorder is closed; create a new one to log more")
+
+    # -- time -------------------------------------------------------------------
+
+    def set_time(self, timeline: str, value: float, *, kind: str | None = None) -> None:
+        """Set the current time of ``timeline`` for every following log call.
+
+        Args:
+            timeline: Timeline name: ``iteration`` (sequence) or ``sim_time``
+                (duration, value in [s]), or any other with an explicit ``kind``.
+            value: Iteration number, or time in [s].
+            kind: ``"sequence"`` or ``"duration"``; fixed once a timeline is used.
+        """
+        known = self._kinds.get(timeline)
+        if kind is None:
+            if known is None:
+                raise UnknownName("timeline", timeline, self._kinds)
+            kind = known
+        elif kind not in ("sequence", "duration"):
+            raise InvalidInput(
+                f"timeline kind must be 'sequence' or 'duration', got {kind!r}"
+            )
+        elif known is not None and known != kind:
+            raise InvalidInput(
+                f"timeline {timeline!r} is a {known} timeline, not {kind}"
+            )
+        if kind == "sequence":
+            if isinstance(value, float) and not value.is_integer():
+                raise InvalidInput(f"{timeline} must be an integer, got {value}")
+            value = int(value)
+        else:
+            value = float(value)
+            if not math.isfinite(value):
+                raise InvalidInput(f"{timeline} must be finite [s], got {value}")
+        self._kinds[timeline] = kind
+        if timeline not in self._time:
+            self._time[timeline] = value
+            names = tuple(sorted(self._time))
+            self._time_key = (names, tuple(self._kinds[n] for n in names))
+        self._time[timeline] = value
+        self._time_vals = tuple(self._time[n] for n in self._time_key[0])
+        self._stream_time_dirty = True
+
+    def disable_timeline(self, timeline: str) -> None:
+        """Stop stamping following rows with ``timeline`` (e.g. after the solve)."""
+        if timeline in self._time:
+            del self._time[timeline]
+            names = tuple(sorted(self._time))
+            self._time_key = (names, tuple(self._kinds[n] for n in names))
+            self._time_vals = tuple(self._time[n] for n in names)
+            self.stream.disable_timeline(timeline)
+
+    def _sync_stream_time(self) -> None:
+        """Mirror the current time onto the stream before a direct ``log``."""
+        if self._stream_time_dirty:
+            for name, value in self._time.items():
+                if self._kinds[name] == "sequence":
+                    self.stream.set_time(name, sequence=int(value))
+                else:
+                    self.stream.set_time(name, duration=float(value))
+            self._stream_time_dirty = False
+
+    def _log(self, path: str, *archetypes: Any, static: bool = False) -> None:
+        self._check_open()
+        if not static:
+            self._sync_stream_time()
+        self.stream.log(path, *archetypes, static=static, strict=True)
+
+    def _append(self, path: str, value: Any, kind: _RowKind) -> None:
+        """Buffer one row of ``path`` at the current time (log it if unbuffered)."""
+        self._check_open()
+        if self.flush_every == 1:
+            self._log(path, kind.row(value))
+            return
+        names, kinds = self._time_key
+        if not names:
+            raise PikError(
+                f"no time is set for {path!r}; call set_time (e.g. "
+                "set_time('iteration', k)) before logging per-iteration data"
+            )
+        rows = self._rows.get((path, names))
+        if rows is None:
+            rows = self._rows[(path, names)] = _Rows(path, names, kinds, kind)
+        rows.times.append(self._time_vals)
+        rows.values.append(value)
+        if len(rows.times) >= self.flush_every:
+            rows.send(self.stream)
+
+    def _static_once(self, path: str, style: tuple[Any, ...], archetype: Any) -> None:
+        """Log static style data of ``path`` unless it was logged with ``style``."""
+        if self._static_style.get(path) != style:
+            self._log(path, archetype, static=True)
+            self._static_style[path] = style
+
+    # -- geometry -------------------------------------------------------------
+
+    def log_model_geometry(
+        self,
+        model: mujoco.MjModel,
+        data: mujoco.MjData | None = None,
+        *,
+        robot_root_body: str | None = None,
+        geom_groups: Iterable[int] = (0, 1, 2),
+        plane_half_size: float = 5.0,
+    ) -> None:
+        """Log every visible geom of ``model`` once, static, in its body's frame.
+
+        Bodies in the subtree of ``robot_root_body`` are the robot
+        (``world/robot/<body>``); other bodies are scene (``world/scene/<body>``):
+        those welded to the world get a static pose here, the others (free,
+        jointed or mocap) are dynamic like the robot. With no root given, every
+        body but the world body is robot. Dynamic bodies get their pose from
+        :meth:`log_body_poses`. Each geom is a child entity with a static
+        ``Transform3D`` ``X_BG`` (``geom_pos``, ``geom_quat``) and its primitive.
+
+        Args:
+            model: The MuJoCo model.
+            data: Source of the poses of welded scene bodies (must hold forward
+                kinematics). Default: a fresh ``MjData`` with ``mj_kinematics``.
+            robot_root_body: Name of the robot's root body, or None.
+            geom_groups: Geom groups to show (MuJoCo shows 0-2 by default;
+                dm_control puts collision geoms in group 3).
+            plane_half_size: Half extent [m] drawn for infinite planes.
+        """
+        self._check_open()
+        groups = {int(g) for g in geom_groups}
+        if not groups <= set(range(mujoco.mjNGROUP)):
+            raise InvalidInput(
+                f"geom_groups must be in 0..{mujoco.mjNGROUP - 1}, got {sorted(groups)}"
+            )
+        if not (math.isfinite(plane_half_size) and plane_half_size > 0):
+            raise InvalidInput(
+                f"plane_half_size must be > 0 [m], got {plane_half_size}"
+            )
+        body_names = _unique_names(
+            "body", [model.body(b).name for b in range(model.nbody)]
+        )
+        if robot_root_body is None:
+            robot = np.ones(model.nbody, dtype=bool)
+            robot[0] = False
+            dynamic = robot.copy()
+        else:
+            root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, robot_root_body)
+            if root < 0:
+                raise UnknownName("body", robot_root_body, body_names)
+            if root == 0:
+                raise InvalidInput("robot_root_body cannot be the world body")
+            robot = _subtree(model, root)
+            dynamic = (np.asarray(model.body_weldid) != 0) | (
+                np.asarray(model.body_mocapid) >= 0
+            )
+            dynamic |= robot
+            dynamic[0] = False
+        if data is None:
+            data = mujoco.MjData(model)
+            mujoco.mj_kinematics(model, data)
+        elif data.xpos.shape != (model.nbody, 3):
+            raise InvalidInput(
+                f"data has {data.xpos.shape[0]} bodies, the model {model.nbody}"
+            )
+
+        # Flush poses buffered for a previous model before replacing the table.
+        for buf in self._pose_buffers.values():
+            buf.send(self.stream, self._dyn_paths)
+        self._pose_buffers.clear()
+
+        self._log(self.paths.world, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        body_paths = [
+            self.paths.body(body_names[b], robot=bool(robot[b]))
+            for b in range(model.nbody)
+        ]
+        for b in range(1, model.nbody):
+            if not dynamic[b]:
+                self._log(
+                    body_paths[b],
+                    rr.Transform3D(
+                        translation=np.asarray(data.xpos[b], dtype=float),
+                        quaternion=_xyzw(np.asarray(data.xquat[b], dtype=float)),
+                    ),
+                    static=True,
+                )
+        geom_names = _unique_names(
+            "geom", [model.geom(g).name for g in range(model.ngeom)]
+        )
+        self.skipped_geoms = []
+        for g in range(model.ngeom):
+            if int(model.geom_group[g]) not in groups:
+                continue
+            archetype = _geom_archetype(model, g, plane_half_size)
+            if archetype is None:
+                self.skipped_geoms.append(geom_names[g])
+                continue
+            path = self.paths.geom(body_paths[model.geom_bodyid[g]], geom_names[g])
+            X_BG = rr.Transform3D(
+                translation=np.asarray(model.geom_pos[g], dtype=float),
+                quaternion=_xyzw(np.asarray(model.geom_quat[g], dtype=float)),
+            )
+            self._log(path, X_BG, archetype, static=True)
+        if self.skipped_geoms:
+            self._log(
+                self.paths.events,
+                rr.TextLog(
+                    f"geoms of unsupported type not drawn: {self.skipped_geoms}",
+                    level="WARN",
+                ),
+                static=True,
+            )
+        self._dyn_ids = np.flatnonzero(dynamic)
+        self._dyn_paths = [body_paths[b] for b in self._dyn_ids]
+        self._nbody = model.nbody
+
+    def log_body_poses(
+        self, data: mujoco.MjData, *, timeline: str = "iteration", time: float
+    ) -> None:
+        """Set ``timeline`` to ``time`` and log ``X_WB`` of every dynamic body.
+
+        Rows carry every timeline currently set (see :meth:`disable_timeline`).
+        The pose is ``(data.xpos[b], data.xquat[b])``: run MuJoCo's kinematics
+        first.
+        """
+        self._check_open()
+        if self._dyn_ids is None:
+            raise PikError("call log_model_geometry(model) before log_body_poses")
+        if data.xpos.shape[0] != self._nbody:
+            raise InvalidInput(
+                f"data has {data.xpos.shape[0]} bodies, the logged model {self._nbody}"
+            )
+        self.set_time(timeline, time)
+        pos = data.xpos[self._dyn_ids]
+        quat = data.xquat[self._dyn_ids]
+        if not (np.isfinite(pos).all() and np.isfinite(quat).all()):
+            raise InvalidInput(f"body poses at {timeline}={time} are not finite")
+        if self.flush_every == 1:
+            self._sync_stream_time()
+            q_xyzw = _xyzw(quat)
+            for i, path in enumerate(self._dyn_paths):
+                self.stream.log(
+                    path, rr.Transform3D(translation=pos[i], quaternion=q_xyzw[i])
+                )
+            return
+        names, kinds = self._time_key
+        buf = self._pose_buffers.get(names)
+        if buf is None:
+            buf = self._pose_buffers[names] = _PoseBuffer(
+                names, kinds, self.flush_every, len(self._dyn_ids)
+            )
+        k = len(buf.times)
+        buf.pos[k] = pos
+        buf.quat[k] = quat
+        buf.times.append(self._time_vals)
+        if k + 1 >= buf.capacity:
+            buf.send(self.stream, self._dyn_paths)
+
+    # -- per-iteration primitives ---------------------------------------------
+
+    def log_point(
+        self,
+        path: str,
+        p: npt.ArrayLike,
+        *,
+        radius: float = 0.02,
+        color: Sequence[int] = (255, 200, 0),
+        label: str | None = None,
+    ) -> None:
+        """Log one point ``p`` [m] at ``path`` (buffered; style logged static once)."""
+        p = _vec(p, (3,), f"point {path!r}")
+        self._static_style_points(path, radius, color, label)
+        self._append(path, p, _POINT)
+
+    def _static_style_points(
+        self, path: str, radius: float, color: Sequence[int], label: str | None
+    ) -> None:
+        style = (float(radius), tuple(color), label)
+        if self._static_style.get(path) != style:
+            self._log(
+                path,
+                rr.Points3D.from_fields(
+                    radii=[float(radius)],
+                    colors=[tuple(color)],
+                    labels=None if label is None else [label],
+                ),
+                static=True,
+            )
+            self._static_style[path] = style
+
+    def log_com(self, p_WC: npt.ArrayLike, target: npt.ArrayLike | None = None) -> None:
+        """Log the centre of mass ``p_WC`` [m] and, if given, its target [m]."""
+        self.log_point(self.paths.com, p_WC, radius=0.03, color=(230, 40, 40))
+        if target is not None:
+            self.log_point(
+                self.paths.com_target, target, radius=0.025, color=(40, 200, 40)
+            )
+
+    def log_polygon(
+        self,
+        vertices: npt.ArrayLike,
+        margin_vertices: npt.ArrayLike | None = None,
+        *,
+        path: str | None = None,
+        color: Sequence[int] = (40, 120, 255),
+    ) -> None:
+        """Log a polygon outline (closed loop) and optionally its margin outline.
+
+        Args:
+            vertices: (m, 3) vertices in order around the polygon [m]; the loop
+                is closed here. m = 0 clears the outline.
+            margin_vertices: (k, 3) shrunk outline, logged at ``<path>/margin``.
+            path: Entity path; default :attr:`EntityPaths.support_polygon`.
+            color: RGB(A) of the outline.
+        """
+        path = self.paths.support_polygon if path is None else path
+        loops = [(path, vertices, color)]
+        if margin_vertices is not None:
+            loops.append((f"{path}/margin", margin_vertices, (255, 140, 0)))
+        for p, verts, c in loops:
+            v = _vec(verts, (-1, 3), f"polygon vertices of {p!r}")
+            strips = [np.vstack([v, v[:1]])] if len(v) else []
+            self._log(p, rr.LineStrips3D(strips, colors=[tuple(c)], radii=[0.005]))
+
+    def log_contacts(
+        self,
+        points: npt.ArrayLike,
+        forces: npt.ArrayLike,
+        scale: float = 1e-3,
+    ) -> None:
+        """Log contact points [m] and forces [N] drawn as arrows of ``scale`` [m/N].
+
+        .. math::
+            \\text{arrow}_i = s \\, f_i
+        """
+        p = _vec(points, (-1, 3), "contact points")
+        f = _vec(forces, (len(p), 3), "contact forces")
+        if not (math.isfinite(scale) and scale > 0):
+            raise InvalidInput(f"contact force scale must be > 0 [m/N], got {scale}")
+        self._log(
+            self.paths.contact_points,
+            rr.Points3D(p, radii=[0.01], colors=[(255, 0, 255)]),
+        )
+        self._log(
+            self.paths.contact_forces,
+            rr.Arrows3D(origins=p, vectors=f * scale, colors=[(255, 0, 255)]),
+        )
+
+    def log_frame(
+        self,
+        path: str,
+        p: npt.ArrayLike,
+        quat_wxyz: npt.ArrayLike,
+        axis_length: float = 0.1,
+    ) -> None:
+        """Log a frame ``X_WF`` (position [m], MuJoCo quaternion (w, x, y, z)).
+
+        The pose is buffered; the axes (``axis_length`` [m]) are static.
+        """
+        p = _vec(p, (3,), f"frame position {path!r}")
+        q = _vec(quat_wxyz, (4,), f"frame quaternion (w, x, y, z) {path!r}")
+        n = float(np.linalg.norm(q))
+        if n < 1e-9:
+            raise InvalidInput(f"frame quaternion of {path!r} is zero")
+        self._static_once(
+            path, (float(axis_length),), rr.TransformAxes3D(float(axis_length))
+        )
+        self._append(path, np.concatenate([p, q / n]), _TRANSFORM)
+
+    def log_scalar(self, path: str, value: float) -> None:
+        """Log one value of the scalar series at ``path`` (buffered)."""
+        v = float(value)
+        if not math.isfinite(v):
+            raise InvalidInput(f"scalar {path!r} must be finite, got {value}")
+        self._append(path, v, _SCALAR)
+
+    def log_task_errors(self, errors: Mapping[tuple[int, str], float]) -> None:
+        """Log each task's error at ``errors/level_<k>/<task>``.
+
+        Args:
+            errors: ``{(level, task_name): error}``; the error is whatever scalar
+                the caller tracks (e.g. the squared error ``‖e‖²``).
+        """
+        for key, value in errors.items():
+            path = self._error_paths.get(key)
+            if path is None:
+                level, name = key
+                path = self._error_paths[key] = self.paths.task_error(level, name)
+            self.log_scalar(path, value)
+
+    def log_text(self, message: str, level: str = "INFO") -> None:
+        """Log ``message`` to the run's text log at the current time."""
+        if level not in _TEXT_LEVELS:
+            raise InvalidInput(
+                f"text level must be one of {_TEXT_LEVELS}, got {level!r}"
+            )
+        self._log(self.paths.events, rr.TextLog(str(message), level=level))
+
+    def send_blueprint(self, levels: Iterable[int]) -> None:
+        """Send :func:`blueprint` of ``levels`` with the stream (made active)."""
+        self._check_open()
+        self.stream.send_blueprint(blueprint(list(levels), self.paths))
+
+
+def blueprint(levels: Sequence[int], paths: EntityPaths = PATHS) -> rrb.Blueprint:
+    """Viewer layout: the 3D ``world`` view beside one time series per level."""
+    view3d = rrb.Spatial3DView(origin=paths.world, name="world")
+    if not levels:
+        return rrb.Blueprint(view3d)
+    series = [
+        rrb.TimeSeriesView(origin=paths.level_errors(k), name=f"level {int(k)} errors")
+        for k in levels
+    ]
+    return rrb.Blueprint(
+        rrb.Horizontal(view3d, rrb.Vertical(*series), column_shares=[2, 1])
+    )
+
+
+# ---------------------------------------------------------------------------
+# Reading recordings back
+
+
+@dataclass
+class EntityData:
+    """What a recording holds for one entity.
+
+    Attributes:
+        static: Component (e.g. ``"Boxes3D:half_sizes"``) -> its last static batch.
+        temporal: Component -> rows ``(times, batch)``, ``times`` a dict timeline ->
+            value (sequence: int; duration: seconds; timestamp: ns).
+    """
+
+    static: dict[str, list[Any]] = field(default_factory=dict)
+    temporal: dict[str, list[tuple[dict[str, float], list[Any]]]] = field(
+        default_factory=dict
+    )
+
+    def series(self, component: str, timeline: str) -> tuple[np.ndarray, list[Any]]:
+        """(times, batches) of ``component`` on ``timeline``, sorted by time."""
+        if component not in self.temporal:
+            raise UnknownName("component", component, self.temporal)
+        rows = [(t[timeline], v) for t, v in self.temporal[component] if timeline in t]
+        rows.sort(key=lambda r: r[0])
+        return np.array([r[0] for r in rows]), [r[1] for r in rows]
+
+
+def read_recording(
+    path: str | Path, *, blueprint: bool = False
+) -> dict[str, EntityData]:
+    """Load the first recording of an ``.rrd`` file into ``{entity_path: data}``.
+
+    Entity paths are as logged (no leading ``/``). Uses ``rerun.chunk.RrdReader``.
+
+    Args:
+        path: The ``.rrd`` file.
+        blueprint: Read the file's first blueprint store instead of its recording.
+    """
+    import pyarrow as pa
+    from rerun.chunk import RrdReader
+
+    path = Path(path)
+    if not path.is_file():
+        raise InvalidInput(f"recording {str(path)!r} does not exist")
+    reader = RrdReader(path)
+    store = None
+    if blueprint:
+        stores = reader.blueprints()
+        if not stores:
+            raise InvalidInput(f"recording {str(path)!r} holds no blueprint")
+        store = stores[0]
+    out: dict[str, EntityData] = {}
+    for chunk in reader.stream(store=store).to_chunks():
+        entity = out.setdefault(chunk.entity_path.lstrip("/"), EntityData())
+        batch = chunk.to_record_batch()
+        index: dict[str, list[float]] = {}
+        data_cols: dict[str, list[Any]] = {}
+        for i, f in enumerate(batch.schema):
+            kind = (f.metadata or {}).get(b"rerun:kind", b"").decode()
+            col = batch.column(i)
+            if kind == "index":
+                if pa.types.is_duration(f.type):
+                    ns = col.cast(pa.int64()).to_numpy(zero_copy_only=False)
+                    index[f.name] = (ns * 1e-9).tolist()
+                elif pa.types.is_timestamp(f.type):
+                    index[f.name] = col.cast(pa.int64()).to_pylist()
+                else:
+                    index[f.name] = col.to_pylist()
+            elif kind == "data":
+                data_cols[f.name] = col.to_pylist()
+        for name, values in data_cols.items():
+            if chunk.is_static:
+                for v in values:
+                    if v is not None:
+                        entity.static[name] = v
+                continue
+            rows = entity.temporal.setdefault(name, [])
+            for r, v in enumerate(values):
+                if v is not None:
+                    rows.append(({tl: index[tl][r] for tl in index}, v))
+    return out

@@ -1,0 +1,589 @@
+"""The robot data layer: irteus' cascaded-link / robot-model on a MuJoCo model.
+
+A :class:`Robot` wraps an :class:`mujoco.MjModel` (a robot alone, or a scene
+from :func:`pik_mj.models.compose_scene`) and a :class:`mink.Configuration`
+holding its state. It knows which top-level body is the robot (its *root
+body*), the robot's joints and limbs, and gives irteus-style accessors:
+``angle_vector``, ``link_list``, end-effector frames, mass, centroid and
+centroid Jacobian. MuJoCo computes all kinematics.
+
+Limbs are found by name:
+
+* models following the pik_mj naming (``models/sample_humanoid.xml``): every
+  joint named ``{limb}_...`` belongs to limb ``rarm``, ``larm``, ``rleg``,
+  ``lleg``, ``torso`` or ``head``; its end frame is the site ``{limb}_end``;
+* dm_control's ``humanoid.xml`` and ``humanoid_CMU.xml`` and the 3-DoF arm:
+  the explicit tables below.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import mink
+import mujoco
+import numpy as np
+
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.models import load_model
+
+FRAME_TYPES = ("site", "body", "geom")
+LIMB_NAMES = ("rarm", "larm", "rleg", "lleg", "torso", "head")
+RESET_KEYFRAME = "reset_pose"
+
+_FRAME_OBJ = {
+    "site": mujoco.mjtObj.mjOBJ_SITE,
+    "body": mujoco.mjtObj.mjOBJ_BODY,
+    "geom": mujoco.mjtObj.mjOBJ_GEOM,
+}
+_FRAME_COUNT = {"site": "nsite", "body": "nbody", "geom": "ngeom"}
+_ANGLE_JOINTS = (
+    int(mujoco.mjtJoint.mjJNT_HINGE),
+    int(mujoco.mjtJoint.mjJNT_SLIDE),
+)
+
+
+@dataclass(frozen=True)
+class Limb:
+    """A kinematic chain of the robot (irteus ``:rarm``, ``:lleg``, ...).
+
+    Attributes:
+        name: Limb name, e.g. ``"rarm"``.
+        joints: Joint names from the limb's root towards its end.
+        end_frame: Name of the end-effector frame (irteus ``:end-coords``).
+        end_frame_type: ``"site"`` or ``"body"``.
+        root_body: The limb's first link: the body moved by ``joints[0]``
+            (irteus ``:root-link``).
+    """
+
+    name: str
+    joints: tuple[str, ...]
+    end_frame: str
+    end_frame_type: str
+    root_body: str
+
+
+# (limb, joints, end frame, end frame type) of models without pik_mj naming.
+_LimbRow = tuple[str, tuple[str, ...], str, str]
+
+
+def _sides(row: _LimbRow, left: str, right: str) -> list[_LimbRow]:
+    """The right-side and left-side copies of a row written with ``{s}``."""
+    limb, joints, end, kind = row
+    return [
+        (limb.format(s=s), tuple(j.format(s=n) for j in joints), end.format(s=n), kind)
+        for s, n in (("r", right), ("l", left))
+    ]
+
+
+DM_HUMANOID_LIMBS: tuple[_LimbRow, ...] = (
+    ("torso", ("abdomen_z", "abdomen_y", "abdomen_x"), "pelvis", "body"),
+    *_sides(
+        (
+            "{s}leg",
+            (
+                "{s}_hip_x",
+                "{s}_hip_z",
+                "{s}_hip_y",
+                "{s}_knee",
+                "{s}_ankle_y",
+                "{s}_ankle_x",
+            ),
+            "{s}_foot",
+            "body",
+        ),
+        "left",
+        "right",
+    ),
+    *_sides(
+        (
+            "{s}arm",
+            ("{s}_shoulder1", "{s}_shoulder2", "{s}_elbow"),
+            "{s}_hand",
+            "site",
+        ),
+        "left",
+        "right",
+    ),
+)
+"""dm_control ``suite/humanoid.xml``: the head has no joint, so no head limb."""
+
+DM_HUMANOID_CMU_LIMBS: tuple[_LimbRow, ...] = (
+    (
+        "torso",
+        tuple(f"{b}r{a}" for b in ("lowerback", "upperback", "thorax") for a in "zyx"),
+        "thorax",
+        "body",
+    ),
+    (
+        "head",
+        tuple(f"{b}r{a}" for b in ("lowerneck", "upperneck", "head") for a in "zyx"),
+        "head",
+        "body",
+    ),
+    *_sides(
+        (
+            "{s}leg",
+            tuple(
+                "{s}" + j
+                for j in (
+                    "femurrz",
+                    "femurry",
+                    "femurrx",
+                    "tibiarx",
+                    "footrz",
+                    "footrx",
+                )
+            ),
+            "{s}foot",
+            "body",
+        ),
+        "l",
+        "r",
+    ),
+    *_sides(
+        (
+            "{s}arm",
+            tuple(
+                "{s}" + j
+                for j in (
+                    "claviclerz",
+                    "claviclery",
+                    "humerusrz",
+                    "humerusry",
+                    "humerusrx",
+                    "radiusrx",
+                    "wristry",
+                    "handrz",
+                    "handrx",
+                )
+            ),
+            "{s}hand",
+            "body",
+        ),
+        "l",
+        "r",
+    ),
+)
+"""dm_control ``suite/humanoid_CMU.xml`` (toes, fingers and thumbs left out)."""
+
+THREE_DOF_ARM_LIMBS: tuple[_LimbRow, ...] = (
+    ("arm", ("joint0", "joint1", "joint2"), "end", "site"),
+)
+"""``models/three_dof_arm.xml`` (seed 001's ``3dof-robot``)."""
+
+_LIMB_TABLES = (DM_HUMANOID_LIMBS, DM_HUMANOID_CMU_LIMBS, THREE_DOF_ARM_LIMBS)
+
+
+def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
+    return mujoco.mj_id2name(model, obj, i) or ""
+
+
+def _id(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:
+    return mujoco.mj_name2id(model, obj, name)
+
+
+class Robot:
+    """A robot in a MuJoCo model, with its state in a :class:`mink.Configuration`.
+
+    Args:
+        model: The compiled model (a robot alone or a composed scene).
+        root_body: Name of the robot's top-level body. By default the top-level
+            body holding the joints of the detected limbs, or, without limbs, the
+            one with the most degrees of freedom.
+        limbs: Explicit limb table ``{name: Limb}``; detected from names if None.
+
+    Raises:
+        UnknownName: ``root_body`` or a limb's joint/frame does not exist.
+        InvalidInput: ``root_body`` is not a top-level body, or the robot's top
+            level body cannot be chosen.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        *,
+        root_body: str | None = None,
+        limbs: Mapping[str, Limb] | None = None,
+    ):
+        self.model = model
+        self.configuration = mink.Configuration(model)
+        top_level = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
+        if not top_level:
+            raise InvalidInput("the model has no body besides the world")
+        detected = self._detect_limbs() if limbs is None else dict(limbs)
+        self._root_id = self._choose_root(root_body, top_level, detected)
+        in_robot = model.body_rootid[model.jnt_bodyid] == self._root_id
+        self._robot_joint_ids = np.flatnonzero(in_robot)
+        angle = np.isin(model.jnt_type, _ANGLE_JOINTS)
+        self._angle_joint_ids = np.flatnonzero(in_robot & angle)
+        self.joint_names: list[str] = [
+            _name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self._angle_joint_ids
+        ]
+        self._joint_index = {n: i for i, n in enumerate(self.joint_names)}
+        if limbs is not None:
+            for limb in detected.values():
+                self._check_limb(limb)
+        self.limbs: dict[str, Limb] = {
+            name: limb
+            for name, limb in detected.items()
+            if model.body_rootid[model.body(limb.root_body).id] == self._root_id
+        }
+        self.reset_pose()
+
+    @classmethod
+    def load(cls, name_or_path: str | os.PathLike[str], **kwargs) -> Robot:
+        """Load a model by name or path (see :func:`pik_mj.models.model_path`)."""
+        return cls(load_model(name_or_path), **kwargs)
+
+    # ------------------------------------------------------------------ limbs
+    def _detect_limbs(self) -> dict[str, Limb]:
+        model = self.model
+        joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
+        limbs: dict[str, Limb] = {}
+        for limb in LIMB_NAMES:
+            own = tuple(
+                n
+                for j, n in enumerate(joints)
+                if n.startswith(f"{limb}_") and int(model.jnt_type[j]) in _ANGLE_JOINTS
+            )
+            if not own:
+                continue
+            end = f"{limb}_end"
+            if _id(model, mujoco.mjtObj.mjOBJ_SITE, end) >= 0:
+                limbs[limb] = self._make_limb(limb, own, end, "site")
+            else:  # e.g. the torso: its last link is the end frame.
+                last = model.jnt_bodyid[model.joint(own[-1]).id]
+                body = _name(model, mujoco.mjtObj.mjOBJ_BODY, last)
+                limbs[limb] = self._make_limb(limb, own, body, "body")
+        if limbs:
+            return limbs
+        names = set(joints)
+        for table in _LIMB_TABLES:
+            if all(
+                set(row[1]) <= names and _id(model, _FRAME_OBJ[row[3]], row[2]) >= 0
+                for row in table
+            ):
+                return {row[0]: self._make_limb(*row) for row in table}
+        return {}
+
+    def _make_limb(
+        self, name: str, joints: tuple[str, ...], end: str, end_type: str
+    ) -> Limb:
+        first = self.model.joint(joints[0]).id
+        root = _name(self.model, mujoco.mjtObj.mjOBJ_BODY, self.model.jnt_bodyid[first])
+        return Limb(name, tuple(joints), end, end_type, root)
+
+    def _check_limb(self, limb: Limb) -> None:
+        for joint in limb.joints:
+            self._angle_joint_id(joint)
+        for frame, kind in (
+            (limb.end_frame, limb.end_frame_type),
+            (limb.root_body, "body"),
+        ):
+            if (
+                self.model.body_rootid[self._frame_body_id(frame, kind)]
+                != self._root_id
+            ):
+                raise InvalidInput(
+                    f"limb {limb.name!r}: {kind} {frame!r} is not on the robot"
+                )
+
+    def _choose_root(
+        self, root_body: str | None, top_level: list[int], limbs: Mapping[str, Limb]
+    ) -> int:
+        model = self.model
+        names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in top_level]
+        if root_body is not None:
+            b = _id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
+            if b < 0:
+                raise UnknownName("body", root_body, names)
+            if b not in top_level:
+                raise InvalidInput(
+                    f"root_body {root_body!r} is not a top-level body (a child of "
+                    f"the world). Top-level bodies: {names}"
+                )
+            return b
+        if limbs:
+            ids = [
+                _id(model, mujoco.mjtObj.mjOBJ_BODY, x.root_body)
+                for x in limbs.values()
+            ]
+            roots = {int(model.body_rootid[b]) for b in ids if b >= 0}
+            if len(roots) == 1:
+                return roots.pop()
+        dofs = np.array(
+            [model.body_dofnum[model.body_rootid == b].sum() for b in top_level]
+        )
+        if (dofs == dofs.max()).sum() > 1:
+            raise InvalidInput(
+                f"cannot tell which top-level body is the robot among {names}; "
+                "pass root_body"
+            )
+        return top_level[int(dofs.argmax())]
+
+    def limb(self, name: str) -> Limb:
+        """The limb called ``name`` (irteus ``(send robot :rarm)``)."""
+        try:
+            return self.limbs[name]
+        except KeyError:
+            raise UnknownName("limb", name, self.limbs) from None
+
+    # ---------------------------------------------------------------- state
+    @property
+    def data(self) -> mujoco.MjData:
+        """The configuration's :class:`mujoco.MjData` (kinematics kept current)."""
+        return self.configuration.data
+
+    @property
+    def root_body(self) -> str:
+        """Name of the robot's top-level body."""
+        return _name(self.model, mujoco.mjtObj.mjOBJ_BODY, self._root_id)
+
+    @property
+    def root_body_id(self) -> int:
+        """Id of the robot's top-level body."""
+        return int(self._root_id)
+
+    @property
+    def has_floating_base(self) -> bool:
+        """Whether the root body's first joint is a free joint."""
+        return self._free_qposadr() is not None
+
+    def _free_qposadr(self) -> int | None:
+        j = self.model.body_jntadr[self._root_id]
+        if j >= 0 and self.model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            return int(self.model.jnt_qposadr[j])
+        return None
+
+    def _angle_joint_id(self, name: str) -> int:
+        """Id of the robot's hinge or slide joint ``name``."""
+        i = self._joint_index.get(name)
+        if i is not None:
+            return int(self._angle_joint_ids[i])
+        j = _id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if j >= 0 and j in self._robot_joint_ids:
+            kind = mujoco.mjtJoint(self.model.jnt_type[j]).name
+            raise InvalidInput(
+                f"joint {name!r} is a {kind} joint; angle vectors hold only hinge "
+                "and slide joints (use set_root_pose for the free joint)"
+            )
+        raise UnknownName("joint", name, self.joint_names)
+
+    def _qposadr(self, names: Sequence[str] | None) -> np.ndarray:
+        if names is None:
+            return self.model.jnt_qposadr[self._angle_joint_ids]
+        if isinstance(names, str):
+            raise InvalidInput(
+                f"names must be a sequence of joint names, got {names!r}"
+            )
+        return np.array(
+            [self.model.jnt_qposadr[self._angle_joint_id(n)] for n in names], dtype=int
+        )
+
+    def angle_vector(self, names: Sequence[str] | None = None) -> np.ndarray:
+        """Joint positions [rad or m] (irteus ``:angle-vector``).
+
+        Args:
+            names: Hinge/slide joint names; all of :attr:`joint_names` if None.
+
+        Returns:
+            Array of shape (len(names),), a copy.
+        """
+        return self.data.qpos[self._qposadr(names)].copy()
+
+    def set_angle_vector(
+        self, values: Sequence[float] | np.ndarray, names: Sequence[str] | None = None
+    ) -> None:
+        """Set joint positions [rad or m] and update the kinematics.
+
+        Values are written as given (limits are not enforced; see
+        :meth:`joint_limits`).
+
+        Args:
+            values: One value per joint.
+            names: Hinge/slide joint names; all of :attr:`joint_names` if None.
+
+        Raises:
+            InvalidInput: Wrong length, non-finite values, or a ball/free joint.
+            UnknownName: A joint name the robot does not have.
+        """
+        adr = self._qposadr(names)
+        v = np.asarray(values, dtype=float)
+        if v.shape != adr.shape:
+            raise InvalidInput(
+                f"angle vector has shape {v.shape}, expected ({adr.size},) for "
+                f"{adr.size} joints"
+            )
+        if not np.all(np.isfinite(v)):
+            raise InvalidInput(f"angle vector holds NaN or inf: {v}")
+        q = self.configuration.q
+        q[adr] = v
+        self.configuration.update(q)
+
+    def root_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Pose of the root body B in the world W.
+
+        Returns:
+            ``(p_WB, quat_WB)``: position (3,) [m] and quaternion (4,) (w, x, y, z).
+        """
+        b = self._root_id
+        return self.data.xpos[b].copy(), self.data.xquat[b].copy()
+
+    def set_root_pose(
+        self, p_WB: Sequence[float] | np.ndarray, quat_WB: Sequence[float] | np.ndarray
+    ) -> None:
+        """Set the free joint of the root body (quaternion normalized).
+
+        Args:
+            p_WB: Position (3,) of the root body in the world [m].
+            quat_WB: Orientation (4,) (w, x, y, z), any non-zero norm.
+
+        Raises:
+            InvalidInput: No floating base, wrong shapes, non-finite values or a
+                zero quaternion.
+        """
+        adr = self._free_qposadr()
+        if adr is None:
+            raise InvalidInput(
+                f"robot root body {self.root_body!r} has no free joint; its pose is "
+                "fixed"
+            )
+        p = np.asarray(p_WB, dtype=float)
+        quat = np.asarray(quat_WB, dtype=float)
+        if p.shape != (3,) or quat.shape != (4,):
+            raise InvalidInput(
+                f"expected p_WB of shape (3,) and quat_WB of shape (4,), got "
+                f"{p.shape} and {quat.shape}"
+            )
+        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(quat))):
+            raise InvalidInput(f"root pose holds NaN or inf: {p}, {quat}")
+        norm = np.linalg.norm(quat)
+        if norm < 1e-9:
+            raise InvalidInput(f"quat_WB {quat} has (near) zero norm")
+        q = self.configuration.q
+        q[adr : adr + 3] = p
+        q[adr + 3 : adr + 7] = quat / norm
+        self.configuration.update(q)
+
+    def reset_pose(self) -> None:
+        """Go to keyframe ``reset_pose`` if the model has one, else to ``qpos0``."""
+        k = _id(self.model, mujoco.mjtObj.mjOBJ_KEY, RESET_KEYFRAME)
+        q = self.model.key_qpos[k] if k >= 0 else self.model.qpos0
+        self.configuration.update(q.copy())
+
+    # ------------------------------------------------------------- frames
+    def _frame_body_id(self, name: str, frame_type: str) -> int:
+        if frame_type not in _FRAME_OBJ:
+            raise InvalidInput(
+                f"frame_type {frame_type!r} is not one of {list(FRAME_TYPES)}"
+            )
+        i = _id(self.model, _FRAME_OBJ[frame_type], name)
+        if i < 0:
+            n = getattr(self.model, _FRAME_COUNT[frame_type])
+            valid = [_name(self.model, _FRAME_OBJ[frame_type], k) for k in range(n)]
+            raise UnknownName(frame_type, name, [v for v in valid if v])
+        if frame_type == "site":
+            return int(self.model.site_bodyid[i])
+        if frame_type == "geom":
+            return int(self.model.geom_bodyid[i])
+        return i
+
+    def link_list(self, frame: str, frame_type: str = "site") -> list[str]:
+        """Bodies from the robot's root body down to the body holding ``frame``.
+
+        Like irteus ``(send robot :link-list (send end-coords :parent))``, but the
+        root body is included even when it carries no joint (irteus omits a
+        fixed root link: for the 3-DoF arm it gives ``(l2 l3 l4)``, this gives
+        ``["l1", "l2", "l3", "l4"]``).
+
+        Raises:
+            UnknownName: No frame of that type and name.
+            InvalidInput: The frame is not on the robot.
+        """
+        b = self._frame_body_id(frame, frame_type)
+        if self.model.body_rootid[b] != self._root_id:
+            raise InvalidInput(
+                f"{frame_type} {frame!r} is not on the robot (root body "
+                f"{self.root_body!r})"
+            )
+        chain = []
+        while b != 0:
+            chain.append(_name(self.model, mujoco.mjtObj.mjOBJ_BODY, b))
+            b = int(self.model.body_parentid[b])
+        return chain[::-1]
+
+    def joint_list(self, frame: str, frame_type: str = "site") -> list[str]:
+        """Hinge/slide joints on the chain :meth:`link_list` ``(frame)``, root first."""
+        bodies = {self.model.body(n).id for n in self.link_list(frame, frame_type)}
+        return [
+            self.joint_names[i]
+            for i, j in enumerate(self._angle_joint_ids)
+            if self.model.jnt_bodyid[j] in bodies
+        ]
+
+    def frame_pose(self, name: str, frame_type: str = "site") -> mink.SE3:
+        """Pose ``X_WF`` of frame F (site, body or geom) in the world."""
+        self._frame_body_id(name, frame_type)
+        return self.configuration.get_transform_frame_to_world(name, frame_type)
+
+    # ------------------------------------------------------------- mass, CoM
+    @property
+    def mass(self) -> float:
+        """Total mass of the robot's bodies [kg]."""
+        return float(self.model.body_subtreemass[self._root_id])
+
+    def com(self) -> np.ndarray:
+        """Centroid of the robot p_WG [m], shape (3,).
+
+        .. math::
+
+            p_{WG} = \\frac{1}{M} \\sum_{i \\in robot} m_i\\, p_{W i}
+        """
+        return self.data.subtree_com[self._root_id].copy()
+
+    def com_jacobian(self) -> np.ndarray:
+        """Centroid Jacobian J_com [m/rad or m/m], shape (3, nv).
+
+        .. math::
+
+            \\dot p_{WG} = J_{com}\\, v,
+            \\qquad J_{com} = \\frac{1}{M} \\sum_{i \\in robot} m_i J_{p,i}
+
+        with ``v`` MuJoCo's generalized velocity (the free joint's angular part in
+        the body frame). Computed by ``mj_jacSubtreeCom`` for the root body.
+        """
+        J_com = np.zeros((3, self.model.nv))
+        mujoco.mj_jacSubtreeCom(self.model, self.data, J_com, self._root_id)
+        return J_com
+
+    def joint_limits(
+        self, names: Sequence[str] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper joint limits [rad or m]; ±inf where unlimited.
+
+        Args:
+            names: Hinge/slide joint names; all of :attr:`joint_names` if None.
+        """
+        if names is None:
+            ids = self._angle_joint_ids
+        elif isinstance(names, str):
+            raise InvalidInput(
+                f"names must be a sequence of joint names, got {names!r}"
+            )
+        else:
+            ids = np.array([self._angle_joint_id(n) for n in names], dtype=int)
+        limited = self.model.jnt_limited[ids].astype(bool)
+        lower = np.where(limited, self.model.jnt_range[ids, 0], -np.inf)
+        upper = np.where(limited, self.model.jnt_range[ids, 1], np.inf)
+        return lower, upper
+
+    def __repr__(self) -> str:
+        model_name = self.model.names[: self.model.names.index(b"\0")].decode()
+        return (
+            f"Robot(model={model_name!r}, root_body={self.root_body!r}, "
+            f"floating_base={self.has_floating_base}, joints={len(self.joint_names)}, "
+            f"nv={self.model.nv}, limbs={list(self.limbs)}, mass={self.mass:.3f} kg)"
+        )

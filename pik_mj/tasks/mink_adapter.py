@@ -1,0 +1,153 @@
+"""mink tasks and limits as cascade rows, unchanged.
+
+* A :class:`mink.Task` (``FrameTask``, ``ComTask``, ``PostureTask``,
+  ``RelativeFrameTask``, ...) becomes equality rows
+  ``J x = -α e`` with weights ``cost²`` and its ``lm_damping`` as level damping:
+  exactly the term mink's own single QP minimizes, ``‖J Δq + α e‖²_W``.
+* Any other :class:`BaseTask` goes through its weighted residual
+  (``compute_qp_residual``) or, failing that, its objective ``(H, c)`` factored
+  as ``H = Lᵀ L``.
+* A :class:`mink.Limit` becomes inequality rows ``G x <= h``: hard at level 0,
+  with slacks at any other level.
+"""
+
+from __future__ import annotations
+
+import mink
+from mink.tasks.task import BaseTask
+import numpy as np
+
+from ..exceptions import InvalidInput
+from .task import Task, TaskRows
+
+
+class MinkTask(Task):
+    """A :class:`BaseTask` used as an equality task of the cascade.
+
+    Args:
+        task: The mink task, used unchanged.
+        name: Display name (defaults to the mink class name).
+        threshold: Stop-test tolerance on the error, in the task's units.
+            For frame tasks, the first value applies to the translation norm [m]
+            and the second to the rotation norm [rad]; otherwise it bounds
+            ``max |e_i|``.
+        check: Whether the solve loop's stop test looks at this task.
+    """
+
+    def __init__(
+        self,
+        task: BaseTask,
+        name: str | None = None,
+        threshold: float | tuple[float, float] | None = None,
+        check: bool = True,
+    ):
+        if not isinstance(task, BaseTask):
+            raise InvalidInput(f"expected a BaseTask, got {type(task).__name__}")
+        self.task = task
+        self.name = name or type(task).__name__
+        self.check = check
+        self._is_frame = isinstance(task, (mink.FrameTask, mink.RelativeFrameTask))
+        if threshold is None:
+            threshold = (1e-3, np.deg2rad(1.0)) if self._is_frame else 1e-3
+        self.threshold = threshold
+
+    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
+        task = self.task
+        if isinstance(task, mink.Task):
+            error = task.compute_error(configuration)
+            jacobian = task.compute_jacobian(configuration)
+            cost = np.broadcast_to(np.asarray(task.cost, dtype=float), error.shape)
+            weighted = cost * task.gain * error
+            mu = task.lm_damping * float(weighted @ weighted)
+            return TaskRows.equality(jacobian, -task.gain * error, cost**2, mu)
+        residual = task.compute_qp_residual(configuration)
+        if residual is not None:
+            weighted_jacobian, weighted_error, mu = residual
+            return TaskRows.equality(weighted_jacobian, weighted_error, 1.0, mu)
+        H, c = task.compute_qp_objective(configuration)
+        # xᵀ H x + 2 cᵀ x = ‖L x - b‖² + const with H = V diag(s) Vᵀ, L = diag(√s) Vᵀ.
+        s, V = np.linalg.eigh(0.5 * (H + H.T))
+        keep = s > 1e-12 * max(1.0, float(s.max(initial=0.0)))
+        sqrt_s = np.sqrt(s[keep])
+        L = sqrt_s[:, None] * V[:, keep].T
+        b = -(V[:, keep].T @ c) / sqrt_s
+        return TaskRows.equality(L, b, 1.0)
+
+    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
+        if isinstance(self.task, mink.Task):
+            return np.asarray(self.task.compute_error(configuration), dtype=float)
+        return self.compute_rows(configuration).violation()
+
+    def is_satisfied(self, configuration: mink.Configuration) -> bool:
+        e = self.compute_error(configuration)
+        if self._is_frame:
+            thre, rthre = self.threshold  # type: ignore[misc]
+            return bool(np.linalg.norm(e[:3]) <= thre and np.linalg.norm(e[3:]) <= rthre)
+        return bool(np.max(np.abs(e), initial=0.0) <= float(self.threshold))  # type: ignore[arg-type]
+
+    def __repr__(self) -> str:
+        return f"MinkTask({self.task!r}, name={self.name!r})"
+
+
+class MinkLimit(Task):
+    """A :class:`mink.Limit` as inequality rows ``G x <= h``.
+
+    Args:
+        limit: The mink limit, used unchanged.
+        dt: Time step handed to ``compute_qp_inequalities`` [s] (velocity limits
+            bound ``x`` by ``v_max · dt``).
+        name: Display name.
+        slack_weight: Slack weight when used below level 0.
+        check_margin: Violation tolerated by the stop test, in the rows' units.
+    """
+
+    def __init__(
+        self,
+        limit: mink.Limit,
+        dt: float = 1.0,
+        name: str | None = None,
+        slack_weight: float = 1.0,
+        check_margin: float = 1e-5,
+    ):
+        if not isinstance(limit, mink.Limit):
+            raise InvalidInput(f"expected a mink.Limit, got {type(limit).__name__}")
+        if not (np.isfinite(dt) and dt > 0):
+            raise InvalidInput(f"dt must be a positive finite time [s], got {dt}")
+        self.limit = limit
+        self.dt = float(dt)
+        self.name = name or type(limit).__name__
+        self.slack_weight = slack_weight
+        self.check_margin = check_margin
+        self.check = True
+
+    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
+        G, h = self.limit.compute_qp_inequalities(configuration, self.dt)
+        nv = configuration.model.nv
+        if G is None or h is None:
+            return TaskRows.empty(nv)
+        G = np.atleast_2d(G)
+        return TaskRows.inequality(G, -np.inf, np.asarray(h, float), self.slack_weight)
+
+    def is_satisfied(self, configuration: mink.Configuration) -> bool:
+        rows = self.compute_rows(configuration)
+        return bool(np.all(rows.d_upper >= -self.check_margin))
+
+    def __repr__(self) -> str:
+        return f"MinkLimit({type(self.limit).__name__}, name={self.name!r}, dt={self.dt})"
+
+
+def as_task(item: object, dt: float = 1.0) -> Task:
+    """Coerce what a user put in a level into a :class:`Task`.
+
+    Accepts pik_mj tasks, :class:`BaseTask` and :class:`mink.Limit`.
+    """
+    if isinstance(item, Task):
+        return item
+    if isinstance(item, BaseTask):
+        return MinkTask(item)
+    if isinstance(item, mink.Limit):
+        return MinkLimit(item, dt=dt)
+    raise InvalidInput(
+        f"a level holds {type(item).__name__}; valid entries are pik_mj tasks, "
+        "mink.Task/BaseTask (equality rows) and mink.Limit (inequality rows)"
+    )

@@ -1,0 +1,208 @@
+"""The task contract of the cascade: the rows a task contributes at a configuration.
+
+A task of seed 000 (``inverse-kinematics-task``) contributes, at the current
+configuration, equality rows and inequality rows over the step ``x = Δq``
+(length ``nv``):
+
+.. math::
+
+    \\min_{x, \\omega}\\; (A x - b)^T W_A (A x - b) + \\omega^T W_C \\omega
+    \\quad \\text{s.t.} \\quad d_l \\le C x + \\omega \\le d_u
+
+A subclass implements :meth:`Task.compute_rows` (and usually
+:meth:`Task.compute_error` and :meth:`Task.is_satisfied`); the cascade does the rest.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import mink
+import numpy as np
+
+from ..exceptions import InvalidInput
+
+
+class TaskRows(NamedTuple):
+    """Equality and inequality rows of one task at one configuration.
+
+    Attributes:
+        A: Equality Jacobian, shape (m_eq, nv).
+        b: Equality target, shape (m_eq,). Cost ``Σ w_A,i (A_i x - b_i)²``.
+        w_A: Diagonal equality weights, shape (m_eq,), each >= 0.
+        C: Inequality matrix, shape (m_in, nv).
+        d_lower: Lower bounds of ``C x``, shape (m_in,); ``-inf`` for none.
+        d_upper: Upper bounds of ``C x``, shape (m_in,); ``+inf`` for none.
+        w_C: Diagonal slack weights, shape (m_in,), each > 0.
+        damping: Extra Levenberg–Marquardt damping ``μ`` the task adds to its
+            level's ``‖x‖²`` regularization (mink tasks' ``lm_damping``).
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+    w_A: np.ndarray
+    C: np.ndarray
+    d_lower: np.ndarray
+    d_upper: np.ndarray
+    w_C: np.ndarray
+    damping: float = 0.0
+
+    @property
+    def n_eq(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def n_in(self) -> int:
+        return self.C.shape[0]
+
+    @staticmethod
+    def empty(nv: int) -> TaskRows:
+        z = np.zeros(0)
+        return TaskRows(np.zeros((0, nv)), z, z, np.zeros((0, nv)), z, z, z)
+
+    @staticmethod
+    def equality(
+        A: np.ndarray, b: np.ndarray, w_A: np.ndarray | float = 1.0, damping: float = 0.0
+    ) -> TaskRows:
+        """Equality rows only: cost ``(A x - b)ᵀ diag(w_A) (A x - b)``."""
+        A = np.atleast_2d(np.asarray(A, dtype=float))
+        b = np.asarray(b, dtype=float).reshape(-1)
+        w = np.broadcast_to(np.asarray(w_A, dtype=float), b.shape).copy()
+        z = np.zeros(0)
+        return TaskRows(A, b, w, np.zeros((0, A.shape[1])), z, z, z, damping)
+
+    @staticmethod
+    def inequality(
+        C: np.ndarray,
+        d_lower: np.ndarray | float,
+        d_upper: np.ndarray | float,
+        w_C: np.ndarray | float = 1.0,
+    ) -> TaskRows:
+        """Inequality rows only: ``d_lower <= C x + ω <= d_upper``, cost ``ωᵀ W_C ω``."""
+        C = np.atleast_2d(np.asarray(C, dtype=float))
+        m = C.shape[0]
+        lo = np.broadcast_to(np.asarray(d_lower, dtype=float), (m,)).copy()
+        hi = np.broadcast_to(np.asarray(d_upper, dtype=float), (m,)).copy()
+        w = np.broadcast_to(np.asarray(w_C, dtype=float), (m,)).copy()
+        z = np.zeros(0)
+        return TaskRows(np.zeros((0, C.shape[1])), z, z, C, lo, hi, w)
+
+    @staticmethod
+    def stack(rows: Sequence[TaskRows], nv: int) -> TaskRows:
+        """Concatenate the rows of several tasks (one priority level)."""
+        if not rows:
+            return TaskRows.empty(nv)
+        return TaskRows(
+            np.vstack([r.A for r in rows]),
+            np.concatenate([r.b for r in rows]),
+            np.concatenate([r.w_A for r in rows]),
+            np.vstack([r.C for r in rows]),
+            np.concatenate([r.d_lower for r in rows]),
+            np.concatenate([r.d_upper for r in rows]),
+            np.concatenate([r.w_C for r in rows]),
+            float(sum(r.damping for r in rows)),
+        )
+
+    def squared_error(self, x: np.ndarray | None = None) -> float:
+        """Weighted squared error of these rows at step ``x`` (``x = 0`` if None).
+
+        .. math::
+
+            e = (A x - b)^T W_A (A x - b) + \\sum_i w_{C,i}\\,
+                \\mathrm{dist}(C_i x, [d_{l,i}, d_{u,i}])^2
+        """
+        if x is None:
+            r_eq = -self.b
+            cx = np.zeros(self.n_in)
+        else:
+            r_eq = self.A @ x - self.b
+            cx = self.C @ x
+        viol = np.maximum(self.d_lower - cx, 0.0) + np.maximum(cx - self.d_upper, 0.0)
+        return float(r_eq @ (self.w_A * r_eq) + viol @ (self.w_C * viol))
+
+    def violation(self) -> np.ndarray:
+        """Unweighted violation of the rows at ``x = 0``: ``[-b; dist(0, [d_l, d_u])]``."""
+        viol = np.maximum(self.d_lower, 0.0) + np.maximum(-self.d_upper, 0.0)
+        return np.concatenate([-self.b, viol])
+
+    def validate(self, nv: int, owner: str) -> None:
+        """Raise :class:`InvalidInput` naming ``owner`` if shapes or values are bad."""
+        checks = [
+            (self.A.shape == (self.b.size, nv), f"A has shape {self.A.shape}"),
+            (self.w_A.shape == self.b.shape, f"w_A has shape {self.w_A.shape}"),
+            (self.C.shape[1:] == (nv,), f"C has shape {self.C.shape}"),
+            (
+                self.d_lower.shape == self.d_upper.shape == self.w_C.shape == (self.n_in,),
+                "inequality bounds/weights do not match C's rows",
+            ),
+        ]
+        for ok, what in checks:
+            if not ok:
+                raise InvalidInput(f"task {owner}: {what}; nv = {nv}")
+        # Fast path: a NaN or inf anywhere makes the sum non-finite.
+        total = self.A.sum() + self.b.sum() + self.w_A.sum() + self.C.sum() + self.w_C.sum()
+        if not np.isfinite(total):
+            for name in ("A", "b", "w_A", "C", "w_C"):
+                if not np.all(np.isfinite(getattr(self, name))):
+                    raise InvalidInput(f"task {owner}: {name} contains NaN or inf")
+        if np.isnan(self.d_lower.sum() + self.d_upper.sum()) and (
+            np.any(np.isnan(self.d_lower)) or np.any(np.isnan(self.d_upper))
+        ):
+            raise InvalidInput(f"task {owner}: inequality bounds contain NaN")
+        if np.any(self.d_lower > self.d_upper):
+            i = int(np.argmax(self.d_lower > self.d_upper))
+            raise InvalidInput(
+                f"task {owner}: inverted bounds on row {i}: "
+                f"lower {self.d_lower[i]:.6g} > upper {self.d_upper[i]:.6g}"
+            )
+        if np.any(self.w_A < 0) or np.any(self.w_C <= 0) or self.damping < 0:
+            raise InvalidInput(
+                f"task {owner}: weights must be >= 0 (equality) and > 0 (slack)"
+            )
+
+
+class Task(abc.ABC):
+    """Base of pik_mj's own tasks (seed ``inverse-kinematics-task``).
+
+    Attributes:
+        name: Name shown in results and recordings.
+        check: Whether the solve loop's stop test looks at this task
+            (seed ``check``).
+    """
+
+    name: str = "task"
+    check: bool = True
+
+    @abc.abstractmethod
+    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
+        """Rows of this task linearized at ``configuration`` (seed ``:update``)."""
+
+    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
+        """Unweighted error vector of the task (zero when perfectly achieved).
+
+        The default is the equality residual at ``x = 0`` followed by the
+        inequality violations; tasks whose ``b`` is clamped override it.
+        """
+        return self.compute_rows(configuration).violation()
+
+    def is_satisfied(self, configuration: mink.Configuration) -> bool:
+        """Stop test of the solve loop (seed ``:is-satisfied``)."""
+        return bool(np.all(np.abs(self.compute_error(configuration)) <= 1e-6))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r}, check={self.check})"
+
+
+def diagonal_weights(w: float | Sequence[float] | np.ndarray, size: int, what: str) -> np.ndarray:
+    """Seed weight convention for a diagonal ``W``: a float fills the diagonal,
+    a vector gives it. Returns the diagonal, shape (size,)."""
+    arr = np.asarray(w, dtype=float)
+    if arr.ndim == 0:
+        arr = np.full(size, float(arr))
+    if arr.shape != (size,):
+        raise InvalidInput(f"{what} must be a float or a vector of length {size}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise InvalidInput(f"{what} must be finite and >= 0, got {arr}")
+    return arr
