@@ -15,8 +15,8 @@ from .tasks import FrameTask, LinearTask, MinkLimit, MinkTask, Task, TaskRows
 
 __all__ = [
     "DEFAULT_RELAXATION",
-    "InfeasibleHardConstraints",
     "FrameTask",
+    "InfeasibleHardConstraints",
     "InvalidInput",
     "LevelProblem",
     "LinearTask",

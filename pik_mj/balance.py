@@ -238,9 +238,7 @@ def halfplanes_from_polygon(vertices_ccw: np.ndarray) -> HalfPlanes:
     if np.any(lengths <= 1e-12 * scale):
         raise InvalidInput("vertices_ccw has repeated consecutive vertices")
     t = edges / lengths[:, None]
-    turns = (
-        t[:, 0] * np.roll(t, -1, axis=0)[:, 1] - t[:, 1] * np.roll(t, -1, axis=0)[:, 0]
-    )
+    turns = t[:, 0] * np.roll(t, -1, axis=0)[:, 1] - t[:, 1] * np.roll(t, -1, axis=0)[:, 0]
     if np.any(turns <= 0.0):
         raise InvalidInput(
             "vertices_ccw must be a strictly convex polygon in counter-clockwise "
@@ -425,9 +423,7 @@ def support_polygon(
     polys = list(polygons)
     if not polys:
         raise InvalidInput("polygons is empty: give at least one contact polygon")
-    pts = np.concatenate(
-        [_array(p, (None, 3), f"polygons[{i}]") for i, p in enumerate(polys)]
-    )
+    pts = np.concatenate([_array(p, (None, 3), f"polygons[{i}]") for i, p in enumerate(polys)])
     if len(pts) == 0:
         raise InvalidInput("polygons contain no points")
     R = plane_basis(normal)
@@ -535,9 +531,7 @@ class ContactConstraint:
     def corners(self) -> np.ndarray:
         """World corners of the contact rectangle ``(4, 3)`` [m], ccw about z_C."""
         s = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]], dtype=float)
-        local = np.column_stack(
-            [s[:, 0] * self.half_x, s[:, 1] * self.half_y, np.zeros(4)]
-        )
+        local = np.column_stack([s[:, 0] * self.half_x, s[:, 1] * self.half_y, np.zeros(4)])
         return self.p_WC + local @ self.R_WC.T
 
     def __repr__(self) -> str:
@@ -662,9 +656,7 @@ def wrench_constraints(contact: ContactConstraint) -> tuple[np.ndarray, np.ndarr
         ``C`` ``(r, 6)`` and ``d`` ``(r,)`` [N].
     """
     if not isinstance(contact, ContactConstraint):
-        raise InvalidInput(
-            f"expected a ContactConstraint, got {type(contact).__name__}"
-        )
+        raise InvalidInput(f"expected a ContactConstraint, got {type(contact).__name__}")
     X, Y, mu = contact.half_x, contact.half_y, contact.mu_pyramid
     rows: list[list[float]] = []
     d: list[float] = []
@@ -748,9 +740,7 @@ def _check_contacts(contacts: Sequence[ContactConstraint]) -> list[ContactConstr
         raise InvalidInput("contacts is empty: give at least one ContactConstraint")
     for i, c in enumerate(cs):
         if not isinstance(c, ContactConstraint):
-            raise InvalidInput(
-                f"contacts[{i}] must be a ContactConstraint, got {type(c).__name__}"
-            )
+            raise InvalidInput(f"contacts[{i}] must be a ContactConstraint, got {type(c).__name__}")
     return cs
 
 
@@ -759,9 +749,7 @@ def _external_total(external: Sequence[ExternalWrench]) -> np.ndarray:
     total = np.zeros(6)
     for i, e in enumerate(external):
         if not isinstance(e, ExternalWrench):
-            raise InvalidInput(
-                f"external[{i}] must be an ExternalWrench, got {type(e).__name__}"
-            )
+            raise InvalidInput(f"external[{i}] must be an ExternalWrench, got {type(e).__name__}")
         p = _array(e.p_W, (3,), f"external[{i}].p_W")
         f = _array(e.force, (3,), f"external[{i}].force")
         m = _array(e.moment, (3,), f"external[{i}].moment")

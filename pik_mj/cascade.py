@@ -23,9 +23,10 @@ with ``λ_k = min(w + w_r e_k, w_max) + μ_k``, ``e_k`` the level's squared erro
 ``τ`` (:data:`DEFAULT_RELAXATION`) absorbs the inexactness of a first-order
 solver, so that a lower level can never be made infeasible by the rounding of a
 higher one; it is also the bound by which a lower level may move a higher
-level's rows. Each kept row is further widened by the feasibility error ``v_j``
-of its own level's solution times the row's 1-norm (``τ + v_j Σ|a|``), since
-``x_j*`` met the hard rows only to within ``v_j``.
+level's rows. Kept rows are further widened by the feasibility error ``v_k``
+of every later level's solution times the row's 1-norm, since each ``x_k*`` met
+the hard rows only to within ``v_k``: a row ``a`` of level ``j`` ends within
+``τ + ‖a‖₁ Σ_{k>=j} v_k`` of what level ``j`` achieved (the bound the tests check).
 """
 
 from __future__ import annotations
@@ -61,9 +62,7 @@ class Regularization:
         return min(self.w + self.w_r * squared_error, self.w_max)
 
 
-def per_level(
-    value: float | Sequence[float], n_levels: int, name: str
-) -> list[float]:
+def per_level(value: float | Sequence[float], n_levels: int, name: str) -> list[float]:
     """Seed convention: a float is shared by every level, a list gives one per level."""
     if np.ndim(value) == 0:
         values = [float(value)] * n_levels  # type: ignore[arg-type]
@@ -89,6 +88,9 @@ class CascadeStep:
         level_errors: Squared error ``e_k`` of each solved level at ``x = 0``.
         level_lambdas: Regularization ``λ_k`` used at each level.
         problems: The QP of each level (for inspection and tests).
+        violations: Feasibility error ``v_k`` of each level's solution
+            (largest constraint violation of its QP). A row ``a`` of level
+            ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of its value at ``x_j*``.
     """
 
     x: np.ndarray
@@ -96,6 +98,7 @@ class CascadeStep:
     level_errors: list[float]
     level_lambdas: list[float]
     problems: list[LevelProblem]
+    violations: list[float]
 
 
 def _bounds_kept(rows: TaskRows, x_star: np.ndarray, tau: float, violation: float) -> tuple:
@@ -180,6 +183,7 @@ def solve_cascade(
     errors: list[float] = []
     lambdas: list[float] = []
     problems: list[LevelProblem] = []
+    violations: list[float] = []
     x = np.zeros(nv)
     for k, (rows, reg) in enumerate(zip(levels, regularization, strict=True), start=1):
         e_k = rows.squared_error()
@@ -189,8 +193,7 @@ def solve_cascade(
         if not solution.ok or solution.z is None:
             if k == 1 and "infeasible" in solution.status.lower():
                 raise InfeasibleHardConstraints(
-                    "the hard rows of level 0 admit no step "
-                    f"(level 1 QP status: {solution.status})"
+                    f"the hard rows of level 0 admit no step (level 1 QP status: {solution.status})"
                 )
             raise QPFailure(k, solution.status, problem)
         x = solution.z[:nv]
@@ -201,6 +204,7 @@ def solve_cascade(
         # x met every constraint only to within v: rows kept from higher levels
         # must tolerate that much too, or hard rows and kept rows could conflict.
         violation = problem.max_violation(solution.z)
+        violations.append(violation)
         if violation > 0 and M.shape[0] > n_hard:
             widen = violation * np.abs(M[n_hard:]).sum(axis=1)
             lo[n_hard:] -= widen
@@ -209,4 +213,4 @@ def solve_cascade(
         M = np.vstack([M, M_k])
         lo = np.concatenate([lo, lo_k])
         hi = np.concatenate([hi, hi_k])
-    return CascadeStep(x.copy(), level_x, errors, lambdas, problems)
+    return CascadeStep(x.copy(), level_x, errors, lambdas, problems, violations)

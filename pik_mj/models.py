@@ -276,9 +276,7 @@ def compose_scene(
             f"the robot must have exactly one top-level body, "
             f"{robot_spec.modelname!r} has {[b.name for b in top]}"
         )
-    scene = (
-        _plain_floor_spec(robot_spec) if environment is None else _as_spec(environment)
-    )
+    scene = _plain_floor_spec(robot_spec) if environment is None else _as_spec(environment)
 
     # The robot's main default class would otherwise come out unnamed, and the
     # scene could not be written back to XML.
@@ -318,9 +316,7 @@ def _move_keyframe_roots(
     whose pose MuJoCo already moved is left alone.
     """
     free = [
-        j
-        for j in range(robot_model.njnt)
-        if robot_model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
+        j for j in range(robot_model.njnt) if robot_model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
     ]
     R_WR = np.empty(9)
     mujoco.mju_quat2Mat(R_WR, quat_WR)

@@ -138,9 +138,7 @@ def _xyzw(q_wxyz: np.ndarray) -> np.ndarray:
 def _vec(value: npt.ArrayLike, shape: tuple[int, ...], what: str) -> np.ndarray:
     """``value`` as a finite float array of ``shape`` (-1 = any length), or raise."""
     a = np.asarray(value, dtype=float)
-    if a.ndim != len(shape) or any(
-        s not in (-1, n) for s, n in zip(shape, a.shape, strict=True)
-    ):
+    if a.ndim != len(shape) or any(s not in (-1, n) for s, n in zip(shape, a.shape, strict=True)):
         want = "(" + ", ".join("n" if s == -1 else str(s) for s in shape) + ")"
         raise InvalidInput(f"{what} must have shape {want}, got shape {a.shape}")
     if not np.isfinite(a).all():
@@ -150,9 +148,7 @@ def _vec(value: npt.ArrayLike, shape: tuple[int, ...], what: str) -> np.ndarray:
 
 def _rgba8(rgba: npt.ArrayLike) -> np.ndarray:
     """RGBA in [0, 1] -> uint8 RGBA."""
-    return np.clip(np.round(np.asarray(rgba, dtype=float) * 255.0), 0, 255).astype(
-        np.uint8
-    )
+    return np.clip(np.round(np.asarray(rgba, dtype=float) * 255.0), 0, 255).astype(np.uint8)
 
 
 # ---------------------------------------------------------------------------
@@ -198,17 +194,13 @@ def _hfield_mesh(model: mujoco.MjModel, h: int) -> tuple[np.ndarray, np.ndarray]
     sx, sy, sz, _ = (float(s) for s in model.hfield_size[h])
     adr = int(model.hfield_adr[h])
     z = np.asarray(model.hfield_data[adr : adr + nrow * ncol]).reshape(nrow, ncol)
-    yy, xx = np.meshgrid(
-        np.linspace(-sy, sy, nrow), np.linspace(-sx, sx, ncol), indexing="ij"
-    )
+    yy, xx = np.meshgrid(np.linspace(-sy, sy, nrow), np.linspace(-sx, sx, ncol), indexing="ij")
     vertices = np.column_stack([xx.ravel(), yy.ravel(), sz * z.ravel()])
     r, c = np.meshgrid(np.arange(nrow - 1), np.arange(ncol - 1), indexing="ij")
     i00 = (r * ncol + c).ravel()
     i01, i10 = i00 + 1, i00 + ncol
     i11 = i10 + 1
-    faces = np.concatenate(
-        [np.column_stack([i00, i01, i11]), np.column_stack([i00, i11, i10])]
-    )
+    faces = np.concatenate([np.column_stack([i00, i01, i11]), np.column_stack([i00, i11, i10])])
     return vertices, faces.astype(np.uint32)
 
 
@@ -228,9 +220,7 @@ def _geom_archetype(
     if t == G.mjGEOM_BOX:
         return rr.Boxes3D(half_sizes=[size], colors=[color], fill_mode="solid")
     if t == G.mjGEOM_SPHERE:
-        return rr.Ellipsoids3D(
-            half_sizes=[[size[0]] * 3], colors=[color], fill_mode="solid"
-        )
+        return rr.Ellipsoids3D(half_sizes=[[size[0]] * 3], colors=[color], fill_mode="solid")
     if t == G.mjGEOM_ELLIPSOID:
         return rr.Ellipsoids3D(half_sizes=[size], colors=[color], fill_mode="solid")
     if t == G.mjGEOM_CAPSULE:
@@ -487,12 +477,8 @@ class Recorder:
         _check_flush_every(flush_every)
         path = Path(path)
         if not path.parent.is_dir():
-            raise InvalidInput(
-                f"directory of the recording {str(path)!r} does not exist"
-            )
-        stream = rr.RecordingStream(
-            application_id, recording_id=recording_id or uuid.uuid4().hex
-        )
+            raise InvalidInput(f"directory of the recording {str(path)!r} does not exist")
+        stream = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
         stream.save(path)
         return cls(stream, flush_every=flush_every, owns_stream=True)
 
@@ -553,13 +539,9 @@ class Recorder:
                 raise UnknownName("timeline", timeline, self._kinds)
             kind = known
         elif kind not in ("sequence", "duration"):
-            raise InvalidInput(
-                f"timeline kind must be 'sequence' or 'duration', got {kind!r}"
-            )
+            raise InvalidInput(f"timeline kind must be 'sequence' or 'duration', got {kind!r}")
         elif known is not None and known != kind:
-            raise InvalidInput(
-                f"timeline {timeline!r} is a {known} timeline, not {kind}"
-            )
+            raise InvalidInput(f"timeline {timeline!r} is a {known} timeline, not {kind}")
         if kind == "sequence":
             if isinstance(value, float) and not value.is_integer():
                 raise InvalidInput(f"{timeline} must be an integer, got {value}")
@@ -665,12 +647,8 @@ class Recorder:
                 f"geom_groups must be in 0..{mujoco.mjNGROUP - 1}, got {sorted(groups)}"
             )
         if not (math.isfinite(plane_half_size) and plane_half_size > 0):
-            raise InvalidInput(
-                f"plane_half_size must be > 0 [m], got {plane_half_size}"
-            )
-        body_names = _unique_names(
-            "body", [model.body(b).name for b in range(model.nbody)]
-        )
+            raise InvalidInput(f"plane_half_size must be > 0 [m], got {plane_half_size}")
+        body_names = _unique_names("body", [model.body(b).name for b in range(model.nbody)])
         if robot_root_body is None:
             robot = np.ones(model.nbody, dtype=bool)
             robot[0] = False
@@ -682,18 +660,14 @@ class Recorder:
             if root == 0:
                 raise InvalidInput("robot_root_body cannot be the world body")
             robot = _subtree(model, root)
-            dynamic = (np.asarray(model.body_weldid) != 0) | (
-                np.asarray(model.body_mocapid) >= 0
-            )
+            dynamic = (np.asarray(model.body_weldid) != 0) | (np.asarray(model.body_mocapid) >= 0)
             dynamic |= robot
             dynamic[0] = False
         if data is None:
             data = mujoco.MjData(model)
             mujoco.mj_kinematics(model, data)
         elif data.xpos.shape != (model.nbody, 3):
-            raise InvalidInput(
-                f"data has {data.xpos.shape[0]} bodies, the model {model.nbody}"
-            )
+            raise InvalidInput(f"data has {data.xpos.shape[0]} bodies, the model {model.nbody}")
 
         # Flush poses buffered for a previous model before replacing the table.
         for buf in self._pose_buffers.values():
@@ -702,8 +676,7 @@ class Recorder:
 
         self._log(self.paths.world, rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         body_paths = [
-            self.paths.body(body_names[b], robot=bool(robot[b]))
-            for b in range(model.nbody)
+            self.paths.body(body_names[b], robot=bool(robot[b])) for b in range(model.nbody)
         ]
         for b in range(1, model.nbody):
             if not dynamic[b]:
@@ -715,9 +688,7 @@ class Recorder:
                     ),
                     static=True,
                 )
-        geom_names = _unique_names(
-            "geom", [model.geom(g).name for g in range(model.ngeom)]
-        )
+        geom_names = _unique_names("geom", [model.geom(g).name for g in range(model.ngeom)])
         self.skipped_geoms = []
         for g in range(model.ngeom):
             if int(model.geom_group[g]) not in groups:
@@ -770,9 +741,7 @@ class Recorder:
             self._sync_stream_time()
             q_xyzw = _xyzw(quat)
             for i, path in enumerate(self._dyn_paths):
-                self.stream.log(
-                    path, rr.Transform3D(translation=pos[i], quaternion=q_xyzw[i])
-                )
+                self.stream.log(path, rr.Transform3D(translation=pos[i], quaternion=q_xyzw[i]))
             return
         names, kinds = self._time_key
         buf = self._pose_buffers.get(names)
@@ -823,9 +792,7 @@ class Recorder:
         """Log the centre of mass ``p_WC`` [m] and, if given, its target [m]."""
         self.log_point(self.paths.com, p_WC, radius=0.03, color=(230, 40, 40))
         if target is not None:
-            self.log_point(
-                self.paths.com_target, target, radius=0.025, color=(40, 200, 40)
-            )
+            self.log_point(self.paths.com_target, target, radius=0.025, color=(40, 200, 40))
 
     def log_polygon(
         self,
@@ -893,9 +860,7 @@ class Recorder:
         n = float(np.linalg.norm(q))
         if n < 1e-9:
             raise InvalidInput(f"frame quaternion of {path!r} is zero")
-        self._static_once(
-            path, (float(axis_length),), rr.TransformAxes3D(float(axis_length))
-        )
+        self._static_once(path, (float(axis_length),), rr.TransformAxes3D(float(axis_length)))
         self._append(path, np.concatenate([p, q / n]), _TRANSFORM)
 
     def log_scalar(self, path: str, value: float) -> None:
@@ -922,9 +887,7 @@ class Recorder:
     def log_text(self, message: str, level: str = "INFO") -> None:
         """Log ``message`` to the run's text log at the current time."""
         if level not in _TEXT_LEVELS:
-            raise InvalidInput(
-                f"text level must be one of {_TEXT_LEVELS}, got {level!r}"
-            )
+            raise InvalidInput(f"text level must be one of {_TEXT_LEVELS}, got {level!r}")
         self._log(self.paths.events, rr.TextLog(str(message), level=level))
 
     def send_blueprint(self, levels: Iterable[int]) -> None:
@@ -942,9 +905,7 @@ def blueprint(levels: Sequence[int], paths: EntityPaths = PATHS) -> rrb.Blueprin
         rrb.TimeSeriesView(origin=paths.level_errors(k), name=f"level {int(k)} errors")
         for k in levels
     ]
-    return rrb.Blueprint(
-        rrb.Horizontal(view3d, rrb.Vertical(*series), column_shares=[2, 1])
-    )
+    return rrb.Blueprint(rrb.Horizontal(view3d, rrb.Vertical(*series), column_shares=[2, 1]))
 
 
 # ---------------------------------------------------------------------------
@@ -962,9 +923,7 @@ class EntityData:
     """
 
     static: dict[str, list[Any]] = field(default_factory=dict)
-    temporal: dict[str, list[tuple[dict[str, float], list[Any]]]] = field(
-        default_factory=dict
-    )
+    temporal: dict[str, list[tuple[dict[str, float], list[Any]]]] = field(default_factory=dict)
 
     def series(self, component: str, timeline: str) -> tuple[np.ndarray, list[Any]]:
         """(times, batches) of ``component`` on ``timeline``, sorted by time."""
@@ -975,9 +934,7 @@ class EntityData:
         return np.array([r[0] for r in rows]), [r[1] for r in rows]
 
 
-def read_recording(
-    path: str | Path, *, blueprint: bool = False
-) -> dict[str, EntityData]:
+def read_recording(path: str | Path, *, blueprint: bool = False) -> dict[str, EntityData]:
     """Load the first recording of an ``.rrd`` file into ``{entity_path: data}``.
 
     Entity paths are as logged (no leading ``/``). Uses ``rerun.chunk.RrdReader``.

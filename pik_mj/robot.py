@@ -269,9 +269,7 @@ class Robot:
                 return {row[0]: self._make_limb(*row) for row in table}
         return {}
 
-    def _make_limb(
-        self, name: str, joints: tuple[str, ...], end: str, end_type: str
-    ) -> Limb:
+    def _make_limb(self, name: str, joints: tuple[str, ...], end: str, end_type: str) -> Limb:
         first = self.model.joint(joints[0]).id
         root = _name(self.model, mujoco.mjtObj.mjOBJ_BODY, self.model.jnt_bodyid[first])
         return Limb(name, tuple(joints), end, end_type, root)
@@ -283,13 +281,8 @@ class Robot:
             (limb.end_frame, limb.end_frame_type),
             (limb.root_body, "body"),
         ):
-            if (
-                self.model.body_rootid[self._frame_body_id(frame, kind)]
-                != self._root_id
-            ):
-                raise InvalidInput(
-                    f"limb {limb.name!r}: {kind} {frame!r} is not on the robot"
-                )
+            if self.model.body_rootid[self._frame_body_id(frame, kind)] != self._root_id:
+                raise InvalidInput(f"limb {limb.name!r}: {kind} {frame!r} is not on the robot")
 
     def _choose_root(
         self, root_body: str | None, top_level: list[int], limbs: Mapping[str, Limb]
@@ -307,20 +300,14 @@ class Robot:
                 )
             return b
         if limbs:
-            ids = [
-                _id(model, mujoco.mjtObj.mjOBJ_BODY, x.root_body)
-                for x in limbs.values()
-            ]
+            ids = [_id(model, mujoco.mjtObj.mjOBJ_BODY, x.root_body) for x in limbs.values()]
             roots = {int(model.body_rootid[b]) for b in ids if b >= 0}
             if len(roots) == 1:
                 return roots.pop()
-        dofs = np.array(
-            [model.body_dofnum[model.body_rootid == b].sum() for b in top_level]
-        )
+        dofs = np.array([model.body_dofnum[model.body_rootid == b].sum() for b in top_level])
         if (dofs == dofs.max()).sum() > 1:
             raise InvalidInput(
-                f"cannot tell which top-level body is the robot among {names}; "
-                "pass root_body"
+                f"cannot tell which top-level body is the robot among {names}; pass root_body"
             )
         return top_level[int(dofs.argmax())]
 
@@ -376,12 +363,8 @@ class Robot:
         if names is None:
             return self.model.jnt_qposadr[self._angle_joint_ids]
         if isinstance(names, str):
-            raise InvalidInput(
-                f"names must be a sequence of joint names, got {names!r}"
-            )
-        return np.array(
-            [self.model.jnt_qposadr[self._angle_joint_id(n)] for n in names], dtype=int
-        )
+            raise InvalidInput(f"names must be a sequence of joint names, got {names!r}")
+        return np.array([self.model.jnt_qposadr[self._angle_joint_id(n)] for n in names], dtype=int)
 
     def angle_vector(self, names: Sequence[str] | None = None) -> np.ndarray:
         """Joint positions [rad or m] (irteus ``:angle-vector``).
@@ -414,8 +397,7 @@ class Robot:
         v = np.asarray(values, dtype=float)
         if v.shape != adr.shape:
             raise InvalidInput(
-                f"angle vector has shape {v.shape}, expected ({adr.size},) for "
-                f"{adr.size} joints"
+                f"angle vector has shape {v.shape}, expected ({adr.size},) for {adr.size} joints"
             )
         if not np.all(np.isfinite(v)):
             raise InvalidInput(f"angle vector holds NaN or inf: {v}")
@@ -448,8 +430,7 @@ class Robot:
         adr = self._free_qposadr()
         if adr is None:
             raise InvalidInput(
-                f"robot root body {self.root_body!r} has no free joint; its pose is "
-                "fixed"
+                f"robot root body {self.root_body!r} has no free joint; its pose is fixed"
             )
         p = np.asarray(p_WB, dtype=float)
         quat = np.asarray(quat_WB, dtype=float)
@@ -477,9 +458,7 @@ class Robot:
     # ------------------------------------------------------------- frames
     def _frame_body_id(self, name: str, frame_type: str) -> int:
         if frame_type not in _FRAME_OBJ:
-            raise InvalidInput(
-                f"frame_type {frame_type!r} is not one of {list(FRAME_TYPES)}"
-            )
+            raise InvalidInput(f"frame_type {frame_type!r} is not one of {list(FRAME_TYPES)}")
         i = _id(self.model, _FRAME_OBJ[frame_type], name)
         if i < 0:
             n = getattr(self.model, _FRAME_COUNT[frame_type])
@@ -506,8 +485,7 @@ class Robot:
         b = self._frame_body_id(frame, frame_type)
         if self.model.body_rootid[b] != self._root_id:
             raise InvalidInput(
-                f"{frame_type} {frame!r} is not on the robot (root body "
-                f"{self.root_body!r})"
+                f"{frame_type} {frame!r} is not on the robot (root body {self.root_body!r})"
             )
         chain = []
         while b != 0:
@@ -559,9 +537,7 @@ class Robot:
         mujoco.mj_jacSubtreeCom(self.model, self.data, J_com, self._root_id)
         return J_com
 
-    def joint_limits(
-        self, names: Sequence[str] | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def joint_limits(self, names: Sequence[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper joint limits [rad or m]; ±inf where unlimited.
 
         Args:
@@ -570,9 +546,7 @@ class Robot:
         if names is None:
             ids = self._angle_joint_ids
         elif isinstance(names, str):
-            raise InvalidInput(
-                f"names must be a sequence of joint names, got {names!r}"
-            )
+            raise InvalidInput(f"names must be a sequence of joint names, got {names!r}")
         else:
             ids = np.array([self._angle_joint_id(n) for n in names], dtype=int)
         limited = self.model.jnt_limited[ids].astype(bool)

@@ -18,7 +18,13 @@ from typing import Any
 import mink
 import numpy as np
 
-from .cascade import DEFAULT_RELAXATION, CascadeStep, Regularization, per_level, solve_cascade
+from .cascade import (
+    DEFAULT_RELAXATION,
+    CascadeStep,
+    Regularization,
+    per_level,
+    solve_cascade,
+)
 from .exceptions import InvalidInput, QPFailure
 from .qp import make_backend
 from .tasks.mink_adapter import as_task
@@ -146,9 +152,7 @@ def _satisfaction(configuration: mink.Configuration, levels: list[list[Task]]) -
     A level counts towards the prefix when it has a checked task and all its
     checked tasks hold; level 0 (hard) does not count.
     """
-    per_level = [
-        [t.is_satisfied(configuration) for t in level if t.check] for level in levels
-    ]
+    per_level = [[t.is_satisfied(configuration) for t in level if t.check] for level in levels]
     everything = all(all(s) for s in per_level)
     prefix = 0
     for s in per_level[1:]:
@@ -158,9 +162,7 @@ def _satisfaction(configuration: mink.Configuration, levels: list[list[Task]]) -
     return everything, prefix
 
 
-def _level_rows(
-    configuration: mink.Configuration, levels: list[list[Task]]
-) -> list[TaskRows]:
+def _level_rows(configuration: mink.Configuration, levels: list[list[Task]]) -> list[TaskRows]:
     nv = configuration.model.nv
     stacked = []
     for level in levels:

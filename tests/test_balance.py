@@ -56,10 +56,7 @@ def segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
 
 def boundary_distance(p: np.ndarray, poly: np.ndarray) -> float:
     """Euclidean distance of ``p`` to the boundary of a closed polygon."""
-    return min(
-        segment_distance(p, poly[i], poly[(i + 1) % len(poly)])
-        for i in range(len(poly))
-    )
+    return min(segment_distance(p, poly[i], poly[(i + 1) % len(poly)]) for i in range(len(poly)))
 
 
 def rot_z(yaw: float) -> np.ndarray:
@@ -82,9 +79,7 @@ def corner_generators(contact: ContactConstraint) -> tuple[np.ndarray, np.ndarra
     R = np.asarray(contact.R_WC)
     corners = np.asarray(contact.p_WC) + local @ R.T
     mu = contact.mu / math.sqrt(2.0)  # inscribed pyramid |fx|,|fy| <= mu fz / sqrt 2
-    rays_local = np.array(
-        [[mu, mu, 1.0], [mu, -mu, 1.0], [-mu, mu, 1.0], [-mu, -mu, 1.0]]
-    )
+    rays_local = np.array([[mu, mu, 1.0], [mu, -mu, 1.0], [-mu, mu, 1.0], [-mu, -mu, 1.0]])
     return corners, rays_local @ R.T
 
 
@@ -121,9 +116,7 @@ class CornerLP:
         self.w_ext = np.zeros(6)
         for e in external:
             f = np.asarray(e.force, float)
-            self.w_ext += np.concatenate(
-                [f, np.asarray(e.moment, float) + np.cross(e.p_W, f)]
-            )
+            self.w_ext += np.concatenate([f, np.asarray(e.moment, float) + np.cross(e.p_W, f)])
 
     def feasible(self, com) -> bool:
         com = np.asarray(com, float)
@@ -161,9 +154,7 @@ def feet_hull(feet: list[ContactConstraint]) -> np.ndarray:
     corners = []
     for c in feet:  # computed here, not with ContactConstraint.corners()
         for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
-            corners.append(
-                c.p_WC + c.R_WC @ np.array([sx * c.half_x, sy * c.half_y, 0])
-            )
+            corners.append(c.p_WC + c.R_WC @ np.array([sx * c.half_x, sy * c.half_y, 0]))
     pts = np.array(corners)[:, :2]
     return pts[ConvexHull(pts).vertices]  # scipy: counter-clockwise in 2-D
 
@@ -192,8 +183,7 @@ def test_hull_matches_brute_force_and_scipy(seed):
     # ccw, strictly convex (no collinear vertices), no duplicates
     n = len(hull)
     turns = [
-        cross2(hull[(i + 1) % n] - hull[i], hull[(i + 2) % n] - hull[(i + 1) % n])
-        for i in range(n)
+        cross2(hull[(i + 1) % n] - hull[i], hull[(i + 2) % n] - hull[(i + 1) % n]) for i in range(n)
     ]
     assert min(turns) > 1e-12
     assert polygon_area(hull) > 0
@@ -285,9 +275,7 @@ def test_wrench_constraints_equal_corner_cone():
     """C w + d >= 0 holds exactly for the wrenches four corner forces can make."""
     rng = np.random.default_rng(11)
     R = random_rotation(rng)
-    contact = ContactConstraint(
-        p_WC=[0.3, -0.2, 0.5], R_WC=R, half_x=0.11, half_y=0.06, mu=0.7
-    )
+    contact = ContactConstraint(p_WC=[0.3, -0.2, 0.5], R_WC=R, half_x=0.11, half_y=0.06, mu=0.7)
     C, d = wrench_constraints(contact)
     corners, rays = corner_generators(contact)
     p = np.asarray(contact.p_WC)
@@ -305,9 +293,7 @@ def test_wrench_constraints_equal_corner_cone():
         margin = float(np.min(C @ w + d))
         if abs(margin) < 1e-7:
             continue
-        res = linprog(
-            np.zeros(16), A_eq=cols, b_eq=w, bounds=(0.0, None), method="highs"
-        )
+        res = linprog(np.zeros(16), A_eq=cols, b_eq=w, bounds=(0.0, None), method="highs")
         assert res.status in (0, 2)
         assert (res.status == 0) == (margin > 0), (k, margin, w)
         agree += 1
@@ -367,9 +353,7 @@ def test_scfr_external_push_shifts_region():
     limits the friction that resists the push also needs a yaw moment, which a
     foot loaded only at its edge cannot make, so the region is a subset.
     """
-    free_yaw = [
-        foot_contact(p, yaw, 0.11, 0.06, 1.0, torsion=False) for p, yaw in FEET_POSES
-    ]
+    free_yaw = [foot_contact(p, yaw, 0.11, 0.06, 1.0, torsion=False) for p, yaw in FEET_POSES]
     push = ExternalWrench(p_W=[0.0, 0.0, 1.0], force=[50.0, 0.0, 0.0])
     shifted = feet_hull(free_yaw) + np.array([-50.0 * 1.0 / (MASS * G), 0.0])
     region = scfr(free_yaw, MASS, external=[push])
@@ -404,13 +388,8 @@ def test_scfr_frictionless_hand_on_wall_analytic(hand_fz_max):
     hand = contact_from_normal([0.45, 0.0, h], [-1, 0, 0], mu=0.0, fz_max=hand_fz_max)
     f_max = min(hand_fz_max, 0.2 / math.sqrt(2) * MASS * G)
     x_front = 0.11 + f_max * h / (MASS * G)
-    expect = np.array(
-        [[-0.11, -0.16], [x_front, -0.16], [x_front, 0.16], [-0.11, 0.16]]
-    )
-    free = [
-        foot_contact([0, y, 0], 0.0, 0.11, 0.06, 0.2, torsion=False)
-        for y in (0.1, -0.1)
-    ]
+    expect = np.array([[-0.11, -0.16], [x_front, -0.16], [x_front, 0.16], [-0.11, 0.16]])
+    free = [foot_contact([0, y, 0], 0.0, 0.11, 0.06, 0.2, torsion=False) for y in (0.1, -0.1)]
     region = scfr([*free, hand], MASS)
     assert max(polygon_gap(region.vertices, expect)) < 1e-4
     assert region.area == pytest.approx(0.32 * (x_front + 0.11), rel=1e-3)
@@ -494,9 +473,9 @@ def test_static_equilibrium_feet():
     # balance, recomputed here: forces, and moments about the world origin
     g = np.array([0, 0, -G])
     f_sum = w[:, :3].sum(axis=0) + MASS * g
-    n_sum = sum(
-        w[i, 3:] + np.cross(feet[i].p_WC, w[i, :3]) for i in range(len(feet))
-    ) + np.cross(com_in, MASS * g)
+    n_sum = sum(w[i, 3:] + np.cross(feet[i].p_WC, w[i, :3]) for i in range(len(feet))) + np.cross(
+        com_in, MASS * g
+    )
     assert np.allclose(f_sum, 0, atol=1e-6) and np.allclose(n_sum, 0, atol=1e-6)
     for c, wi in zip(feet, w, strict=True):
         C, d = wrench_constraints(c)
@@ -575,9 +554,7 @@ def test_degenerate_inputs():
     collinear = [np.array([[x, 0.0, 0.0] for x in (0.0, 0.1, 0.2)])]
     with pytest.raises(InvalidInput, match="degenerate"):
         support_polygon(collinear)
-    point_feet = [
-        contact_from_normal([0, y, 0], [0, 0, 1], mu=1.0) for y in (0.1, -0.1)
-    ]
+    point_feet = [contact_from_normal([0, y, 0], [0, 0, 1], mu=1.0) for y in (0.1, -0.1)]
     with pytest.raises(InvalidInput, match="degenerate"):
         scfr(point_feet, MASS)
 

@@ -67,12 +67,8 @@ def test_support_feet_are_stationary_and_labels_alternate():
         if label == "double" and plan.support[k + 1] != "double":
             continue  # lift-off happens after this sample: checked below
         for limb in still:
-            np.testing.assert_allclose(
-                plan.feet_p[limb][k + 1], plan.feet_p[limb][k], atol=1e-12
-            )
-            assert plan.feet_yaw[limb][k + 1] == pytest.approx(
-                plan.feet_yaw[limb][k], abs=1e-12
-            )
+            np.testing.assert_allclose(plan.feet_p[limb][k + 1], plan.feet_p[limb][k], atol=1e-12)
+            assert plan.feet_yaw[limb][k + 1] == pytest.approx(plan.feet_yaw[limb][k], abs=1e-12)
     # Single support alternates as the footsteps say (support = the other leg).
     for j, step in enumerate(steps, start=1):
         labels = set(plan.support[(plan.step_index == j) & (plan.support != "double")])
@@ -83,9 +79,7 @@ def test_support_feet_are_stationary_and_labels_alternate():
 
 def test_swing_cycloid_height_and_zero_end_velocities():
     dt = 0.001
-    params = GaitParameters(
-        step_time=1.0, dt=dt, step_height=0.05, double_support_ratio=0.2
-    )
+    params = GaitParameters(step_time=1.0, dt=dt, step_height=0.05, double_support_ratio=0.2)
     steps = straight_steps(2, 0.15, FEET)
     plan = plan_gait(FEET, steps, params, com_height=0.8)
     peak_speed = []
@@ -126,9 +120,7 @@ def test_zmp_reference_inside_support_polygon_and_on_support_point():
     for k in range(len(plan.t)):
         label = plan.support[k]
         limbs = ["rleg", "lleg"] if label == "double" else [label]
-        corners = np.vstack(
-            [_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k]) for lb in limbs]
-        )
+        corners = np.vstack([_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k]) for lb in limbs])
         if label == "double":
             assert _inside(plan.zmp_ref[k], corners), k
         else:
@@ -157,9 +149,7 @@ def test_zmp_reference_start_end_and_double_support_interpolation():
     np.testing.assert_allclose(second, 0.0, atol=1e-12)
     # Without double support at the ends: start on the first support foot,
     # end on the last one.
-    params = GaitParameters(
-        start_with_double_support=False, end_with_double_support=False
-    )
+    params = GaitParameters(start_with_double_support=False, end_with_double_support=False)
     plan = plan_gait(FEET, steps, params, com_height=0.8)
     np.testing.assert_allclose(plan.zmp_ref[0], [0.0, -0.1], atol=1e-15)
     last_support = next(s for s in plan.final_feet.values() if s.limb != steps[-1].limb)

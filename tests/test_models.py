@@ -288,9 +288,7 @@ def test_spots_in_reach_of_the_sample_humanoid():
     data = _reset(robot)
     shoulder = data.body("rarm_upper").xpos
     arm_length = np.linalg.norm(shoulder - data.body("rarm_lower").xpos)
-    arm_length += np.linalg.norm(
-        data.body("rarm_lower").xpos - data.site("rarm_end").xpos
-    )
+    arm_length += np.linalg.norm(data.body("rarm_lower").xpos - data.site("rarm_end").xpos)
     # Standing at spot_counter_front (facing +x), the right hand reaches the handle.
     spot = room_data.site("spot_counter_front")
     handle = room_data.site("kettle_handle").xpos
@@ -323,9 +321,7 @@ def test_compose_keeps_names_free_joint_and_poses(environment, tmp_path, monkeyp
     p_WR, yaw = np.array([0.4, -0.3, 0.0]), 0.8
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        spec = compose_scene(
-            "sample_humanoid", environment, robot_pos=p_WR, robot_yaw=yaw
-        )
+        spec = compose_scene("sample_humanoid", environment, robot_pos=p_WR, robot_yaw=yaw)
         model = spec.compile()
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     assert model.geom("floor").type == mujoco.mjtGeom.mjGEOM_PLANE

@@ -69,9 +69,7 @@ def test_preview_gains_against_explicit_sums(q):
     N = pc.n_preview
     f_ref = np.empty(N)
     for j in range(1, N):
-        f_ref[j - 1] = (
-            inv_s * (b_t.T @ np.linalg.matrix_power(A_cl.T, j - 1) @ c_t.T)[0, 0] * q
-        )
+        f_ref[j - 1] = inv_s * (b_t.T @ np.linalg.matrix_power(A_cl.T, j - 1) @ c_t.T)[0, 0] * q
     # Tail: sum_{j >= N} (A_cl^T)^{j-1} c^T Q, summed explicitly (closed-loop
     # spectral radius ~0.966 at dt = 0.01: 3000 terms leave < 1e-40).
     term = np.linalg.matrix_power(A_cl.T, N - 1) @ c_t.T * q
@@ -80,9 +78,7 @@ def test_preview_gains_against_explicit_sums(q):
         tail += term
         term = A_cl.T @ term
     f_ref[N - 1] = inv_s * (b_t.T @ tail)[0, 0]
-    np.testing.assert_allclose(
-        pc.gains.f, f_ref, rtol=1e-8, atol=1e-9 * np.abs(f_ref).max()
-    )
+    np.testing.assert_allclose(pc.gains.f, f_ref, rtol=1e-8, atol=1e-9 * np.abs(f_ref).max())
     # Steady state: a constant reference is tracked without offset, which needs
     # sum_j f_j = K[0] (the p-component of the feedback).
     assert pc.gains.f.sum() == pytest.approx(pc.gains.K[0, 0], rel=1e-8)

@@ -308,9 +308,7 @@ def test_scene_bodies_static_or_dynamic(geometry_recording):
     assert table.temporal == {}
     p, R = _pose(table)
     np.testing.assert_allclose(p, [1, 0, 0.5], atol=1e-6)
-    np.testing.assert_allclose(
-        R, Rotation.from_euler("xyz", [0, 0, 0.4]).as_matrix(), atol=1e-6
-    )
+    np.testing.assert_allclose(R, Rotation.from_euler("xyz", [0, 0, 0.4]).as_matrix(), atol=1e-6)
     # A free body outside the robot is scene, but moves.
     assert len(rec["world/scene/crate"].temporal["Transform3D:translation"]) == 1
     for body in ("base", "arm", "left hand"):
@@ -351,9 +349,7 @@ def test_body_poses_per_iteration(model, tmp_path):
         p = np.array([x[0] for x in t])
         R = Rotation.from_quat(np.array([x[0] for x in q])).as_matrix()
         np.testing.assert_allclose(p, [d.xpos[b] for d in datas], atol=1e-6)
-        np.testing.assert_allclose(
-            R, [d.xmat[b].reshape(3, 3) for d in datas], atol=1e-6
-        )
+        np.testing.assert_allclose(R, [d.xmat[b].reshape(3, 3) for d in datas], atol=1e-6)
 
 
 def test_buffering_does_not_change_the_data(model, tmp_path):
@@ -442,9 +438,7 @@ def test_sim_time_is_seconds_and_timelines_can_be_dropped(model, tmp_path):
         rec.log_body_poses(_posed_data(model, 0), timeline="iteration", time=7)
         rec.disable_timeline("iteration")
         for k in range(4):
-            rec.log_body_poses(
-                _posed_data(model, k), timeline="sim_time", time=0.002 * k
-            )
+            rec.log_body_poses(_posed_data(model, k), timeline="sim_time", time=0.002 * k)
             rec.log_scalar(PATHS.hold_metric("drift"), 0.01 * k)
     out = read_recording(path)
     times, drift = out["hold/drift"].series("Scalars:scalars", "sim_time")
@@ -518,9 +512,7 @@ def test_explicit_stream_is_not_the_global_one_and_stays_open(tmp_path):
     stream.set_time("iteration", sequence=4)
     stream.log("errors/level_1/a", rr.Scalars(3.5))
     stream.disconnect()
-    times, v = read_recording(path)["errors/level_1/a"].series(
-        "Scalars:scalars", "iteration"
-    )
+    times, v = read_recording(path)["errors/level_1/a"].series("Scalars:scalars", "iteration")
     assert times.tolist() == [3, 4]
     assert [x[0] for x in v] == [2.5, 3.5]
 

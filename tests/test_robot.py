@@ -264,9 +264,7 @@ def test_link_list_humanoid_and_frames_off_the_robot(humanoid):
 # -------------------------------------------------------- mass and centroid
 def _brute_force_com(robot: Robot) -> tuple[float, np.ndarray]:
     model, data = robot.model, robot.data
-    bodies = [
-        b for b in range(model.nbody) if model.body_rootid[b] == robot.root_body_id
-    ]
+    bodies = [b for b in range(model.nbody) if model.body_rootid[b] == robot.root_body_id]
     m = model.body_mass[bodies]
     return float(m.sum()), (m[:, None] * data.xipos[bodies]).sum(axis=0) / m.sum()
 
@@ -297,9 +295,7 @@ def test_com_jacobian_against_finite_differences(name, environment):
     model = (
         load_model(name)
         if environment is None
-        else compose_scene(
-            name, environment, robot_pos=(0.3, -0.2, 0), robot_yaw=0.7
-        ).compile()
+        else compose_scene(name, environment, robot_pos=(0.3, -0.2, 0), robot_yaw=0.7).compile()
     )
     robot = Robot(model)
     _random_pose(robot, np.random.default_rng(3))

@@ -5,4 +5,12 @@ from .linear import LinearTask
 from .mink_adapter import MinkLimit, MinkTask, as_task
 from .task import Task, TaskRows
 
-__all__ = ["FrameTask", "LinearTask", "MinkLimit", "MinkTask", "Task", "TaskRows", "as_task"]
+__all__ = [
+    "FrameTask",
+    "LinearTask",
+    "MinkLimit",
+    "MinkTask",
+    "Task",
+    "TaskRows",
+    "as_task",
+]

@@ -41,6 +41,9 @@ from .task import Task, TaskRows, diagonal_weights
 
 AxisSpec = bool | str | None
 
+ONE_DEGREE = float(np.deg2rad(1.0))
+"""Default rotation tolerance [rad] (seed ``rthre``: 1 degree)."""
+
 _AXES = {"x": 0, "y": 1, "z": 2}
 
 
@@ -168,7 +171,7 @@ class FrameTask(Task):
         w_trans: float | np.ndarray = 1.0,
         w_rot: float | np.ndarray = 1.0,
         thre: float | np.ndarray = 1e-3,
-        rthre: float | np.ndarray = np.deg2rad(1.0),
+        rthre: float | np.ndarray = ONE_DEGREE,
         p_limit: float = 0.1,
         r_limit: float = 0.5,
         check: bool = True,

@@ -14,8 +14,8 @@
 from __future__ import annotations
 
 import mink
-from mink.tasks.task import BaseTask
 import numpy as np
+from mink.tasks.task import BaseTask
 
 from ..exceptions import InvalidInput
 from .task import Task, TaskRows

@@ -64,7 +64,10 @@ class TaskRows(NamedTuple):
 
     @staticmethod
     def equality(
-        A: np.ndarray, b: np.ndarray, w_A: np.ndarray | float = 1.0, damping: float = 0.0
+        A: np.ndarray,
+        b: np.ndarray,
+        w_A: np.ndarray | float = 1.0,
+        damping: float = 0.0,
     ) -> TaskRows:
         """Equality rows only: cost ``(A x - b)ᵀ diag(w_A) (A x - b)``."""
         A = np.atleast_2d(np.asarray(A, dtype=float))
@@ -158,9 +161,7 @@ class TaskRows(NamedTuple):
                 f"lower {self.d_lower[i]:.6g} > upper {self.d_upper[i]:.6g}"
             )
         if np.any(self.w_A < 0) or np.any(self.w_C <= 0) or self.damping < 0:
-            raise InvalidInput(
-                f"task {owner}: weights must be >= 0 (equality) and > 0 (slack)"
-            )
+            raise InvalidInput(f"task {owner}: weights must be >= 0 (equality) and > 0 (slack)")
 
 
 class Task(abc.ABC):
@@ -202,7 +203,9 @@ def diagonal_weights(w: float | Sequence[float] | np.ndarray, size: int, what: s
     if arr.ndim == 0:
         arr = np.full(size, float(arr))
     if arr.shape != (size,):
-        raise InvalidInput(f"{what} must be a float or a vector of length {size}, got shape {arr.shape}")
+        raise InvalidInput(
+            f"{what} must be a float or a vector of length {size}, got shape {arr.shape}"
+        )
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
         raise InvalidInput(f"{what} must be finite and >= 0, got {arr}")
     return arr

@@ -84,9 +84,7 @@ class ReachLimits:
             if not np.isfinite(value) or value <= 0.0:
                 raise InvalidInput(f"{name} must be finite and > 0, got {value!r}")
         if not np.isfinite(self.max_inward) or self.max_inward < 0.0:
-            raise InvalidInput(
-                f"max_inward must be finite and >= 0, got {self.max_inward}"
-            )
+            raise InvalidInput(f"max_inward must be finite and >= 0, got {self.max_inward}")
 
 
 def relative_step(stance: Footstep, swing: Footstep) -> tuple[float, float, float]:
@@ -152,10 +150,7 @@ def violated_reach_limits(
         widening = sides[step.limb] * dy - foot_separation
         if abs(dx) > limits.max_stride_x + atol:
             problems.append(f"step {i} ({step.limb}): |dx| = {abs(dx):.4f} m")
-        if (
-            widening > limits.max_stride_y + atol
-            or widening < -limits.max_inward - atol
-        ):
+        if widening > limits.max_stride_y + atol or widening < -limits.max_inward - atol:
             problems.append(f"step {i} ({step.limb}): widening {widening:.4f} m")
         if abs(dyaw) > limits.max_turn + atol:
             problems.append(f"step {i} ({step.limb}): |dyaw| = {abs(dyaw):.4f} rad")
@@ -180,9 +175,7 @@ def _prepare(
         foot_separation = abs(float(e_y @ (feet["lleg"].p_W - feet["rleg"].p_W)))
     foot_separation = float(foot_separation)
     if not np.isfinite(foot_separation) or foot_separation <= 0.0:
-        raise InvalidInput(
-            f"foot_separation must be finite and > 0, got {foot_separation}"
-        )
+        raise InvalidInput(f"foot_separation must be finite and > 0, got {foot_separation}")
     return feet, sides, p_M, yaw_M, foot_separation
 
 
@@ -241,9 +234,7 @@ def go_pos(
     leads = (preferred, next(lb for lb in LEGS if lb != preferred))
     for n in range(1, max_steps + 1):
         for lead in leads:
-            steps = _go_pos_steps(
-                n, lead, np.array([x, y]), theta, p_M, yaw_M, sides, sep
-            )
+            steps = _go_pos_steps(n, lead, np.array([x, y]), theta, p_M, yaw_M, sides, sep)
             if not violated_reach_limits(feet, steps, limits, sep):
                 return steps
     raise InvalidInput(
@@ -336,13 +327,7 @@ def straight_steps(
     steps = []
     for i in range(1, int(n_steps) + 1):
         limb = first_limb if i % 2 == 1 else other
-        steps.append(
-            _placed(limb, p_M + i * stride * e_x, yaw_M, 0.5 * sep * sides[limb])
-        )
+        steps.append(_placed(limb, p_M + i * stride * e_x, yaw_M, 0.5 * sep * sides[limb]))
     closing = other if int(n_steps) % 2 == 1 else first_limb
-    steps.append(
-        _placed(
-            closing, p_M + n_steps * stride * e_x, yaw_M, 0.5 * sep * sides[closing]
-        )
-    )
+    steps.append(_placed(closing, p_M + n_steps * stride * e_x, yaw_M, 0.5 * sep * sides[closing]))
     return steps

@@ -101,9 +101,7 @@ class Footstep:
             raise InvalidInput(f"Footstep.limb must be a str, got {self.limb!r}")
         p = np.asarray(self.p_W, dtype=float)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise InvalidInput(
-                f"Footstep.p_W must be a finite (3,) position [m], got {self.p_W!r}"
-            )
+            raise InvalidInput(f"Footstep.p_W must be a finite (3,) position [m], got {self.p_W!r}")
         yaw = float(self.yaw)
         if not np.isfinite(yaw):
             raise InvalidInput(f"Footstep.yaw must be finite [rad], got {self.yaw!r}")
@@ -123,10 +121,7 @@ class Footstep:
 
     def __repr__(self) -> str:
         x, y, z = self.p_W
-        return (
-            f"Footstep({self.limb!r}, p_W=[{x:.4f}, {y:.4f}, {z:.4f}], "
-            f"yaw={self.yaw:.4f})"
-        )
+        return f"Footstep({self.limb!r}, p_W=[{x:.4f}, {y:.4f}, {z:.4f}], yaw={self.yaw:.4f})"
 
 
 def normalize_feet(
@@ -148,9 +143,7 @@ def normalize_feet(
             raise UnknownName("limb", limb, all_limbs)
         if isinstance(value, Footstep):
             if value.limb != limb:
-                raise InvalidInput(
-                    f"feet[{limb!r}] is a Footstep of limb {value.limb!r}"
-                )
+                raise InvalidInput(f"feet[{limb!r}] is a Footstep of limb {value.limb!r}")
             out[limb] = value
         else:
             try:
@@ -162,9 +155,7 @@ def normalize_feet(
             out[limb] = Footstep(limb, np.asarray(p, dtype=float), yaw)
     missing = [limb for limb in all_limbs if limb not in out]
     if missing:
-        raise InvalidInput(
-            f"feet is missing limbs {missing}; need all of {list(all_limbs)}"
-        )
+        raise InvalidInput(f"feet is missing limbs {missing}; need all of {list(all_limbs)}")
     return {limb: out[limb] for limb in all_limbs}
 
 
@@ -181,9 +172,7 @@ def mid_frame(feet: Mapping[str, Footstep]) -> tuple[np.ndarray, float]:
     """
     steps = list(feet.values())
     p = np.mean([f.p_W for f in steps], axis=0)
-    yaw = float(
-        np.arctan2(sum(np.sin(f.yaw) for f in steps), sum(np.cos(f.yaw) for f in steps))
-    )
+    yaw = float(np.arctan2(sum(np.sin(f.yaw) for f in steps), sum(np.cos(f.yaw) for f in steps)))
     return p, yaw
 
 
@@ -206,8 +195,7 @@ def _finite(
         lo = "" if low is None else ("(" if low_open else "[") + f"{low}"
         hi = "" if high is None else f"{high}" + (")" if high_open else "]")
         raise InvalidInput(
-            f"{name} must be finite and in {lo or '(-inf'}, {hi or 'inf)'}; "
-            f"got {value!r}"
+            f"{name} must be finite and in {lo or '(-inf'}, {hi or 'inf)'}; got {value!r}"
         )
     return value
 
@@ -254,9 +242,7 @@ class GaitParameters:
         _finite("step_height", self.step_height, low=0.0)
         _finite("dt", self.dt, low=0.0, low_open=True)
         if self.dt > self.step_time:
-            raise InvalidInput(
-                f"dt ({self.dt} s) must not exceed step_time ({self.step_time} s)"
-            )
+            raise InvalidInput(f"dt ({self.dt} s) must not exceed step_time ({self.step_time} s)")
         _finite(
             "double_support_ratio",
             self.double_support_ratio,
@@ -269,14 +255,8 @@ class GaitParameters:
         _finite("preview_time", self.preview_time, low=0.0, low_open=True)
         _finite("gravity", self.gravity, low=0.0, low_open=True)
         limbs = tuple(self.all_limbs)
-        if (
-            len(limbs) != 2
-            or len(set(limbs)) != 2
-            or not all(isinstance(x, str) for x in limbs)
-        ):
-            raise InvalidInput(
-                f"all_limbs must be two distinct limb names, got {self.all_limbs!r}"
-            )
+        if len(limbs) != 2 or len(set(limbs)) != 2 or not all(isinstance(x, str) for x in limbs):
+            raise InvalidInput(f"all_limbs must be two distinct limb names, got {self.all_limbs!r}")
         object.__setattr__(self, "all_limbs", limbs)
         offsets: dict[str, np.ndarray] = {}
         for limb, offset in dict(self.zmp_offsets).items():
@@ -285,8 +265,7 @@ class GaitParameters:
             o = np.asarray(offset, dtype=float)
             if o.shape != (3,) or not np.all(np.isfinite(o)):
                 raise InvalidInput(
-                    f"zmp_offsets[{limb!r}] must be a finite (3,) offset [m], "
-                    f"got {offset!r}"
+                    f"zmp_offsets[{limb!r}] must be a finite (3,) offset [m], got {offset!r}"
                 )
             offsets[limb] = o
         for limb in limbs:
@@ -392,9 +371,7 @@ def plan_gait(
     steps = tuple(footsteps)
     for i, step in enumerate(steps):
         if not isinstance(step, Footstep):
-            raise InvalidInput(
-                f"footsteps[{i}] must be a Footstep, got {type(step).__name__}"
-            )
+            raise InvalidInput(f"footsteps[{i}] must be a Footstep, got {type(step).__name__}")
         if step.limb not in limbs:
             raise UnknownName("limb", step.limb, limbs)
     n_steps = len(steps)
@@ -485,9 +462,7 @@ def plan_gait(
         gravity=params.gravity,
     )
     result = controller.run(zmp_ref[:, :2])
-    final_feet = {
-        lb: Footstep(lb, stances[-1][lb].p_W, stances[-1][lb].yaw) for lb in limbs
-    }
+    final_feet = {lb: Footstep(lb, stances[-1][lb].p_W, stances[-1][lb].yaw) for lb in limbs}
     return GaitPlan(
         t=t,
         dt=dt,

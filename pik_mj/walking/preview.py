@@ -295,9 +295,7 @@ class PreviewController:
         preview_time = _positive_finite("preview_time", preview_time)
         self.n_preview = round(preview_time / self.dt)
         if self.n_preview < 1:
-            raise InvalidInput(
-                f"preview_time ({preview_time} s) must be at least one dt ({dt} s)"
-            )
+            raise InvalidInput(f"preview_time ({preview_time} s) must be at least one dt ({dt} s)")
         self.A, self.b, self.c = cart_table_model(dt, com_height, gravity)
         self.A_t, self.b_t, self.c_t = extended_system(self.A, self.b, self.c)
         self.gains = preview_gains(self.A_t, self.b_t, self.c_t, q, r, self.n_preview)
@@ -321,9 +319,7 @@ class PreviewController:
         """
         com0 = np.atleast_1d(np.asarray(com0, dtype=float))
         if com0.ndim != 1 or not np.all(np.isfinite(com0)):
-            raise InvalidInput(
-                f"com0 must be a finite scalar or (d,) vector, got {com0}"
-            )
+            raise InvalidInput(f"com0 must be a finite scalar or (d,) vector, got {com0}")
         d = com0.shape[0]
         self._x = np.zeros((3, d))
         self._x[0] = com0
@@ -365,8 +361,7 @@ class PreviewController:
             window = window[:, None]
         if window.shape != (self.n_preview, d):
             raise InvalidInput(
-                f"p_future must have shape ({self.n_preview}, {d}), "
-                f"got {np.shape(p_future)}"
+                f"p_future must have shape ({self.n_preview}, {d}), got {np.shape(p_future)}"
             )
         return -(self.gains.K @ x_star)[0] + self.gains.f @ window
 
@@ -395,9 +390,7 @@ class PreviewController:
         return self._x[0].copy(), (self.c @ self._x)[0].copy()
 
     # -- batch ---------------------------------------------------------------
-    def run(
-        self, zmp_ref: np.ndarray, com0: np.ndarray | float | None = None
-    ) -> PreviewResult:
+    def run(self, zmp_ref: np.ndarray, com0: np.ndarray | float | None = None) -> PreviewResult:
         """CoM trajectory whose cart-table ZMP tracks ``zmp_ref``.
 
         The reference beyond its end is held at its last value (the seed's queue
