@@ -41,7 +41,7 @@ from .qp import LevelProblem, QPBackend
 from .tasks.task import TaskRows
 
 DEFAULT_RELAXATION = 1e-5
-"""τ [row units: m, rad], equal to the absolute tolerance of the default OSQP
+"""τ [row units: m, rad], ten times the absolute tolerance of the default OSQP
 settings. A lower level may move a higher level's row by at most
 ``τ + ε_prim``, with ``ε_prim = eps_abs + eps_rel·max(|A z|, |z|)`` OSQP's
 primal feasibility tolerance."""

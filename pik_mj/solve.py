@@ -246,6 +246,11 @@ def solve(
         )
     ]
     backend = make_backend(qp_solver, qp_args)
+    # The correction ends on a level whose null space only the regularization
+    # fixes: it gets its own backend, never warm-started from the full step.
+    correction_backend = make_backend(
+        qp_solver, {**(qp_args or {}), "warm_starting": False} if qp_solver == "osqp" else qp_args
+    )
     q0 = configuration.q.copy()
     history: list[list[float]] = []
     times: list[float] = []
@@ -266,7 +271,9 @@ def solve(
                 if correct and 0 < prefix < n_solved:
                     kept = _level_rows(configuration, task_levels[: prefix + 1])
                     t2 = time.perf_counter()
-                    fix = solve_cascade(kept[0], kept[1:], regs[:prefix], backend, relaxation)
+                    fix = solve_cascade(
+                        kept[0], kept[1:], regs[:prefix], correction_backend, relaxation
+                    )
                     qp_time += time.perf_counter() - t2
                     configuration.integrate_inplace(fix.x, 1.0)
             except QPFailure as exc:

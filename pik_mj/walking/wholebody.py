@@ -1,0 +1,607 @@
+"""Whole-body walking pattern (seed 001 ``:calc-walk-pattern-from-footstep-list``).
+
+:func:`pik_mj.walking.gait.plan_gait` gives, per tick, both sole poses, the ZMP
+reference and the preview-control CoM. Here every tick is turned into a whole-body
+configuration by the prioritized IK (:func:`pik_mj.solve.solve`), warm-started
+from the previous tick:
+
+* level 0: joint limits;
+* level 1: both soles on their planned poses (position, heading, sole flat);
+* level 2: CoM on the preview trajectory (xy) at constant height (z), and the
+  root body upright with the mid-feet heading;
+* level 3: posture towards the initial pose.
+
+The result is checked with the ZMP of the *generated motion* (seed ``calc-zmp``):
+joint velocities and accelerations by finite differences, MuJoCo's inverse
+dynamics for the wrench the ground must apply to the floating base, and the ZMP
+of that wrench (:func:`zmp_from_inverse_dynamics`).
+"""
+
+from __future__ import annotations
+
+import copy
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+
+import mink
+import mujoco
+import numpy as np
+
+from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_distance
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.robot import Robot
+from pik_mj.solve import solve
+from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.mink_adapter import MinkLimit, MinkTask
+from pik_mj.tasks.task import Task
+from pik_mj.walking import footsteps as footstep_planning
+from pik_mj.walking.gait import DOUBLE_SUPPORT, Footstep, GaitParameters, GaitPlan, plan_gait
+
+__all__ = [
+    "DEFAULT_FEET",
+    "SOLE_SIZE",
+    "WalkPattern",
+    "calc_walk_pattern",
+    "feet_from_robot",
+    "finite_difference_motion",
+    "go_pos",
+    "root_wrench_from_inverse_dynamics",
+    "sole_corners",
+    "straight_walk",
+    "support_margin",
+    "zmp_from_inverse_dynamics",
+    "zmp_from_wrench",
+]
+
+DEFAULT_FEET: dict[str, str] = {"rleg": "rleg_end", "lleg": "lleg_end"}
+"""Sole frame (site, z up, x forward) of each leg of the sample humanoid."""
+
+SOLE_SIZE: tuple[float, float] = (0.22, 0.12)
+"""Sole rectangle of the sample humanoid, length x width in [m]."""
+
+
+def _rot_z(yaw: float) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+# ---------------------------------------------------------------------------
+# Inverse-dynamics ZMP
+
+
+def finite_difference_motion(
+    model: mujoco.MjModel, qpos: np.ndarray, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Generalized velocities and accelerations of a sampled motion.
+
+    Central differences on the configuration manifold (``mj_differentiatePos``,
+    so free-joint quaternions are handled and angular rates are in MuJoCo's
+    convention); beyond the first and last samples the motion is continued at
+    constant velocity (so the end accelerations are zero):
+
+    .. math::
+
+        v_k = \\frac{q_{k+1} \\ominus q_{k-1}}{2 \\Delta t}, \\qquad
+        \\dot v_k = \\frac{(q_{k+1} \\ominus q_k) - (q_k \\ominus q_{k-1})}{\\Delta t^2}
+
+    Args:
+        model: The model the configurations belong to.
+        qpos: Configurations (T, nq).
+        dt: Sampling time in [s].
+
+    Returns:
+        ``(qvel (T, nv) [rad/s, m/s], qacc (T, nv) [rad/s^2, m/s^2])``.
+    """
+    qpos = np.asarray(qpos, dtype=float)
+    if qpos.ndim != 2 or qpos.shape[1] != model.nq or len(qpos) < 1:
+        raise InvalidInput(f"qpos must have shape (T >= 1, nq={model.nq}), got {qpos.shape}")
+    if not np.all(np.isfinite(qpos)):
+        raise InvalidInput("qpos holds NaN or inf")
+    if not (np.isfinite(dt) and dt > 0):
+        raise InvalidInput(f"dt must be a positive finite time [s], got {dt}")
+    padded = np.vstack([qpos[:1], qpos, qpos[-1:]])
+    if len(qpos) > 1:  # continue the end velocities: zero acceleration at both ends
+        for end, inner, out in ((0, 1, 0), (-1, -2, -1)):
+            v = np.empty(model.nv)
+            mujoco.mj_differentiatePos(model, v, 1.0, qpos[inner], qpos[end])
+            mujoco.mj_integratePos(model, padded[out], v, 1.0)
+    diff = np.empty((len(padded) - 1, model.nv))
+    for k in range(len(padded) - 1):
+        mujoco.mj_differentiatePos(model, diff[k], 1.0, padded[k], padded[k + 1])
+    qvel = (diff[:-1] + diff[1:]) / (2.0 * dt)
+    qacc = (diff[1:] - diff[:-1]) / dt**2
+    return qvel, qacc
+
+
+def _free_joint(model: mujoco.MjModel, root_body: int) -> int:
+    j = int(model.body_jntadr[root_body])
+    if j < 0 or model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE:
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
+        raise InvalidInput(f"body {name!r} has no free joint; the ZMP needs a floating base")
+    return j
+
+
+def _body_id(model: mujoco.MjModel, body: str | int) -> int:
+    if isinstance(body, str):
+        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
+        if b < 0:
+            names = [model.body(i).name for i in range(model.nbody)]
+            raise UnknownName("body", body, names)
+        return b
+    return int(body)
+
+
+def root_wrench_from_inverse_dynamics(
+    model: mujoco.MjModel,
+    qpos: np.ndarray,
+    qvel: np.ndarray,
+    qacc: np.ndarray,
+    root_body: str | int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """External wrench on the floating base that produces a motion.
+
+    ``mj_inverse`` with constraints disabled gives
+    :math:`\\tau = M(q)\\dot v + c(q, v)` (gravity included); the rows of the free
+    joint are the force :math:`f_W` (world frame) and the torque
+    :math:`\\tau_B` (body frame) about the joint anchor B a virtual actuator
+    between the world and the root would have to apply. Joint torques are
+    internal, so this is the total external (contact) wrench:
+
+    .. math::
+
+        f_W = \\tau_{0:3}, \\qquad n_{W,B} = R_{WB}\\, \\tau_{3:6}
+
+    Args:
+        model: The robot model (a copy is made with constraints disabled).
+        qpos: Configurations (T, nq).
+        qvel: Velocities (T, nv).
+        qacc: Accelerations (T, nv).
+        root_body: The body carrying the free joint.
+
+    Returns:
+        ``(f_W (T, 3) [N], n_WO (T, 3) [N m])``, the torque taken about the
+        world origin O.
+    """
+    qpos, qvel, qacc = (np.asarray(a, dtype=float) for a in (qpos, qvel, qacc))
+    T = len(qpos)
+    if qpos.shape != (T, model.nq) or qvel.shape != (T, model.nv) or qacc.shape != (T, model.nv):
+        raise InvalidInput(
+            f"expected qpos (T, {model.nq}), qvel and qacc (T, {model.nv}); got "
+            f"{qpos.shape}, {qvel.shape}, {qacc.shape}"
+        )
+    b = _body_id(model, root_body)
+    j = _free_joint(model, b)
+    dof = int(model.jnt_dofadr[j])
+    m = copy.deepcopy(model)
+    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    d = mujoco.MjData(m)
+    f_W = np.empty((T, 3))
+    n_WO = np.empty((T, 3))
+    for k in range(T):
+        d.qpos[:], d.qvel[:], d.qacc[:] = qpos[k], qvel[k], qacc[k]
+        mujoco.mj_inverse(m, d)
+        tau = d.qfrc_inverse[dof : dof + 6]
+        R_WB = d.xmat[b].reshape(3, 3)
+        p_WB = d.xanchor[j]
+        f_W[k] = tau[:3]
+        n_WO[k] = R_WB @ tau[3:] + np.cross(p_WB, tau[:3])
+    return f_W, n_WO
+
+
+def zmp_from_wrench(f_W: np.ndarray, n_WO: np.ndarray, ground_z: float = 0.0) -> np.ndarray:
+    """ZMP on the plane :math:`z = z_g` of an external wrench.
+
+    With the torque moved to the ground point :math:`g = (0, 0, z_g)`,
+    :math:`n_g = n_O - g \\times f`, the point p of the plane about which the
+    horizontal torque vanishes is
+
+    .. math::
+
+        p_x = -\\frac{n_{g,y}}{f_z}, \\qquad p_y = \\frac{n_{g,x}}{f_z}
+
+    Args:
+        f_W: Forces (T, 3) [N].
+        n_WO: Torques about the world origin (T, 3) [N m].
+        ground_z: Height of the ground plane [m].
+
+    Returns:
+        ZMP (T, 2) [m].
+    """
+    f_W = np.atleast_2d(np.asarray(f_W, dtype=float))
+    n_WO = np.atleast_2d(np.asarray(n_WO, dtype=float))
+    if np.any(f_W[:, 2] <= 0.0):
+        raise InvalidInput("the vertical force must be > 0 for a ZMP (the robot is not supported)")
+    n_g = n_WO - np.cross(np.array([0.0, 0.0, ground_z]), f_W)
+    return np.column_stack([-n_g[:, 1] / f_W[:, 2], n_g[:, 0] / f_W[:, 2]])
+
+
+def zmp_from_inverse_dynamics(
+    model: mujoco.MjModel,
+    qpos: np.ndarray,
+    dt: float,
+    root_body: str | int,
+    *,
+    ground_z: float = 0.0,
+) -> np.ndarray:
+    """ZMP of a sampled motion from MuJoCo inverse dynamics (seed ``calc-zmp``).
+
+    :func:`finite_difference_motion`, then
+    :func:`root_wrench_from_inverse_dynamics`, then :func:`zmp_from_wrench`. For a
+    rigid robot translating with CoM acceleration :math:`\\ddot c` this is the
+    cart-table ZMP :math:`p = c_{xy} - \\frac{c_z - z_g}{g + \\ddot c_z} \\ddot c_{xy}`.
+
+    Args:
+        model: The robot model (with a free joint on ``root_body``).
+        qpos: Configurations (T, nq) sampled every ``dt``.
+        dt: Sampling time in [s].
+        root_body: Body with the free joint.
+        ground_z: Height of the ground plane in [m].
+
+    Returns:
+        ZMP (T, 2) [m].
+    """
+    qvel, qacc = finite_difference_motion(model, qpos, dt)
+    f_W, n_WO = root_wrench_from_inverse_dynamics(model, qpos, qvel, qacc, root_body)
+    return zmp_from_wrench(f_W, n_WO, ground_z)
+
+
+# ---------------------------------------------------------------------------
+# Support polygon
+
+
+def sole_corners(p_W: np.ndarray, yaw: float, size: Sequence[float] = SOLE_SIZE) -> np.ndarray:
+    """Corners (4, 2) [m] of a sole rectangle ``size`` centred on the sole frame."""
+    hx, hy = 0.5 * float(size[0]), 0.5 * float(size[1])
+    local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
+    return np.asarray(p_W, dtype=float)[:2] + local @ _rot_z(yaw)[:2, :2].T
+
+
+def support_margin(
+    plan: GaitPlan,
+    zmp: np.ndarray,
+    sole_size: Sequence[float] = SOLE_SIZE,
+) -> np.ndarray:
+    """Signed distance of the ZMP to the support polygon at every tick [m].
+
+    The support polygon of tick k is the convex hull of the soles in contact per
+    the plan's support label (both in double support), at their planned poses;
+    positive inside.
+
+    Args:
+        plan: The gait plan.
+        zmp: ZMP per tick (K, 2) [m].
+        sole_size: Sole length and width [m].
+
+    Returns:
+        (K,) signed distances [m].
+    """
+    zmp = np.asarray(zmp, dtype=float)
+    if zmp.shape != (len(plan.t), 2):
+        raise InvalidInput(f"zmp must have shape ({len(plan.t)}, 2), got {zmp.shape}")
+    limbs = plan.params.all_limbs
+    out = np.empty(len(plan.t))
+    for k, label in enumerate(plan.support):
+        feet = limbs if label == DOUBLE_SUPPORT else (label,)
+        corners = np.vstack(
+            [sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k], sole_size) for lb in feet]
+        )
+        out[k] = signed_distance(halfplanes_from_polygon(convex_hull_2d(corners)), zmp[k])
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Walk pattern
+
+
+@dataclass(frozen=True)
+class WalkPattern:
+    """A whole-body walking pattern; row k is time ``t[k] = k dt``.
+
+    Attributes:
+        t: Times (K,) [s].
+        dt: Sampling time [s].
+        q: Configurations (K, nq): root pose (free joint) and joint angles.
+        joint_names: Names of the robot's hinge/slide joints (``Robot.joint_names``).
+        root_body: Name of the floating-base body.
+        com: CoM of the IK solution (K, 3) [m].
+        com_ref: Planned CoM (K, 3) [m] (preview control; constant height).
+        zmp_ref: ZMP reference (K, 2) [m].
+        zmp_cart: Cart-table ZMP of the planned CoM (K, 2) [m].
+        zmp_computed: ZMP of the generated motion from inverse dynamics (K, 2) [m].
+        feet_p: Achieved sole positions per limb (K, 3) [m].
+        feet_R: Achieved sole rotations per limb (K, 3, 3).
+        support: (K,) labels ``"double"`` or the supporting limb.
+        plan: The gait plan the pattern follows.
+        ik_iterations: IK iterations per tick (K,).
+        ik_feet_error: Largest sole position error per tick (K,) [m].
+        ik_com_error: CoM position error per tick (K,) [m].
+        solve_time: Wall time of the IK over all ticks [s].
+    """
+
+    t: np.ndarray
+    dt: float
+    q: np.ndarray
+    joint_names: tuple[str, ...]
+    root_body: str
+    com: np.ndarray
+    com_ref: np.ndarray
+    zmp_ref: np.ndarray
+    zmp_cart: np.ndarray
+    zmp_computed: np.ndarray
+    feet_p: dict[str, np.ndarray]
+    feet_R: dict[str, np.ndarray]
+    support: np.ndarray
+    plan: GaitPlan
+    ik_iterations: np.ndarray
+    ik_feet_error: np.ndarray
+    ik_com_error: np.ndarray
+    solve_time: float
+
+    @property
+    def duration(self) -> float:
+        """Total duration [s]."""
+        return float(self.t[-1])
+
+    def support_margin(self, which: str = "computed", sole_size: Sequence[float] = SOLE_SIZE):
+        """:func:`support_margin` of ``zmp_computed``, ``zmp_cart`` or ``zmp_ref`` [m]."""
+        zmp = {"computed": self.zmp_computed, "cart": self.zmp_cart, "ref": self.zmp_ref}
+        if which not in zmp:
+            raise UnknownName("zmp", which, zmp)
+        return support_margin(self.plan, zmp[which], sole_size)
+
+    def zmp_tracking(self) -> dict[str, float]:
+        """Max and RMS distance [m] of the cart-table and computed ZMPs to the reference."""
+        out = {}
+        for name, zmp in (("cart", self.zmp_cart), ("computed", self.zmp_computed)):
+            e = np.linalg.norm(zmp - self.zmp_ref, axis=1)
+            out[f"{name}_max"] = float(e.max())
+            out[f"{name}_rms"] = float(np.sqrt(np.mean(e**2)))
+        e = np.linalg.norm(self.zmp_computed - self.zmp_cart, axis=1)
+        out["computed_vs_cart_max"] = float(e.max())
+        out["computed_vs_cart_rms"] = float(np.sqrt(np.mean(e**2)))
+        return out
+
+    def __repr__(self) -> str:
+        return (
+            f"WalkPattern({len(self.plan.footsteps)} steps, {len(self.t)} ticks, "
+            f"dt={self.dt}, duration={self.duration:.2f} s, IK {self.solve_time:.1f} s)"
+        )
+
+
+def feet_from_robot(
+    robot: Robot, feet_frames: Mapping[str, str] = DEFAULT_FEET
+) -> dict[str, Footstep]:
+    """Current sole poses (position, heading) of the robot's legs.
+
+    The heading is that of the sole frame's x axis projected on the ground,
+    :math:`\\psi = \\mathrm{atan2}(R_{10}, R_{00})`.
+    """
+    out = {}
+    for limb, site in feet_frames.items():
+        X = robot.frame_pose(site, "site")
+        R = X.rotation().as_matrix()
+        out[limb] = Footstep(limb, X.translation(), float(np.arctan2(R[1, 0], R[0, 0])))
+    return out
+
+
+class _ComTarget:
+    """CoM task of level 2 and the setter of its target.
+
+    One place to swap ``mink.ComTask`` for ``pik_mj.tasks.com.CentroidTask``.
+    """
+
+    def __init__(self, threshold: float):
+        self._mink = mink.ComTask(cost=1.0)
+        self.task: Task = MinkTask(self._mink, name="com", threshold=threshold)
+
+    def set(self, p_WC: np.ndarray) -> None:
+        self._mink.set_target(p_WC)
+
+
+def calc_walk_pattern(
+    robot: Robot,
+    footsteps: Sequence[Footstep],
+    params: GaitParameters | None = None,
+    *,
+    com_height: float | None = None,
+    feet_frames: Mapping[str, str] = DEFAULT_FEET,
+    upright_body: str | None = None,
+    stop: int = 3,
+    min_loop: int = 3,
+    init_stop: int = 50,
+    ik_thre: float = 1e-4,
+    ik_rthre: float = 1e-3,
+    qp_solver: object = "daqp",
+    callback: Callable[[int, Robot], None] | None = None,
+) -> WalkPattern:
+    """Whole-body walking pattern from a footstep list (seed ``calc-walk-pattern-...``).
+
+    The initial feet are the robot's current sole poses; the CoM height is that
+    of the current pose above the mean sole height unless given. Each tick k
+    sets the targets of the levels (module docstring) to the plan's row k and
+    runs :func:`pik_mj.solve.solve` from the previous tick's solution; tick 0
+    gets ``init_stop`` iterations (the seed's ``init-pose-function``: CoM over
+    the feet). The robot is left in the last tick's configuration.
+
+    The second differences taken by :func:`zmp_from_inverse_dynamics` amplify
+    tick-to-tick jitter of the IK by :math:`1/\\Delta t^2`, so the default runs a
+    fixed number of iterations per tick (``min_loop = stop``) with tight
+    thresholds, keeping the residual a smooth function of time.
+
+    Args:
+        robot: A floating-base robot standing on its feet (e.g. after
+            ``reset_pose()``); its configuration is changed.
+        footsteps: Executed footsteps (see :func:`plan_gait`).
+        params: Gait parameters; defaults to ``GaitParameters()``.
+        com_height: CoM height above the ground plane [m]; default: current.
+        feet_frames: Sole site of each limb of ``params.all_limbs``.
+        upright_body: Body kept upright with the mid-feet heading; default the
+            robot's root body.
+        stop: Most IK iterations per tick.
+        min_loop: Fewest IK iterations per tick.
+        init_stop: IK iterations at tick 0 (all run, so that the posture
+            level has settled before the walk starts).
+        ik_thre: Sole and CoM position tolerance [m].
+        ik_rthre: Sole and upright rotation tolerance [rad].
+        qp_solver: QP solver of :func:`pik_mj.solve.solve`. The exact active-set
+            ``"daqp"`` by default: OSQP's approximate solutions (eps 1e-5) leave
+            ~1e-5 m of tick-to-tick jitter, ~1 cm of ZMP noise at dt = 0.02 s.
+        callback: Called as ``callback(k, robot)`` after tick k.
+
+    Returns:
+        The :class:`WalkPattern`.
+    """
+    params = GaitParameters() if params is None else params
+    if not robot.has_floating_base:
+        raise InvalidInput("calc_walk_pattern needs a robot with a free joint on its root body")
+    missing = [lb for lb in params.all_limbs if lb not in feet_frames]
+    if missing:
+        raise InvalidInput(
+            f"feet_frames has no sole frame for limbs {missing}; got {dict(feet_frames)}"
+        )
+    feet_frames = {lb: feet_frames[lb] for lb in params.all_limbs}
+    configuration = robot.configuration
+    model = robot.model
+    initial_feet = feet_from_robot(robot, feet_frames)
+    ground_z = float(np.mean([f.p_W[2] for f in initial_feet.values()]))
+    if com_height is None:
+        com_height = float(robot.com()[2]) - ground_z
+    plan = plan_gait(initial_feet, footsteps, params, com_height=com_height)
+    upright_body = robot.root_body if upright_body is None else upright_body
+
+    feet_tasks = {
+        lb: FrameTask(
+            configuration,
+            site,
+            (initial_feet[lb].p_W, np.eye(3)),
+            move_target_type="site",
+            thre=ik_thre,
+            rthre=ik_rthre,
+            name=f"foot:{lb}",
+        )
+        for lb, site in feet_frames.items()
+    }
+    com = _ComTarget(ik_thre)
+    upright = FrameTask(
+        configuration,
+        upright_body,
+        (np.zeros(3), np.eye(3)),
+        move_target_type="body",
+        translation_axis=None,
+        rthre=ik_rthre,
+        name=f"upright:{upright_body}",
+    )
+    posture = mink.PostureTask(model, cost=1e-2)
+    posture.set_target(configuration.q.copy())
+    levels = [
+        [MinkLimit(mink.ConfigurationLimit(model))],
+        list(feet_tasks.values()),
+        [com.task, upright],
+        [MinkTask(posture, name="posture", check=False)],
+    ]
+
+    K = len(plan.t)
+    q = np.empty((K, model.nq))
+    com_achieved = np.empty((K, 3))
+    feet_p = {lb: np.empty((K, 3)) for lb in feet_frames}
+    feet_R = {lb: np.empty((K, 3, 3)) for lb in feet_frames}
+    iterations = np.empty(K, dtype=int)
+    feet_err = np.empty(K)
+    com_ref = plan.com_W
+    t0 = time.perf_counter()
+    for k in range(K):
+        yaw_mid = 0.0
+        for lb, task in feet_tasks.items():
+            yaw = float(plan.feet_yaw[lb][k])
+            task.set_target((plan.feet_p[lb][k], _rot_z(yaw)))
+            yaw_mid += yaw / len(feet_tasks)
+        com.set(com_ref[k])
+        upright.set_target((np.zeros(3), _rot_z(yaw_mid)))
+        result = solve(
+            configuration,
+            levels,
+            stop=init_stop if k == 0 else stop,
+            min_loop=init_stop if k == 0 else min(min_loop, stop),
+            revert_if_fail=False,
+            qp_solver=qp_solver,
+        )
+        iterations[k] = result.iterations
+        q[k] = configuration.q
+        com_achieved[k] = robot.com()
+        errs = []
+        for lb, site in feet_frames.items():
+            X = robot.frame_pose(site, "site")
+            feet_p[lb][k] = X.translation()
+            feet_R[lb][k] = X.rotation().as_matrix()
+            errs.append(np.linalg.norm(feet_p[lb][k] - plan.feet_p[lb][k]))
+        feet_err[k] = max(errs)
+        if callback is not None:
+            callback(k, robot)
+    solve_time = time.perf_counter() - t0
+
+    zmp_computed = zmp_from_inverse_dynamics(
+        model, q, plan.dt, robot.root_body_id, ground_z=plan.ground_z
+    )
+    return WalkPattern(
+        t=plan.t,
+        dt=plan.dt,
+        q=q,
+        joint_names=tuple(robot.joint_names),
+        root_body=robot.root_body,
+        com=com_achieved,
+        com_ref=com_ref,
+        zmp_ref=plan.zmp_ref,
+        zmp_cart=plan.zmp,
+        zmp_computed=zmp_computed,
+        feet_p=feet_p,
+        feet_R=feet_R,
+        support=plan.support,
+        plan=plan,
+        ik_iterations=iterations,
+        ik_feet_error=feet_err,
+        ik_com_error=np.linalg.norm(com_achieved - com_ref, axis=1),
+        solve_time=solve_time,
+    )
+
+
+def go_pos(
+    robot: Robot,
+    x: float,
+    y: float,
+    theta: float,
+    params: GaitParameters | None = None,
+    *,
+    feet_frames: Mapping[str, str] = DEFAULT_FEET,
+    go_pos_args: Mapping[str, float] | None = None,
+    **kwargs,
+) -> WalkPattern:
+    """Walk to ``(x [m], y [m], theta [rad])`` in the current mid-feet frame.
+
+    :func:`pik_mj.walking.footsteps.go_pos` from the robot's current feet
+    (``go_pos_args`` are its keyword arguments), then :func:`calc_walk_pattern`
+    (``kwargs``).
+    """
+    feet = feet_from_robot(robot, feet_frames)
+    steps = footstep_planning.go_pos(x, y, theta, feet, **dict(go_pos_args or {}))
+    return calc_walk_pattern(robot, steps, params, feet_frames=feet_frames, **kwargs)
+
+
+def straight_walk(
+    robot: Robot,
+    n_steps: int,
+    stride: float,
+    params: GaitParameters | None = None,
+    *,
+    feet_frames: Mapping[str, str] = DEFAULT_FEET,
+    first_limb: str = "lleg",
+    **kwargs,
+) -> WalkPattern:
+    """Walk ``n_steps`` straight ahead by ``stride`` [m] and close the feet.
+
+    :func:`pik_mj.walking.footsteps.straight_steps`, then
+    :func:`calc_walk_pattern` (``kwargs``).
+    """
+    feet = feet_from_robot(robot, feet_frames)
+    steps = footstep_planning.straight_steps(n_steps, stride, feet, first_limb=first_limb)
+    return calc_walk_pattern(robot, steps, params, feet_frames=feet_frames, **kwargs)

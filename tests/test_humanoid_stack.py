@@ -1,0 +1,213 @@
+"""The reference whole-body stack on dm_control's humanoid (issue: the cascade).
+
+Feet (pose) at level 1, a hand (pose) at level 2, posture at level 3, joint
+limits hard.
+"""
+
+from __future__ import annotations
+
+import mink
+import numpy as np
+import pytest
+
+import pik_mj
+from pik_mj import cases
+from pik_mj.tasks.frame import FrameTask
+
+
+@pytest.fixture(scope="module")
+def model():
+    return cases.dm_humanoid()
+
+
+@pytest.fixture(scope="module")
+def targets(model):
+    return cases.reachable_hand_targets(model, 100, seed=0)
+
+
+def test_reachable_targets_all_converge_within_50_iterations(model, targets):
+    cfg = mink.Configuration(model)
+    iterations = []
+    for target in targets:
+        cfg.update(cases.stance(model))
+        stack = cases.reach_stack(cfg, target)
+        result = pik_mj.solve(cfg, stack.levels, stop=50)
+        assert result.converged, result.summary()
+        # 1 mm / 1 degree on every foot and on the hand.
+        for task in [*stack.feet, stack.hand]:
+            e = task.compute_error(cfg)
+            assert np.linalg.norm(e[:3]) <= 1e-3 and np.linalg.norm(e[3:]) <= np.deg2rad(1)
+        iterations.append(result.iterations)
+    assert len(iterations) == 100
+    assert np.median(iterations) <= 20
+
+
+def test_unreachable_hand_keeps_feet_fixed_every_iteration(model):
+    cfg = mink.Configuration(model)
+    cfg.update(cases.stance(model))
+    target = cases.unreachable_hand_target(cfg, 2.0)
+    stack = cases.reach_stack(cfg, target)
+    start = np.linalg.norm(stack.hand.compute_error(cfg)[:3])
+    worst_p, worst_r = [], []
+
+    def watch(info):
+        for foot in stack.feet:
+            e = foot.compute_error(info.configuration)
+            worst_p.append(np.linalg.norm(e[:3]))
+            worst_r.append(np.linalg.norm(e[3:]))
+
+    result = pik_mj.solve(cfg, stack.levels, stop=50, revert_if_fail=False, callback=watch)
+    assert not result.converged and result.iterations == 50
+    assert max(worst_p) <= 1e-4 and max(worst_r) <= 1e-3
+    end = np.linalg.norm(stack.hand.compute_error(cfg)[:3])
+    assert end < start - 0.5  # the hand got as close as it could: over half a metre closer
+
+
+def test_revert_if_fail_restores_configuration(model):
+    cfg = mink.Configuration(model)
+    q0 = cfg.q.copy()
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg))
+    result = pik_mj.solve(cfg, stack.levels, stop=5, revert_if_fail=True)
+    assert result.reverted and not result.converged
+    np.testing.assert_array_equal(cfg.q, q0)
+    # The report still says how far it got before reverting.
+    hand = next(t for t in result.tasks if t.level == 2)
+    assert not hand.satisfied and hand.error > 1.0
+
+
+def test_min_loop_runs_at_least_that_many_iterations(model):
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cfg.get_transform_frame_to_world(cases.HAND, "body"))
+    result = pik_mj.solve(cfg, stack.levels, min_loop=4)
+    assert result.converged and result.iterations == 4
+    result = pik_mj.solve(cfg, stack.levels)
+    assert result.converged and result.iterations == 1
+
+
+def test_per_level_regularization_lists(model):
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.2))
+    result = pik_mj.solve(cfg, stack.levels, regular=[1e-6, 1e-5, 1e-4], regular_max=[0.1] * 3)
+    assert result.converged
+    with pytest.raises(pik_mj.InvalidInput, match="one per solved level"):
+        pik_mj.solve(cfg, stack.levels, regular=[1e-6, 1e-5])
+
+
+def test_result_summary_and_dict(model):
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.1))
+    result = pik_mj.solve(cfg, stack.levels)
+    d = result.to_dict()
+    assert d["converged"] and d["iterations"] == result.iterations
+    assert [t["level"] for t in d["tasks"]] == [0, 1, 1, 2, 3]
+    assert len(d["timing"]["iteration_ms"]) == result.iterations
+    assert "converged after" in result.summary()
+
+
+# -- bad input: clear errors, configuration untouched ----------------------------------
+
+
+def test_unknown_frame_lists_valid_names(model):
+    cfg = mink.Configuration(model)
+    with pytest.raises(pik_mj.UnknownName, match="right_hand") as info:
+        FrameTask(cfg, "nope", mink.SE3.identity(), move_target_type="body")
+    assert "nope" in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "target",
+    [np.zeros(3), (np.zeros(2), np.array([1.0, 0, 0, 0])), "not-a-frame", (np.zeros(3), np.zeros(4))],
+)
+def test_wrong_target_shapes(model, target):
+    cfg = mink.Configuration(model)
+    with pytest.raises((pik_mj.InvalidInput, pik_mj.UnknownName)):
+        FrameTask(cfg, cases.HAND, target)
+
+
+def test_nan_target_is_rejected_and_configuration_restored(model):
+    cfg = mink.Configuration(model)
+    q0 = cfg.q.copy()
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.2))
+    stack.hand.set_target(lambda c: (np.array([np.nan, 0, 1]), np.array([1.0, 0, 0, 0])))
+    with pytest.raises(pik_mj.InvalidInput, match="finite"):
+        pik_mj.solve(cfg, stack.levels)
+    np.testing.assert_array_equal(cfg.q, q0)
+
+
+def test_nan_weight_is_rejected(model):
+    cfg = mink.Configuration(model)
+    with pytest.raises(pik_mj.InvalidInput, match="w_trans"):
+        FrameTask(cfg, cases.HAND, mink.SE3.identity(), w_trans=np.nan)
+
+
+def test_nan_in_mink_task_rows_restores_configuration(model):
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.2))
+    q_before = cfg.q.copy()
+    stack.posture.target_q = np.full(model.nq, np.nan)
+    with pytest.raises(pik_mj.InvalidInput, match="PostureTask"):
+        pik_mj.solve(cfg, stack.levels)
+    np.testing.assert_array_equal(cfg.q, q_before)
+
+
+@pytest.mark.parametrize(
+    ("levels", "match"),
+    [
+        ([], "at least one level"),
+        ([[]], "at least one level"),
+        ([[], []], "level 1 is empty"),
+        ([[], [42]], "valid entries"),
+        ("feet", "list of lists"),
+    ],
+)
+def test_malformed_levels(model, levels, match):
+    cfg = mink.Configuration(model)
+    with pytest.raises(pik_mj.InvalidInput, match=match):
+        pik_mj.solve(cfg, levels)
+
+
+@pytest.mark.parametrize(("option", "value"), [("stop", 0), ("min_loop", -1), ("relaxation", np.nan)])
+def test_bad_options(model, option, value):
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.1))
+    with pytest.raises(pik_mj.InvalidInput, match=option):
+        pik_mj.solve(cfg, stack.levels, **{option: value})
+
+
+def test_inverted_hard_limits(model):
+    cfg = mink.Configuration(model)
+    q0 = cfg.q.copy()
+    nv = model.nv
+    inverted = pik_mj.LinearTask(C=np.eye(nv)[:1], d_lower=1.0, d_upper=-1.0, name="inverted")
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.1))
+    with pytest.raises(pik_mj.InvalidInput, match="inverted bounds"):
+        pik_mj.solve(cfg, [[inverted], *stack.levels[1:]])
+    np.testing.assert_array_equal(cfg.q, q0)
+
+
+def test_infeasible_hard_level_raises_and_restores(model):
+    cfg = mink.Configuration(model)
+    q0 = cfg.q.copy()
+    e0 = np.eye(model.nv)[:1]
+    contradictory = [
+        pik_mj.LinearTask(C=e0, d_lower=0.5, d_upper=1.0, name="up"),
+        pik_mj.LinearTask(C=e0, d_lower=-1.0, d_upper=-0.5, name="down"),
+    ]
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.1))
+    with pytest.raises(pik_mj.InfeasibleHardConstraints, match="level 0"):
+        pik_mj.solve(cfg, [contradictory, *stack.levels[1:]])
+    np.testing.assert_array_equal(cfg.q, q0)
+
+
+def test_unknown_qp_solver(model):
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.1))
+    with pytest.raises(pik_mj.InvalidInput, match="valid"):
+        pik_mj.solve(cfg, stack.levels, qp_solver="nope")
+
+
+def test_daqp_backend_solves_the_stack(model):
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.15))
+    result = pik_mj.solve(cfg, stack.levels, qp_solver="daqp")
+    assert result.converged
