@@ -124,6 +124,7 @@ def build_level_problem(
     rows: TaskRows,
     constraint_rows: tuple[np.ndarray, np.ndarray, np.ndarray],
     lam: float,
+    role: str = "step",
 ) -> LevelProblem:
     """Assemble the QP of one level from its rows and the rows it must keep.
 
@@ -150,7 +151,7 @@ def build_level_problem(
     A[M.shape[0] :, nv:] = np.eye(s)
     l = np.concatenate([lo, rows.d_lower])
     u = np.concatenate([hi, rows.d_upper])
-    return LevelProblem(level, P, q, A, l, u, nv)
+    return LevelProblem(level, P, q, A, l, u, nv, role)
 
 
 def solve_cascade(
@@ -159,6 +160,7 @@ def solve_cascade(
     regularization: Sequence[Regularization],
     backend: QPBackend,
     relaxation: float = DEFAULT_RELAXATION,
+    role: str = "step",
 ) -> CascadeStep:
     """Solve the cascade at one linearization point.
 
@@ -168,6 +170,8 @@ def solve_cascade(
         regularization: One :class:`Regularization` per level 1..K.
         backend: QP backend.
         relaxation: ``τ`` [row units].
+        role: Tag of the problems (``"step"`` or ``"correction"``) for backends
+            that cache per problem.
 
     Raises:
         InfeasibleHardConstraints: Level 1 is infeasible: only level 0's hard rows
@@ -188,7 +192,7 @@ def solve_cascade(
     for k, (rows, reg) in enumerate(zip(levels, regularization, strict=True), start=1):
         e_k = rows.squared_error()
         lam = reg.weight(e_k) + rows.damping
-        problem = build_level_problem(k, rows, (M, lo, hi), lam)
+        problem = build_level_problem(k, rows, (M, lo, hi), lam, role)
         solution = backend.solve(problem)
         if not solution.ok or solution.z is None:
             if k == 1 and "infeasible" in solution.status.lower():

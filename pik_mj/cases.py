@@ -42,9 +42,12 @@ class ReachStack:
 
 
 STANCE = {
-    "right_hip_y": -0.3, "left_hip_y": -0.3,
-    "right_knee": -0.6, "left_knee": -0.6,
-    "right_ankle_y": -0.3, "left_ankle_y": -0.3,
+    "right_hip_y": -0.3,
+    "left_hip_y": -0.3,
+    "right_knee": -0.6,
+    "left_knee": -0.6,
+    "right_ankle_y": -0.3,
+    "left_ankle_y": -0.3,
 }  # [rad] knees bent: dm_control's qpos0 has straight legs, a singular posture
 
 
@@ -64,8 +67,12 @@ def reach_stack(configuration: mink.Configuration, hand_target: mink.SE3) -> Rea
     """Feet (level 1) before the hand (level 2) before posture (level 3)."""
     model = configuration.model
     feet = [
-        FrameTask(configuration, f, configuration.get_transform_frame_to_world(f, "body"),
-                  move_target_type="body")
+        FrameTask(
+            configuration,
+            f,
+            configuration.get_transform_frame_to_world(f, "body"),
+            move_target_type="body",
+        )
         for f in FEET
     ]
     hand = FrameTask(configuration, HAND, hand_target, move_target_type="body")
@@ -98,7 +105,8 @@ def reachable_hand_targets(
     """``n`` right-hand poses reachable with both feet kept where they are in :func:`stance`.
 
     Each comes from a random posture (joints ``stance + N(0, σ²)`` clipped to their
-    ranges shrunk by 5% at each end) made consistent with the fixed feet by solving feet (level 1) before
+    ranges shrunk by 5% at each end) made consistent with the fixed feet by
+    solving feet (level 1) before
     that posture (level 2); postures whose projection does not converge are
     redrawn.
     """

@@ -37,7 +37,6 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import mink
-import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput
@@ -55,6 +54,7 @@ __all__ = [
     "CentroidTask",
     "LookAtTask",
     "fullbody_inverse_kinematics",
+    "gaze_angle",
     "inverse_kinematics",
     "static_balance_point",
 ]
@@ -352,9 +352,7 @@ def _parse_limbs(robot: Robot, limbs: Any, n: int) -> list[str] | None:
     return limbs
 
 
-def _move_frames(
-    robot: Robot, move_targets: Any, limbs: list[str] | None, n: int
-) -> list[Frame]:
+def _move_frames(robot: Robot, move_targets: Any, limbs: list[str] | None, n: int) -> list[Frame]:
     if move_targets is None:
         if limbs is None:
             if len(robot.limbs) == 1 and n == 1:
@@ -735,7 +733,7 @@ def fullbody_inverse_kinematics(
         frames = _move_frames(robot, move_targets, limb_names, len(poses))
     used = _used_joints(robot, joints, frames, limb_names or None) if frames else set()
     for x in feet:
-        used |= set(robot.limb(x).joints) if joints is None else set()
+        used |= set(robot.limb(x).joints)
     if look_at is not None:
         head = robot.limb("head")
         used |= set(head.joints)
@@ -781,7 +779,9 @@ def fullbody_inverse_kinematics(
                 raise InvalidInput("target_centroid_pos is needed when no feet are fixed")
             target_centroid_pos = np.mean([f.position(robot.data) for f in foot_frames], axis=0)
         level1.append(
-            _centroid_task(robot, target_centroid_pos, centroid_axes, centroid_offset, centroid_thre)
+            _centroid_task(
+                robot, target_centroid_pos, centroid_axes, centroid_offset, centroid_thre
+            )
         )
     levels: list[list[Any]] = [level0]
     if level1:
@@ -816,6 +816,3 @@ def gaze_angle(robot: Robot, point: Sequence[float], axis: Sequence[float] = (1,
     a_W = X.rotation().as_matrix() @ (np.asarray(axis, float) / np.linalg.norm(axis))
     d = _vector3(point, "point") - X.translation()
     return float(np.arccos(np.clip(a_W @ d / np.linalg.norm(d), -1.0, 1.0)))
-
-
-_ = mujoco  # MuJoCo computes every quantity used here through Robot and Frame.

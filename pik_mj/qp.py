@@ -47,7 +47,8 @@ OSQP_DEFAULTS: dict[str, Any] = {
 (1e-3) because each level's achieved values become the next levels' constraints,
 and because a level's objective gradient is of the size of its error: at 1e-5 a
 foot error of 1e-5 m is already "optimal" to OSQP and drift accumulates to 1e-4 m
-while a hand reaches; 1e-6 holds it at ~2e-5 m for +25% time per iteration. Termination is checked every 5 ADMM
+while a hand reaches; 1e-6 holds it at ~2e-5 m for +25% time per iteration.
+Termination is checked every 5 ADMM
 iterations (default 25): these problems converge in tens of iterations."""
 
 
@@ -63,6 +64,9 @@ class LevelProblem:
         l: Lower bounds, shape (m,) (``-inf`` allowed).
         u: Upper bounds, shape (m,) (``+inf`` allowed).
         nv: Number of step variables ``x`` (the first ``nv`` entries of ``z``).
+        role: ``"step"`` for the cascade's step, ``"correction"`` for the
+            projection that re-solves satisfied levels; backends cache solvers
+            per ``(role, level)``.
     """
 
     level: int
@@ -72,6 +76,7 @@ class LevelProblem:
     l: np.ndarray
     u: np.ndarray
     nv: int
+    role: str = "step"
 
     @property
     def n_slack(self) -> int:
@@ -154,14 +159,14 @@ class OSQPBackend:
     fallback: str | None = "daqp"
     setups: int = 0
     fallbacks: int = 0
-    _levels: dict[int, _OSQPLevel] = field(default_factory=dict, repr=False)
+    _levels: dict[tuple[str, int], _OSQPLevel] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         self.settings = {**OSQP_DEFAULTS, **self.settings}
 
     def solve(self, problem: LevelProblem) -> QPSolution:
         P_upper = np.triu(problem.P)
-        cached = self._levels.get(problem.level)
+        cached = self._levels.get((problem.role, problem.level))
         shape = problem.A.shape
         if (
             cached is None
@@ -207,6 +212,12 @@ class OSQPBackend:
             P_mask |= old.P_pattern.mask
             A_mask |= old.A_pattern.mask
         P_pattern, A_pattern = _Pattern(P_mask), _Pattern(A_mask)
+        settings = dict(self.settings)
+        if problem.role == "correction":
+            # The correction ends on a level whose null space only the
+            # regularization fixes: warm-started from an earlier solution, ADMM
+            # would stop with that solution's null-space motion in it.
+            settings["warm_starting"] = False
         solver = osqp.OSQP()
         solver.setup(
             P_pattern.csc(P_upper),
@@ -214,11 +225,11 @@ class OSQPBackend:
             A_pattern.csc(problem.A),
             problem.l,
             problem.u,
-            **self.settings,
+            **settings,
         )
         self.setups += 1
         level = _OSQPLevel(solver, P_pattern, A_pattern, problem.A.shape)
-        self._levels[problem.level] = level
+        self._levels[(problem.role, problem.level)] = level
         return level
 
 

@@ -210,7 +210,9 @@ def solve(
         relaxation: ``τ`` by which a lower level may move a higher level's rows.
         dt: Time step given to ``mink.Limit``s [s].
         qp_solver: ``"osqp"`` (default), a ``qpsolvers`` name, a backend object or
-            a function (seed ``qp-solver``).
+            a function (seed ``qp-solver``). Passing the same
+            :class:`~pik_mj.qp.OSQPBackend` to successive solves (e.g. one per tick
+            of a motion) reuses its OSQP workspaces: no ``setup()`` after the first.
         qp_args: Solver settings (seed ``qp-args``).
         correct: After each step, re-linearize and re-solve the leading levels
             that were satisfied before it (a Newton projection), so that the
@@ -246,11 +248,6 @@ def solve(
         )
     ]
     backend = make_backend(qp_solver, qp_args)
-    # The correction ends on a level whose null space only the regularization
-    # fixes: it gets its own backend, never warm-started from the full step.
-    correction_backend = make_backend(
-        qp_solver, {**(qp_args or {}), "warm_starting": False} if qp_solver == "osqp" else qp_args
-    )
     q0 = configuration.q.copy()
     history: list[list[float]] = []
     times: list[float] = []
@@ -272,7 +269,7 @@ def solve(
                     kept = _level_rows(configuration, task_levels[: prefix + 1])
                     t2 = time.perf_counter()
                     fix = solve_cascade(
-                        kept[0], kept[1:], regs[:prefix], correction_backend, relaxation
+                        kept[0], kept[1:], regs[:prefix], backend, relaxation, "correction"
                     )
                     qp_time += time.perf_counter() - t2
                     configuration.integrate_inplace(fix.x, 1.0)

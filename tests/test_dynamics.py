@@ -28,9 +28,9 @@ def _humanoid_pose() -> Robot:
     robot = Robot.load("sample_humanoid")
     robot.reset_pose()
     robot.set_angle_vector(
-        [-0.9, -0.5, 0.3, -0.8, 0.2, 0.3, 0.1],
+        [-0.9, -0.5, 0.3, -0.8, 0.2, 0.3, 0.1, 1.5],
         [f"rarm_{j}" for j in ("shoulder_p", "shoulder_r", "shoulder_y", "elbow_p")]
-        + ["torso_waist_p", "torso_waist_y", "head_neck_y"],
+        + ["torso_waist_p", "torso_waist_y", "head_neck_y", "larm_shoulder_r"],
     )
     return robot
 

@@ -116,7 +116,12 @@ def test_unknown_frame_lists_valid_names(model):
 
 @pytest.mark.parametrize(
     "target",
-    [np.zeros(3), (np.zeros(2), np.array([1.0, 0, 0, 0])), "not-a-frame", (np.zeros(3), np.zeros(4))],
+    [
+        np.zeros(3),
+        (np.zeros(2), np.array([1.0, 0, 0, 0])),
+        "not-a-frame",
+        (np.zeros(3), np.zeros(4)),
+    ],
 )
 def test_wrong_target_shapes(model, target):
     cfg = mink.Configuration(model)
@@ -166,7 +171,9 @@ def test_malformed_levels(model, levels, match):
         pik_mj.solve(cfg, levels)
 
 
-@pytest.mark.parametrize(("option", "value"), [("stop", 0), ("min_loop", -1), ("relaxation", np.nan)])
+@pytest.mark.parametrize(
+    ("option", "value"), [("stop", 0), ("min_loop", -1), ("relaxation", np.nan)]
+)
 def test_bad_options(model, option, value):
     cfg = mink.Configuration(model)
     stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.1))

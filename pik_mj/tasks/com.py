@@ -261,8 +261,10 @@ class CentroidTask(Task):
         return bool(np.all(np.abs(e) <= self.centroid_thre[self.rows]))
 
     def __repr__(self) -> str:
-        frame = "world" if self.frame is None else (
-            self.frame if isinstance(self.frame, Frame) else "fixed rotation"
+        frame = (
+            "world"
+            if self.frame is None
+            else (self.frame if isinstance(self.frame, Frame) else "fixed rotation")
         )
         target = "callable" if self.target_fn is not None else np.round(self.target, 4).tolist()
         return (

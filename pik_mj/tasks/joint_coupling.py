@@ -73,8 +73,10 @@ class JointCouplingTask(Task):
             raise InvalidInput(f"check_margin must be finite and >= 0, got {check_margin}")
         self.check_margin = float(check_margin)
         self.check = check
-        label = [j.name if j is not None else f"{v:g}" for j, v in (
-            (self.joint1, self.value1), (self.joint2, self.value2))]
+        label = [
+            j.name if j is not None else f"{v:g}"
+            for j, v in ((self.joint1, self.value1), (self.joint2, self.value2))
+        ]
         self.name = name or f"coupling:{label[1]}={label[0]}"
 
     @staticmethod

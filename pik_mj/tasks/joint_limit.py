@@ -103,9 +103,7 @@ def find_joint(
     kind = JOINT_TYPES[int(model.jnt_type[j])]
     if kind not in kinds:
         raise InvalidInput(f"{what} {name!r} is a {kind} joint; this task accepts {list(kinds)}")
-    return JointRef(
-        name, j, kind, int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), _NDOF[kind]
-    )
+    return JointRef(name, j, kind, int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]), _NDOF[kind])
 
 
 def joint_list(
@@ -235,16 +233,17 @@ class JointLimitTask(Task):
             raise InvalidInput(f"slack weights w must be > 0, got {self.w}")
         if check_margin is None:
             self.check_margin = np.array(
-                [BALL_CHECK_MARGIN if j.kind == "ball" else DEFAULT_CHECK_MARGIN for j in self.joints]
+                [
+                    BALL_CHECK_MARGIN if j.kind == "ball" else DEFAULT_CHECK_MARGIN
+                    for j in self.joints
+                ]
             )
         else:
             if not (np.isfinite(check_margin) and check_margin >= 0):
                 raise InvalidInput(f"check_margin must be finite and >= 0, got {check_margin}")
             self.check_margin = np.full(n, float(check_margin))
         self.check = check
-        self.name = name or (
-            f"limits:{self.joints[0].name}" if n == 1 else f"limits:{n} joints"
-        )
+        self.name = name or (f"limits:{self.joints[0].name}" if n == 1 else f"limits:{n} joints")
 
     @classmethod
     def all_limited(cls, configuration: mink.Configuration, **kwargs) -> JointLimitTask:

@@ -97,6 +97,8 @@ class TaskRows(NamedTuple):
         """Concatenate the rows of several tasks (one priority level)."""
         if not rows:
             return TaskRows.empty(nv)
+        if len(rows) == 1:
+            return rows[0]
         return TaskRows(
             np.vstack([r.A for r in rows]),
             np.concatenate([r.b for r in rows]),
@@ -132,18 +134,18 @@ class TaskRows(NamedTuple):
 
     def validate(self, nv: int, owner: str) -> None:
         """Raise :class:`InvalidInput` naming ``owner`` if shapes or values are bad."""
-        checks = [
-            (self.A.shape == (self.b.size, nv), f"A has shape {self.A.shape}"),
-            (self.w_A.shape == self.b.shape, f"w_A has shape {self.w_A.shape}"),
-            (self.C.shape[1:] == (nv,), f"C has shape {self.C.shape}"),
-            (
-                self.d_lower.shape == self.d_upper.shape == self.w_C.shape == (self.n_in,),
-                "inequality bounds/weights do not match C's rows",
-            ),
-        ]
-        for ok, what in checks:
-            if not ok:
-                raise InvalidInput(f"task {owner}: {what}; nv = {nv}")
+        m_eq, m_in = self.b.size, self.C.shape[0]
+        if (
+            self.A.shape != (m_eq, nv)
+            or self.w_A.shape != (m_eq,)
+            or self.C.shape != (m_in, nv)
+            or not self.d_lower.shape == self.d_upper.shape == self.w_C.shape == (m_in,)
+        ):
+            raise InvalidInput(
+                f"task {owner}: row shapes do not agree with nv = {nv}: A {self.A.shape}, "
+                f"b {self.b.shape}, w_A {self.w_A.shape}, C {self.C.shape}, d_lower "
+                f"{self.d_lower.shape}, d_upper {self.d_upper.shape}, w_C {self.w_C.shape}"
+            )
         # Fast path: a NaN or inf anywhere makes the sum non-finite.
         total = self.A.sum() + self.b.sum() + self.w_A.sum() + self.C.sum() + self.w_C.sum()
         if not np.isfinite(total):

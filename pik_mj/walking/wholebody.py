@@ -14,21 +14,20 @@ from the previous tick:
 The result is checked with the ZMP of the *generated motion* (seed ``calc-zmp``):
 joint velocities and accelerations by finite differences, MuJoCo's inverse
 dynamics for the wrench the ground must apply to the floating base, and the ZMP
-of that wrench (:func:`zmp_from_inverse_dynamics`).
+of that wrench (:func:`pik_mj.dynamics.zmp_of_motion`).
 """
 
 from __future__ import annotations
 
-import copy
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import mink
-import mujoco
 import numpy as np
 
 from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_distance
+from pik_mj.dynamics import zmp_of_motion
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.robot import Robot
 from pik_mj.solve import solve
@@ -44,14 +43,10 @@ __all__ = [
     "WalkPattern",
     "calc_walk_pattern",
     "feet_from_robot",
-    "finite_difference_motion",
     "go_pos",
-    "root_wrench_from_inverse_dynamics",
     "sole_corners",
     "straight_walk",
     "support_margin",
-    "zmp_from_inverse_dynamics",
-    "zmp_from_wrench",
 ]
 
 DEFAULT_FEET: dict[str, str] = {"rleg": "rleg_end", "lleg": "lleg_end"}
@@ -64,186 +59,6 @@ SOLE_SIZE: tuple[float, float] = (0.22, 0.12)
 def _rot_z(yaw: float) -> np.ndarray:
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-# ---------------------------------------------------------------------------
-# Inverse-dynamics ZMP
-
-
-def finite_difference_motion(
-    model: mujoco.MjModel, qpos: np.ndarray, dt: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Generalized velocities and accelerations of a sampled motion.
-
-    Central differences on the configuration manifold (``mj_differentiatePos``,
-    so free-joint quaternions are handled and angular rates are in MuJoCo's
-    convention); beyond the first and last samples the motion is continued at
-    constant velocity (so the end accelerations are zero):
-
-    .. math::
-
-        v_k = \\frac{q_{k+1} \\ominus q_{k-1}}{2 \\Delta t}, \\qquad
-        \\dot v_k = \\frac{(q_{k+1} \\ominus q_k) - (q_k \\ominus q_{k-1})}{\\Delta t^2}
-
-    Args:
-        model: The model the configurations belong to.
-        qpos: Configurations (T, nq).
-        dt: Sampling time in [s].
-
-    Returns:
-        ``(qvel (T, nv) [rad/s, m/s], qacc (T, nv) [rad/s^2, m/s^2])``.
-    """
-    qpos = np.asarray(qpos, dtype=float)
-    if qpos.ndim != 2 or qpos.shape[1] != model.nq or len(qpos) < 1:
-        raise InvalidInput(f"qpos must have shape (T >= 1, nq={model.nq}), got {qpos.shape}")
-    if not np.all(np.isfinite(qpos)):
-        raise InvalidInput("qpos holds NaN or inf")
-    if not (np.isfinite(dt) and dt > 0):
-        raise InvalidInput(f"dt must be a positive finite time [s], got {dt}")
-    padded = np.vstack([qpos[:1], qpos, qpos[-1:]])
-    if len(qpos) > 1:  # continue the end velocities: zero acceleration at both ends
-        for end, inner, out in ((0, 1, 0), (-1, -2, -1)):
-            v = np.empty(model.nv)
-            mujoco.mj_differentiatePos(model, v, 1.0, qpos[inner], qpos[end])
-            mujoco.mj_integratePos(model, padded[out], v, 1.0)
-    diff = np.empty((len(padded) - 1, model.nv))
-    for k in range(len(padded) - 1):
-        mujoco.mj_differentiatePos(model, diff[k], 1.0, padded[k], padded[k + 1])
-    qvel = (diff[:-1] + diff[1:]) / (2.0 * dt)
-    qacc = (diff[1:] - diff[:-1]) / dt**2
-    return qvel, qacc
-
-
-def _free_joint(model: mujoco.MjModel, root_body: int) -> int:
-    j = int(model.body_jntadr[root_body])
-    if j < 0 or model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE:
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-        raise InvalidInput(f"body {name!r} has no free joint; the ZMP needs a floating base")
-    return j
-
-
-def _body_id(model: mujoco.MjModel, body: str | int) -> int:
-    if isinstance(body, str):
-        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
-        if b < 0:
-            names = [model.body(i).name for i in range(model.nbody)]
-            raise UnknownName("body", body, names)
-        return b
-    return int(body)
-
-
-def root_wrench_from_inverse_dynamics(
-    model: mujoco.MjModel,
-    qpos: np.ndarray,
-    qvel: np.ndarray,
-    qacc: np.ndarray,
-    root_body: str | int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """External wrench on the floating base that produces a motion.
-
-    ``mj_inverse`` with constraints disabled gives
-    :math:`\\tau = M(q)\\dot v + c(q, v)` (gravity included); the rows of the free
-    joint are the force :math:`f_W` (world frame) and the torque
-    :math:`\\tau_B` (body frame) about the joint anchor B a virtual actuator
-    between the world and the root would have to apply. Joint torques are
-    internal, so this is the total external (contact) wrench:
-
-    .. math::
-
-        f_W = \\tau_{0:3}, \\qquad n_{W,B} = R_{WB}\\, \\tau_{3:6}
-
-    Args:
-        model: The robot model (a copy is made with constraints disabled).
-        qpos: Configurations (T, nq).
-        qvel: Velocities (T, nv).
-        qacc: Accelerations (T, nv).
-        root_body: The body carrying the free joint.
-
-    Returns:
-        ``(f_W (T, 3) [N], n_WO (T, 3) [N m])``, the torque taken about the
-        world origin O.
-    """
-    qpos, qvel, qacc = (np.asarray(a, dtype=float) for a in (qpos, qvel, qacc))
-    T = len(qpos)
-    if qpos.shape != (T, model.nq) or qvel.shape != (T, model.nv) or qacc.shape != (T, model.nv):
-        raise InvalidInput(
-            f"expected qpos (T, {model.nq}), qvel and qacc (T, {model.nv}); got "
-            f"{qpos.shape}, {qvel.shape}, {qacc.shape}"
-        )
-    b = _body_id(model, root_body)
-    j = _free_joint(model, b)
-    dof = int(model.jnt_dofadr[j])
-    m = copy.deepcopy(model)
-    m.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
-    d = mujoco.MjData(m)
-    f_W = np.empty((T, 3))
-    n_WO = np.empty((T, 3))
-    for k in range(T):
-        d.qpos[:], d.qvel[:], d.qacc[:] = qpos[k], qvel[k], qacc[k]
-        mujoco.mj_inverse(m, d)
-        tau = d.qfrc_inverse[dof : dof + 6]
-        R_WB = d.xmat[b].reshape(3, 3)
-        p_WB = d.xanchor[j]
-        f_W[k] = tau[:3]
-        n_WO[k] = R_WB @ tau[3:] + np.cross(p_WB, tau[:3])
-    return f_W, n_WO
-
-
-def zmp_from_wrench(f_W: np.ndarray, n_WO: np.ndarray, ground_z: float = 0.0) -> np.ndarray:
-    """ZMP on the plane :math:`z = z_g` of an external wrench.
-
-    With the torque moved to the ground point :math:`g = (0, 0, z_g)`,
-    :math:`n_g = n_O - g \\times f`, the point p of the plane about which the
-    horizontal torque vanishes is
-
-    .. math::
-
-        p_x = -\\frac{n_{g,y}}{f_z}, \\qquad p_y = \\frac{n_{g,x}}{f_z}
-
-    Args:
-        f_W: Forces (T, 3) [N].
-        n_WO: Torques about the world origin (T, 3) [N m].
-        ground_z: Height of the ground plane [m].
-
-    Returns:
-        ZMP (T, 2) [m].
-    """
-    f_W = np.atleast_2d(np.asarray(f_W, dtype=float))
-    n_WO = np.atleast_2d(np.asarray(n_WO, dtype=float))
-    if np.any(f_W[:, 2] <= 0.0):
-        raise InvalidInput("the vertical force must be > 0 for a ZMP (the robot is not supported)")
-    n_g = n_WO - np.cross(np.array([0.0, 0.0, ground_z]), f_W)
-    return np.column_stack([-n_g[:, 1] / f_W[:, 2], n_g[:, 0] / f_W[:, 2]])
-
-
-def zmp_from_inverse_dynamics(
-    model: mujoco.MjModel,
-    qpos: np.ndarray,
-    dt: float,
-    root_body: str | int,
-    *,
-    ground_z: float = 0.0,
-) -> np.ndarray:
-    """ZMP of a sampled motion from MuJoCo inverse dynamics (seed ``calc-zmp``).
-
-    :func:`finite_difference_motion`, then
-    :func:`root_wrench_from_inverse_dynamics`, then :func:`zmp_from_wrench`. For a
-    rigid robot translating with CoM acceleration :math:`\\ddot c` this is the
-    cart-table ZMP :math:`p = c_{xy} - \\frac{c_z - z_g}{g + \\ddot c_z} \\ddot c_{xy}`.
-
-    Args:
-        model: The robot model (with a free joint on ``root_body``).
-        qpos: Configurations (T, nq) sampled every ``dt``.
-        dt: Sampling time in [s].
-        root_body: Body with the free joint.
-        ground_z: Height of the ground plane in [m].
-
-    Returns:
-        ZMP (T, 2) [m].
-    """
-    qvel, qacc = finite_difference_motion(model, qpos, dt)
-    f_W, n_WO = root_wrench_from_inverse_dynamics(model, qpos, qvel, qacc, root_body)
-    return zmp_from_wrench(f_W, n_WO, ground_z)
 
 
 # ---------------------------------------------------------------------------
@@ -424,7 +239,7 @@ def calc_walk_pattern(
     gets ``init_stop`` iterations (the seed's ``init-pose-function``: CoM over
     the feet). The robot is left in the last tick's configuration.
 
-    The second differences taken by :func:`zmp_from_inverse_dynamics` amplify
+    The second differences taken by :func:`pik_mj.dynamics.zmp_of_motion` amplify
     tick-to-tick jitter of the IK by :math:`1/\\Delta t^2`, so the default runs a
     fixed number of iterations per tick (``min_loop = stop``) with tight
     thresholds, keeping the residual a smooth function of time.
@@ -540,9 +355,7 @@ def calc_walk_pattern(
             callback(k, robot)
     solve_time = time.perf_counter() - t0
 
-    zmp_computed = zmp_from_inverse_dynamics(
-        model, q, plan.dt, robot.root_body_id, ground_z=plan.ground_z
-    )
+    zmp_computed = zmp_of_motion(model, q, plan.dt, plan.ground_z, root_body=robot.root_body)
     return WalkPattern(
         t=plan.t,
         dt=plan.dt,

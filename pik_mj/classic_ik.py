@@ -1,0 +1,270 @@
+"""irteus' classic inverse kinematics, for comparison with the cascade (seed 001).
+
+One iteration of irteus ``:inverse-kinematics`` (``:move-joints``) with the
+frame tasks' Jacobian ``J`` and requested motion ``ẋ`` (each task's clamped
+``-e``):
+
+.. math::
+
+    \\dot\\theta = J^{*}_W \\dot x + (I - J^{*}_W J)\\, z, \\qquad
+    J^{*}_W = W^{-1} J^T (J W^{-1} J^T + k I)^{-1}
+
+* SR-inverse (Nakamura & Hanafusa): ``k`` grows as the manipulability
+  ``κ = \\sqrt{\\det(J W^{-1} J^T)}`` falls below ``κ_0`` (seed
+  ``manipulability-limit`` 0.1, ``manipulability-gain`` 0.001):
+  ``k = k_0 (1 − κ/κ_0)²`` if ``κ < κ_0`` else 0.
+* Weighted least norm for joint-limit avoidance (Chan & Dubey 1995):
+  ``W = diag(w_i)``, ``w_i = 1 + |∂H/∂θ_i|`` while ``|∂H/∂θ_i|`` grows, else 1,
+  with the performance criterion
+
+  .. math::
+
+      H(\\theta) = \\sum_i \\frac{(\\theta_{i,max} - \\theta_{i,min})^2}
+                 {4 (\\theta_{i,max} - \\theta_i)(\\theta_i - \\theta_{i,min})},
+      \\quad
+      \\frac{\\partial H}{\\partial \\theta_i} =
+      \\frac{(\\theta_{i,max} - \\theta_{i,min})^2 (2\\theta_i - \\theta_{i,max}
+      - \\theta_{i,min})}{4 (\\theta_{i,max} - \\theta_i)^2 (\\theta_i - \\theta_{i,min})^2}
+
+* null-space joint-limit avoidance (seed ``avoid-nspace-gain``): ``z`` pulls each
+  joint towards the middle of its range,
+  ``z_i = −g_n \\operatorname{sign}(r_i) r_i^2``,
+  ``r_i = (θ_i − θ_{i,mid}) / (θ_{i,max} − θ_{i,mid})``.
+
+After the step the joints are clamped to their ranges (irteus ``:joint-angle``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import mink
+import mujoco
+import numpy as np
+
+from .exceptions import InvalidInput, UnknownName
+from .solve import IterationInfo, SolveResult, task_reports
+from .tasks.frame import ONE_DEGREE, FrameTask
+
+METHODS = ("sr-inverse", "pseudo-inverse")
+
+_ANGLE_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def manipulability(J: np.ndarray, winv: np.ndarray | None = None) -> float:
+    """Yoshikawa's manipulability ``κ = \\sqrt{\\det(J W^{-1} J^T)}``.
+
+    Args:
+        J: Jacobian (m, n).
+        winv: Diagonal of ``W⁻¹`` (n,), ones if None.
+    """
+    JW = J if winv is None else J * winv
+    return float(np.sqrt(max(np.linalg.det(JW @ J.T), 0.0)))
+
+
+def sr_damping(kappa: float, limit: float = 0.1, gain: float = 0.001) -> float:
+    """SR-inverse damping ``k = k_0 (1 − κ/κ_0)²`` below the limit ``κ_0``, else 0."""
+    return gain * (1.0 - kappa / limit) ** 2 if kappa < limit else 0.0
+
+
+def sr_inverse(J: np.ndarray, k: float, winv: np.ndarray | None = None) -> np.ndarray:
+    """``J^*_W = W^{-1} J^T (J W^{-1} J^T + k I)^{-1}`` (n, m); ``k = 0`` is the
+    weighted pseudo-inverse (least squares if ``J W⁻¹ Jᵀ`` is singular)."""
+    WJt = J.T if winv is None else winv[:, None] * J.T
+    G = J @ WJt + k * np.eye(J.shape[0])
+    if k > 0:
+        return WJt @ np.linalg.solve(G, np.eye(J.shape[0]))
+    return WJt @ np.linalg.pinv(G)
+
+
+def joint_limit_gradient(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """``∂H/∂θ_i`` of Chan & Dubey's criterion; 0 for unlimited joints, inf at a limit."""
+    grad = np.zeros_like(q)
+    lim = np.isfinite(lower) & np.isfinite(upper)
+    lo, hi, th = lower[lim], upper[lim], q[lim]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = (hi - lo) ** 2 * (2 * th - hi - lo) / (4 * (hi - th) ** 2 * (th - lo) ** 2)
+    g[(th <= lo) | (th >= hi)] = np.inf
+    grad[lim] = g
+    return grad
+
+
+def joint_limit_weights(
+    grad: np.ndarray, previous: np.ndarray | None, gain: float = 1.0
+) -> np.ndarray:
+    """Chan & Dubey weights ``w_i = 1 + g |∂H/∂θ_i|`` while ``|∂H/∂θ_i|`` grows, else 1."""
+    mag = np.abs(grad)
+    growing = np.ones_like(mag, dtype=bool) if previous is None else mag >= np.abs(previous)
+    return np.where(growing, 1.0 + gain * mag, 1.0)
+
+
+def joint_limit_nspace(
+    q: np.ndarray, lower: np.ndarray, upper: np.ndarray, gain: float = 0.01
+) -> np.ndarray:
+    """Null-space velocity towards the middle of each range (seed ``avoid-nspace-gain``)."""
+    z = np.zeros_like(q)
+    lim = np.isfinite(lower) & np.isfinite(upper)
+    mid = 0.5 * (lower[lim] + upper[lim])
+    r = (q[lim] - mid) / (upper[lim] - mid)
+    z[lim] = -gain * np.sign(r) * r**2
+    return z
+
+
+def _dofs(model: mujoco.MjModel, joints: Sequence[str] | None):
+    """Dof indices, lower/upper limits and qpos addresses of the moved joints."""
+    if joints is None:
+        ids = list(range(model.njnt))
+    else:
+        if isinstance(joints, str):
+            raise InvalidInput(f"joints must be a list of joint names, got {joints!r}")
+        ids = []
+        for name in joints:
+            j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if j < 0:
+                valid = [model.joint(i).name for i in range(model.njnt)]
+                raise UnknownName("joint", name, valid)
+            ids.append(int(j))
+    dofs, lower, upper, qadr = [], [], [], []
+    for j in ids:
+        n = {0: 6, 1: 3}.get(int(model.jnt_type[j]), 1)
+        start = int(model.jnt_dofadr[j])
+        dofs += list(range(start, start + n))
+        angle = int(model.jnt_type[j]) in _ANGLE_JOINTS and bool(model.jnt_limited[j])
+        lower += [model.jnt_range[j, 0] if angle else -np.inf] * n
+        upper += [model.jnt_range[j, 1] if angle else np.inf] * n
+        qadr += [int(model.jnt_qposadr[j]) if angle else -1] * n
+    return np.array(dofs), np.array(lower), np.array(upper), np.array(qadr)
+
+
+def _as_tasks(
+    configuration: mink.Configuration, targets: Sequence[Any], thre: float, rthre: float
+) -> list[FrameTask]:
+    if isinstance(targets, (FrameTask, str)) or not isinstance(targets, Sequence) or not targets:
+        raise InvalidInput(
+            "targets must be a non-empty list of FrameTasks or (move_target, pose) tuples"
+        )
+    tasks = []
+    for i, t in enumerate(targets):
+        if isinstance(t, FrameTask):
+            tasks.append(t)
+        elif isinstance(t, (tuple, list)) and len(t) == 2 and isinstance(t[0], str):
+            tasks.append(FrameTask(configuration, t[0], t[1], thre=thre, rthre=rthre))
+        else:
+            raise InvalidInput(f"targets[{i}] must be a FrameTask or (move_target, pose)")
+    return tasks
+
+
+def classic_inverse_kinematics(
+    configuration: mink.Configuration,
+    targets: Sequence[Any],
+    *,
+    method: str = "sr-inverse",
+    stop: int = 50,
+    min_loop: int = 0,
+    thre: float = 1e-3,
+    rthre: float = ONE_DEGREE,
+    joints: Sequence[str] | None = None,
+    manipulability_limit: float = 0.1,
+    manipulability_gain: float = 0.001,
+    avoid_weight_gain: float = 1.0,
+    avoid_nspace_gain: float = 0.01,
+    revert_if_fail: bool = True,
+    callback: Callable[[IterationInfo], None] | None = None,
+) -> SolveResult:
+    """Solve frame targets the irteus way (SR-inverse, weighted least norm, null space).
+
+    Args:
+        configuration: Robot state, updated in place.
+        targets: :class:`FrameTask`s (their own axes, tolerances and step limits),
+            or ``(move_target, pose)`` tuples made into full 6-D FrameTasks.
+        method: ``"sr-inverse"`` (seed default) or ``"pseudo-inverse"`` (``k = 0``).
+        stop: Maximum iterations (seed ``stop``).
+        min_loop: Iterations before the stop test may end the loop.
+        thre: Translation tolerance [m] for targets given as tuples.
+        rthre: Rotation tolerance [rad] for targets given as tuples.
+        joints: Joints moved (all of the model's if None).
+        manipulability_limit: ``κ_0`` (seed ``manipulability-limit``).
+        manipulability_gain: ``k_0`` (seed ``manipulability-gain``).
+        avoid_weight_gain: Gain of the Chan–Dubey weights (0: unweighted).
+        avoid_nspace_gain: Gain ``g_n`` of the null-space joint-limit term (0: off).
+        revert_if_fail: Restore the initial configuration if not converged.
+        callback: Called after each iteration with an :class:`IterationInfo`
+            (``step`` is None here).
+
+    Returns:
+        A :class:`pik_mj.solve.SolveResult` (``qp_times`` empty: no QP).
+    """
+    if method not in METHODS:
+        raise InvalidInput(f"method {method!r} is not one of {METHODS}")
+    if not isinstance(stop, int) or stop < 1:
+        raise InvalidInput(f"stop must be a positive integer, got {stop!r}")
+    for label, v in (
+        ("manipulability_limit", manipulability_limit),
+        ("manipulability_gain", manipulability_gain),
+        ("avoid_weight_gain", avoid_weight_gain),
+        ("avoid_nspace_gain", avoid_nspace_gain),
+    ):
+        if not (np.isfinite(v) and v >= 0):
+            raise InvalidInput(f"{label} must be finite and >= 0, got {v}")
+    model = configuration.model
+    tasks = _as_tasks(configuration, targets, thre, rthre)
+    dofs, lower, upper, qadr = _dofs(model, joints)
+    clamp = qadr >= 0
+    q0 = configuration.q.copy()
+    times: list[float] = []
+    history: list[list[float]] = []
+    previous_grad: np.ndarray | None = None
+    converged = False
+    iteration = 0
+    try:
+        while iteration < stop:
+            t0 = time.perf_counter()
+            rows = [t.compute_rows(configuration) for t in tasks]
+            J = np.vstack([r.A for r in rows])[:, dofs]
+            dx = np.concatenate([r.b for r in rows])
+            history.append([float(dx @ dx)])
+            q = configuration.q[np.where(clamp, qadr, 0)]
+            grad = joint_limit_gradient(q, lower, upper)
+            winv = 1.0 / joint_limit_weights(grad, previous_grad, avoid_weight_gain)
+            previous_grad = grad
+            k = 0.0
+            if method == "sr-inverse":
+                k = sr_damping(manipulability(J, winv), manipulability_limit, manipulability_gain)
+            J_sharp = sr_inverse(J, k, winv)
+            dtheta = J_sharp @ dx
+            if avoid_nspace_gain > 0:
+                z = joint_limit_nspace(q, lower, upper, avoid_nspace_gain)
+                dtheta += z - J_sharp @ (J @ z)
+            step = np.zeros(model.nv)
+            step[dofs] = dtheta
+            configuration.integrate_inplace(step, 1.0)
+            qnew = configuration.q
+            qnew[qadr[clamp]] = np.clip(qnew[qadr[clamp]], lower[clamp], upper[clamp])
+            configuration.update(qnew)
+            iteration += 1
+            converged = iteration >= min_loop and all(t.is_satisfied(configuration) for t in tasks)
+            times.append(time.perf_counter() - t0)
+            if callback is not None:
+                callback(IterationInfo(iteration, configuration, [[], tasks], None, times[-1]))
+            if converged:
+                break
+    except BaseException:
+        configuration.update(q0)
+        raise
+    reports = task_reports(configuration, [[], tasks])
+    level_errors = [float(sum(np.sum(t.compute_error(configuration) ** 2) for t in tasks))]
+    reverted = not converged and revert_if_fail
+    if reverted:
+        configuration.update(q0)
+    return SolveResult(
+        converged=converged,
+        iterations=iteration,
+        reverted=reverted,
+        tasks=reports,
+        level_errors=level_errors,
+        history=history,
+        iteration_times=times,
+        q=configuration.q.copy(),
+    )

@@ -1,0 +1,379 @@
+"""Play a :class:`~pik_mj.walking.wholebody.WalkPattern` in MuJoCo physics.
+
+The robot stands on a floor (:class:`pik_mj.sim.Scene`, no environment) with a
+position servo on every hinge joint; the physics starts at rest in the pattern's
+first configuration and the servo targets follow the pattern, linearly
+interpolated at the physics rate. With MuJoCo's position actuator
+:math:`\\tau = k_p (u - q) - k_v \\dot q`, the control
+
+.. math::
+
+    u(t) = q_{ref}(t) + \\frac{k_v}{k_p} \\dot q_{ref}(t)
+    \\;\\Rightarrow\\;
+    \\tau = k_p (q_{ref} - q) + k_v (\\dot q_{ref} - \\dot q)
+
+(``velocity_feedforward``) makes the damping act on the velocity error. Nothing
+else: no feed-forward torque, no balance feedback — the pattern must carry the
+robot on its own. After the pattern the last targets are held for
+``settle_time``.
+
+Measured at each pattern tick: root height, sole positions, CoM, and the ZMP of
+the floor contact forces (all contact points lie on the floor plane, so it is
+their force-weighted centre, :math:`p = \\sum_i f_{z,i} p_i / \\sum_i f_{z,i}`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from pik_mj.balance import convex_hull_2d
+from pik_mj.dynamics import joint_torques, root_wrench
+from pik_mj.exceptions import InvalidInput
+from pik_mj.record import PATHS, Recorder
+from pik_mj.sim import ContactParams, RobotLike, Scene
+from pik_mj.walking.gait import DOUBLE_SUPPORT
+from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern, sole_corners
+
+__all__ = ["PlaybackReport", "feedforward_torques", "play_walk_pattern"]
+
+
+@dataclass(frozen=True)
+class PlaybackReport:
+    """What happened when a walk pattern was played in physics.
+
+    Samples are taken at the pattern's ticks and on during the settling time.
+
+    Attributes:
+        t: Sample times (N,) [s] from the start of the pattern.
+        root_p: Root body position (N, 3) [m].
+        com: Robot CoM (N, 3) [m].
+        feet_p: Sole frame position per limb (N, 3) [m].
+        zmp: ZMP of the floor contact forces (N, 2) [m] (NaN without contact).
+        standing_height: Root height at t = 0 [m].
+        root_height_min: Lowest root height [m].
+        fell: The root went below ``fall_ratio * standing_height``, or a robot geom
+            other than the soles touched the floor.
+        bad_contacts: Robot geoms other than the soles that touched the floor.
+        final_midfeet_error: Horizontal distance of the final mid-feet point to
+            the planned one [m].
+        final_root_error: Horizontal distance of the final root position to the
+            pattern's last one [m].
+        foot_slip: Largest horizontal drift of a foot within one of its stance
+            intervals (planned support) [m].
+        foot_error: Largest horizontal distance of a supporting foot to its
+            planned position [m].
+        joint_error_max: Largest servo tracking error during the pattern [rad].
+        wall_time: Wall time of the simulation [s].
+    """
+
+    t: np.ndarray
+    root_p: np.ndarray
+    com: np.ndarray
+    feet_p: dict[str, np.ndarray]
+    zmp: np.ndarray
+    standing_height: float
+    root_height_min: float
+    fell: bool
+    bad_contacts: list[str]
+    final_midfeet_error: float
+    final_root_error: float
+    foot_slip: float
+    foot_error: float
+    joint_error_max: float
+    wall_time: float
+    params: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def height_ratio_min(self) -> float:
+        """Lowest root height over the standing height."""
+        return self.root_height_min / self.standing_height
+
+    def passed(self, height_ratio: float = 0.8, final_tolerance: float = 0.05) -> bool:
+        """Did not fall, stayed above ``height_ratio`` and ended within ``final_tolerance`` [m]."""
+        return (
+            not self.fell
+            and self.height_ratio_min >= height_ratio
+            and self.final_midfeet_error <= final_tolerance
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no time series)."""
+        return {
+            "standing_height": self.standing_height,
+            "root_height_min": self.root_height_min,
+            "height_ratio_min": self.height_ratio_min,
+            "fell": self.fell,
+            "bad_contacts": self.bad_contacts,
+            "final_midfeet_error": self.final_midfeet_error,
+            "final_root_error": self.final_root_error,
+            "foot_slip": self.foot_slip,
+            "foot_error": self.foot_error,
+            "joint_error_max": self.joint_error_max,
+            "wall_time": self.wall_time,
+            **self.params,
+        }
+
+
+def _stance_intervals(support: np.ndarray, limb: str) -> list[tuple[int, int]]:
+    """``[start, end)`` tick ranges in which ``limb`` supports."""
+    on = np.array([s == DOUBLE_SUPPORT or s == limb for s in support], dtype=bool)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(int), [0]])))
+    return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
+
+
+def feedforward_torques(
+    model: mujoco.MjModel,
+    pattern: WalkPattern,
+    feet_frames: Mapping[str, str] = DEFAULT_FEET,
+) -> np.ndarray:
+    """Joint torques of the pattern with the ground reaction on the soles.
+
+    Per tick, with velocities and accelerations by central differences, the
+    total ground wrench :math:`(f, n_O)` is the free-joint rows of the inverse
+    dynamics (:func:`pik_mj.dynamics.root_wrench`). It is split between the
+    support soles :math:`S_i` (all on the support foot in single support; in
+    double support by the position :math:`\alpha` of the reference ZMP along
+    the segment between the soles) as
+
+    .. math::
+
+        f_i = \alpha_i f, \qquad
+        n_i = \alpha_i \Big(n_O - \sum_j p_{S_j} \times f_j\Big)
+
+    (so :math:`\sum_i f_i = f`, :math:`\sum_i n_i + p_{S_i} \times f_i = n_O`),
+    and :func:`pik_mj.dynamics.joint_torques` with these contact wrenches gives
+    the joint torques; the free-joint rows then vanish.
+
+    Args:
+        model: The robot model of the pattern.
+        pattern: The walking pattern.
+        feet_frames: Sole site of each limb.
+
+    Returns:
+        Generalized forces (K, nv) [N m]; free-joint rows ~0.
+    """
+    plan = pattern.plan
+    data = mujoco.MjData(model)
+    K, nv = len(pattern.t), model.nv
+    padded = np.vstack([pattern.q[:1], pattern.q, pattern.q[-1:]])
+    diff = np.empty((K + 1, nv))
+    for k in range(K + 1):
+        mujoco.mj_differentiatePos(model, diff[k], pattern.dt, padded[k], padded[k + 1])
+    qvel = 0.5 * (diff[:-1] + diff[1:])
+    qacc = (diff[1:] - diff[:-1]) / pattern.dt
+    limbs = plan.params.all_limbs
+    tau = np.empty((K, nv))
+    for k in range(K):
+        full = joint_torques(model, data, pattern.q[k], qvel[k], qacc[k])
+        w_B, p_WB = root_wrench(model, data, full, pattern.root_body)
+        f, n_O = w_B[:3], w_B[3:] + np.cross(p_WB, w_B[:3])
+        p = {lb: plan.feet_p[lb][k] for lb in limbs}
+        if plan.support[k] == DOUBLE_SUPPORT:
+            d = p[limbs[1]][:2] - p[limbs[0]][:2]
+            a = float(np.clip(d @ (plan.zmp_ref[k] - p[limbs[0]][:2]) / (d @ d), 0.0, 1.0))
+            alpha = {limbs[0]: 1.0 - a, limbs[1]: a}
+        else:
+            alpha = {lb: float(lb == plan.support[k]) for lb in limbs}
+        residual = n_O - sum(np.cross(p[lb], alpha[lb] * f) for lb in limbs)
+        external = [(feet_frames[lb], alpha[lb] * f, alpha[lb] * residual) for lb in limbs]
+        tau[k] = joint_torques(model, data, pattern.q[k], qvel[k], qacc[k], external)
+    return tau
+
+
+def play_walk_pattern(
+    pattern: WalkPattern,
+    robot: RobotLike = "sample_humanoid",
+    *,
+    kp: float = 3000.0,
+    kv: float = 60.0,
+    timestep: float = 0.002,
+    settle_time: float = 1.0,
+    velocity_feedforward: bool = True,
+    contact: ContactParams | None = ContactParams(),
+    feet_frames: Mapping[str, str] = DEFAULT_FEET,
+    fall_ratio: float = 0.8,
+    recorder: Recorder | None = None,
+    record_every: int = 2,
+) -> PlaybackReport:
+    """Play ``pattern`` with joint servos on a floor and measure the outcome.
+
+    Args:
+        pattern: The walking pattern (configurations of ``robot``'s model).
+        robot: Model name, MJCF path or spec of the robot the pattern is for.
+        kp: Servo stiffness [N m/rad].
+        kv: Servo damping [N m s/rad].
+        timestep: Physics time step [s].
+        settle_time: Time the last targets are held after the pattern [s].
+        velocity_feedforward: Damp the velocity error instead of the velocity
+            (module docstring).
+        contact: Contact parameters of the soles and the floor (see
+            :class:`pik_mj.sim.ContactParams`); None keeps the model's.
+        feet_frames: Sole site of each limb.
+        fall_ratio: Root height ratio below which the robot counts as fallen;
+            the simulation stops there.
+        recorder: If given, body poses, CoM (target: planned CoM), contact ZMP
+            and the planned support polygon are logged on the ``sim_time``
+            timeline.
+        record_every: Log every n-th pattern tick.
+
+    Returns:
+        A :class:`PlaybackReport`.
+
+    Raises:
+        SimulationUnstable: MuJoCo warned or the state became non-finite.
+        InvalidInput: Bad gains, times, or a pattern for another model.
+    """
+    for label, v in (("kp", kp), ("timestep", timestep)):
+        if not (math.isfinite(v) and v > 0):
+            raise InvalidInput(f"{label} must be finite and > 0, got {v}")
+    for label, v in (("kv", kv), ("settle_time", settle_time)):
+        if not (math.isfinite(v) and v >= 0):
+            raise InvalidInput(f"{label} must be finite and >= 0, got {v}")
+    if not 0.0 < fall_ratio < 1.0:
+        raise InvalidInput(f"fall_ratio must be in (0, 1), got {fall_ratio}")
+    if int(record_every) != record_every or record_every < 1:
+        raise InvalidInput(f"record_every must be an integer >= 1, got {record_every}")
+    scene = Scene(robot, None, timestep=timestep, kp=kp, kv=kv, contact=contact)
+    model, data = scene.model, scene.data
+    if pattern.q.shape[1] != scene.robot_nq:
+        raise InvalidInput(
+            f"the pattern has configurations of size {pattern.q.shape[1]}, the robot "
+            f"model {scene.robot_nq}: play it with the robot it was made for"
+        )
+    joints = scene.servo_joints
+    rm = scene.robot_model
+    q_adr = np.array([rm.jnt_qposadr[rm.joint(j).id] for j in joints])
+    scene_qadr = np.array([model.jnt_qposadr[model.joint(j).id] for j in joints])
+    act_ids = np.array([model.actuator(f"{j}_servo").id for j in joints])
+    q_ref = pattern.q[:, q_adr]
+    qd_ref = np.gradient(q_ref, pattern.dt, axis=0)
+    gain_v = kv / kp if velocity_feedforward else 0.0
+
+    root_id = model.body(scene.root_body).id
+    robot_geom = np.asarray(model.body_rootid)[model.geom_bodyid] == root_id
+    allowed = {model.geom(n).id for n in scene.allowed_contacts}
+    site_ids = {lb: model.site(s).id for lb, s in feet_frames.items()}
+    plan = pattern.plan
+
+    K = len(pattern.t)
+    n_settle = int(round(settle_time / pattern.dt))
+    N = K + n_settle
+    t_samples = np.arange(N) * pattern.dt
+    root_p = np.full((N, 3), np.nan)
+    com = np.full((N, 3), np.nan)
+    feet_p = {lb: np.full((N, 3), np.nan) for lb in site_ids}
+    zmp = np.full((N, 2), np.nan)
+    bad: set[str] = set()
+    joint_err = 0.0
+
+    scene.set_pose(pattern.q[0])
+    t0 = data.time
+    if recorder is not None:
+        recorder.log_model_geometry(model, data, robot_root_body=scene.root_body)
+    force = np.zeros(6)
+    wall0 = time.perf_counter()
+    standing = float(data.xpos[root_id, 2])
+    n_done = N
+    for k in range(N):
+        # --- sample
+        root_p[k] = data.xpos[root_id]
+        com[k] = scene.com()
+        for lb, s in site_ids.items():
+            feet_p[lb][k] = data.site_xpos[s]
+        fz_sum, p_sum = 0.0, np.zeros(2)
+        for i in range(data.ncon):
+            c = data.contact[i]
+            g1, g2 = int(c.geom1), int(c.geom2)
+            if robot_geom[g1] == robot_geom[g2]:
+                continue
+            g_robot = g1 if robot_geom[g1] else g2
+            if g_robot not in allowed:
+                bad.add(model.geom(g_robot).name)
+            mujoco.mj_contactForce(model, data, i, force)
+            f_W = np.asarray(c.frame).reshape(3, 3).T @ force[:3]
+            fz = abs(f_W[2])
+            fz_sum += fz
+            p_sum += fz * np.asarray(c.pos[:2])
+        if fz_sum > 1e-6:
+            zmp[k] = p_sum / fz_sum
+        if k < K:
+            joint_err = max(joint_err, float(np.max(np.abs(data.qpos[scene_qadr] - q_ref[k]))))
+        if recorder is not None and k % record_every == 0:
+            _record(recorder, data, pattern, min(k, K - 1), t_samples[k], com[k], zmp[k])
+        if root_p[k, 2] < fall_ratio * standing:
+            n_done = k + 1
+            break
+        if k == N - 1:
+            break
+        # --- step to the next tick
+        t_next = t0 + t_samples[k + 1]
+        while data.time < t_next - 0.5 * timestep:
+            s = (data.time - t0) / pattern.dt
+            j = min(int(s), K - 1)
+            a = min(s - j, 1.0) if j < K - 1 else 0.0
+            j1 = min(j + 1, K - 1)
+            target = (1.0 - a) * q_ref[j] + a * q_ref[j1]
+            if j < K - 1:
+                target = target + gain_v * ((1.0 - a) * qd_ref[j] + a * qd_ref[j1])
+            data.ctrl[act_ids] = target
+            scene.step(1)
+    wall = time.perf_counter() - wall0
+
+    sl = slice(0, n_done)
+    heights = root_p[sl, 2]
+    mid_final = np.mean([feet_p[lb][n_done - 1] for lb in site_ids], axis=0)
+    slip, ferr = 0.0, 0.0
+    for lb in site_ids:
+        for a, b in _stance_intervals(plan.support[: min(n_done, K)], lb):
+            xy = feet_p[lb][a:b, :2]
+            slip = max(slip, float(np.max(np.linalg.norm(xy - xy[0], axis=1))))
+            d = np.linalg.norm(xy - plan.feet_p[lb][a:b, :2], axis=1)
+            ferr = max(ferr, float(d.max()))
+    fell = bool(heights.min() < fall_ratio * standing or bad)
+    return PlaybackReport(
+        t=t_samples[sl],
+        root_p=root_p[sl],
+        com=com[sl],
+        feet_p={lb: v[sl] for lb, v in feet_p.items()},
+        zmp=zmp[sl],
+        standing_height=standing,
+        root_height_min=float(heights.min()),
+        fell=fell,
+        bad_contacts=sorted(bad),
+        final_midfeet_error=float(np.linalg.norm(mid_final[:2] - plan.final_midpoint[:2])),
+        final_root_error=float(np.linalg.norm(root_p[n_done - 1, :2] - pattern.q[-1, :2])),
+        foot_slip=slip,
+        foot_error=ferr,
+        joint_error_max=joint_err,
+        wall_time=wall,
+        params={"kp": kp, "kv": kv, "timestep": timestep, "settle_time": settle_time},
+    )
+
+
+def _record(
+    recorder: Recorder,
+    data: mujoco.MjData,
+    pattern: WalkPattern,
+    k: int,
+    t: float,
+    com: np.ndarray,
+    zmp: np.ndarray,
+) -> None:
+    """Log one sample on the ``sim_time`` timeline."""
+    recorder.log_body_poses(data, timeline="sim_time", time=t)
+    recorder.log_com(com, target=pattern.com_ref[k])
+    z = pattern.plan.ground_z
+    if np.all(np.isfinite(zmp)):
+        recorder.log_point(PATHS.zmp, [zmp[0], zmp[1], z], radius=0.02, color=(255, 0, 255))
+    plan = pattern.plan
+    limbs = plan.params.all_limbs if plan.support[k] == DOUBLE_SUPPORT else (plan.support[k],)
+    corners = np.vstack([sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k]) for lb in limbs])
+    hull = convex_hull_2d(corners)
+    recorder.log_polygon(np.column_stack([hull, np.full(len(hull), z)]))
