@@ -191,10 +191,11 @@ def test_equality_stacks_match_nullspace_projection(seed):
     check_never_worsened(step, levels, 1e-9)
 
 
-@pytest.mark.parametrize("seed", range(12))
-def test_mixed_stacks_match_sequential_dense_qps(seed):
+def mixed_stack(seed: int) -> tuple[TaskRows, list[TaskRows], list[Regularization]]:
+    """A joint-limit-like hard box (often active) and 3-4 levels mixing rank-deficient
+    equalities with inequalities."""
     rng = np.random.default_rng(100 + seed)
-    hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)  # joint-limit-like box, often active
+    hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
     n_levels = int(rng.integers(3, 5))
     levels = [
         random_rows(
@@ -205,7 +206,12 @@ def test_mixed_stacks_match_sequential_dense_qps(seed):
         )
         for _ in range(n_levels)
     ]
-    regs = [Regularization(1e-4, 1.0, 0.1)] * n_levels
+    return hard, levels, [Regularization(1e-4, 1.0, 0.1)] * n_levels
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_mixed_stacks_match_sequential_dense_qps(seed):
+    hard, levels, regs = mixed_stack(seed)
     step = solve_cascade(hard, levels, regs, TIGHT, relaxation=1e-9)
     reference = daqp_reference(hard, levels, regs)
     for k, (rows, (x_ref, lam)) in enumerate(zip(levels, reference, strict=True)):
@@ -287,20 +293,9 @@ def test_tight_osqp_rarely_needs_the_fallback():
     backend = OSQPBackend(dict(TIGHT.settings))
     levels_solved = 0
     for seed in range(12):
-        rng = np.random.default_rng(100 + seed)
-        hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
-        n_levels = int(rng.integers(3, 5))
-        levels = [
-            random_rows(
-                rng,
-                int(rng.integers(0, 4)),
-                int(rng.integers(1, 4)),
-                rank=int(rng.integers(1, 3)),
-            )
-            for _ in range(n_levels)
-        ]
-        solve_cascade(hard, levels, [Regularization(1e-4, 1.0, 0.1)] * n_levels, backend, 1e-9)
-        levels_solved += n_levels
+        hard, levels, regs = mixed_stack(seed)
+        solve_cascade(hard, levels, regs, backend, 1e-9)
+        levels_solved += len(levels)
     assert backend.fallbacks <= 0.2 * levels_solved, (backend.fallbacks, levels_solved)
 
 
