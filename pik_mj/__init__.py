@@ -11,23 +11,49 @@ from .exceptions import (
 )
 from .qp import LevelProblem, OSQPBackend, make_backend
 from .solve import SolveResult, TaskReport, solve
-from .tasks import FrameTask, LinearTask, MinkLimit, MinkTask, Task, TaskRows
+from .tasks import (
+    AttachedContact,
+    CentroidTask,
+    CollisionAvoidanceTask,
+    FrameTask,
+    JointCouplingTask,
+    JointLimitTask,
+    JointVelocityTask,
+    LinearTask,
+    LookAtTask,
+    MinkLimit,
+    MinkTask,
+    ScfrTask,
+    SupportPolygonTask,
+    Task,
+    TaskRows,
+)
+from .virtual_root import solve_with_virtual_root, with_virtual_root
 
 __all__ = [
     "DEFAULT_RELAXATION",
+    "AttachedContact",
+    "CentroidTask",
+    "CollisionAvoidanceTask",
     "FrameTask",
     "InfeasibleHardConstraints",
     "InvalidInput",
+    "JointCouplingTask",
+    "JointLimitTask",
+    "JointVelocityTask",
     "LevelProblem",
     "LinearTask",
+    "LookAtTask",
     "MinkLimit",
     "MinkTask",
     "OSQPBackend",
     "PikError",
     "QPFailure",
     "Regularization",
+    "ScfrTask",
     "SimulationUnstable",
     "SolveResult",
+    "SupportPolygonTask",
     "Task",
     "TaskReport",
     "TaskRows",
@@ -35,4 +61,6 @@ __all__ = [
     "make_backend",
     "solve",
     "solve_cascade",
+    "solve_with_virtual_root",
+    "with_virtual_root",
 ]

@@ -821,19 +821,24 @@ def static_equilibrium(
     lp = _wrench_lp(cs)
     w_gravity = np.concatenate([m * g, np.cross(c, m * g)])
     h = -(w_gravity + _external_total(external))
-    res = linprog(
-        c=np.zeros(6 * lp.n),
-        A_ub=-lp.C,
-        b_ub=lp.d,
-        A_eq=lp.G,
-        b_eq=h,
-        bounds=(None, None),
-        method="highs",
-    )
-    if res.status == 0:
-        return EquilibriumResult(True, res.x.reshape(lp.n, 6), res.message)
-    if res.status == 2:
-        return EquilibriumResult(False, None, res.message)
+    # Wrenches in units of the weight m|g| keep the LP O(1); HiGHS can otherwise
+    # end "unknown" (status 4) on nearly-infeasible poses. The default method
+    # is tried first, then dual simplex, then interior point.
+    scale = m * float(np.linalg.norm(g)) or 1.0
+    for method in ("highs", "highs-ds", "highs-ipm"):
+        res = linprog(
+            c=np.zeros(6 * lp.n),
+            A_ub=-lp.C,
+            b_ub=lp.d / scale,
+            A_eq=lp.G,
+            b_eq=h / scale,
+            bounds=(None, None),
+            method=method,
+        )
+        if res.status == 0:
+            return EquilibriumResult(True, scale * res.x.reshape(lp.n, 6), res.message)
+        if res.status == 2:
+            return EquilibriumResult(False, None, res.message)
     raise PikError(f"static-equilibrium LP failed (status {res.status}): {res.message}")
 
 

@@ -27,11 +27,15 @@ frame tasks' Jacobian ``J`` and requested motion ``ẋ`` (each task's clamped
       - \\theta_{i,min})}{4 (\\theta_{i,max} - \\theta_i)^2 (\\theta_i - \\theta_{i,min})^2}
 
 * null-space joint-limit avoidance (seed ``avoid-nspace-gain``): ``z`` pulls each
-  joint towards the middle of its range,
-  ``z_i = −g_n \\operatorname{sign}(r_i) r_i^2``,
-  ``r_i = (θ_i − θ_{i,mid}) / (θ_{i,max} − θ_{i,mid})``.
+  joint towards the middle of its range, scaled by the inverse weight,
+  ``z_i = −g_n w_i^{-1} \\operatorname{sign}(r_i) r_i^2``,
+  ``r_i = (θ_i − θ_{i,mid}) / (θ_{i,max} − θ_{i,mid})``: the weighted
+  negative gradient of ``V = g_n Σ_i h_i |r_i|³ / 3`` (``h_i`` the half range).
 
 After the step the joints are clamped to their ranges (irteus ``:joint-angle``).
+Interlocking joint pairs (irteus ``:interlocking-joint-pairs``) add rows
+``θ̇_a − θ̇_b = −(θ_a − θ_b)`` to ``J`` and ``ẋ``: the pair moves together and an
+initial mismatch is removed (seed ``:calc-jacobian-for-interlocking-joints``).
 """
 
 from __future__ import annotations
@@ -80,23 +84,31 @@ def sr_inverse(J: np.ndarray, k: float, winv: np.ndarray | None = None) -> np.nd
 
 
 def joint_limit_gradient(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """``∂H/∂θ_i`` of Chan & Dubey's criterion; 0 for unlimited joints, inf at a limit."""
+    """``∂H/∂θ_i`` of Chan & Dubey's criterion; 0 for unlimited joints.
+
+    A joint at (or beyond) a limit is evaluated ``10⁻⁶`` of its range inside,
+    so the gradient stays finite (large).
+    """
     grad = np.zeros_like(q)
     lim = np.isfinite(lower) & np.isfinite(upper)
-    lo, hi, th = lower[lim], upper[lim], q[lim]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        g = (hi - lo) ** 2 * (2 * th - hi - lo) / (4 * (hi - th) ** 2 * (th - lo) ** 2)
-    g[(th <= lo) | (th >= hi)] = np.inf
-    grad[lim] = g
+    lo, hi = lower[lim], upper[lim]
+    eps = 1e-6 * (hi - lo)
+    th = np.clip(q[lim], lo + eps, hi - eps)
+    grad[lim] = (hi - lo) ** 2 * (2 * th - hi - lo) / (4 * (hi - th) ** 2 * (th - lo) ** 2)
     return grad
 
 
 def joint_limit_weights(
     grad: np.ndarray, previous: np.ndarray | None, gain: float = 1.0
 ) -> np.ndarray:
-    """Chan & Dubey weights ``w_i = 1 + g |∂H/∂θ_i|`` while ``|∂H/∂θ_i|`` grows, else 1."""
+    """Chan & Dubey weights ``w_i = 1 + g |∂H/∂θ_i|`` while ``|∂H/∂θ_i|`` grows, else 1.
+
+    "Grows" is strict, so a joint held at a limit (by the clamp) is unweighted
+    and free to leave it; on the first iteration (``previous`` None) every joint
+    is weighted.
+    """
     mag = np.abs(grad)
-    growing = np.ones_like(mag, dtype=bool) if previous is None else mag >= np.abs(previous)
+    growing = np.ones_like(mag, dtype=bool) if previous is None else mag > np.abs(previous)
     return np.where(growing, 1.0 + gain * mag, 1.0)
 
 
@@ -138,6 +150,29 @@ def _dofs(model: mujoco.MjModel, joints: Sequence[str] | None):
     return np.array(dofs), np.array(lower), np.array(upper), np.array(qadr)
 
 
+def _interlocking_rows(
+    model: mujoco.MjModel, pairs: Sequence[tuple[str, str]]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Rows ``e_a − e_b`` (k, nv) and qpos addresses (k, 2) of interlocking pairs."""
+    if isinstance(pairs, str):
+        raise InvalidInput("interlocking_pairs must be a list of (joint_a, joint_b) tuples")
+    J = np.zeros((len(pairs), model.nv))
+    adr = np.zeros((len(pairs), 2), dtype=int)
+    valid = [model.joint(i).name for i in range(model.njnt)]
+    for i, pair in enumerate(pairs):
+        if not isinstance(pair, (tuple, list)) or len(pair) != 2:
+            raise InvalidInput(f"interlocking_pairs[{i}] must be (joint_a, joint_b), got {pair!r}")
+        for side, name in enumerate(pair):
+            j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if j < 0:
+                raise UnknownName("joint", name, valid)
+            if int(model.jnt_type[j]) not in _ANGLE_JOINTS:
+                raise InvalidInput(f"interlocking joint {name!r} must be a hinge or slide joint")
+            J[i, model.jnt_dofadr[j]] += 1.0 if side == 0 else -1.0
+            adr[i, side] = model.jnt_qposadr[j]
+    return J, adr
+
+
 def _as_tasks(
     configuration: mink.Configuration, targets: Sequence[Any], thre: float, rthre: float
 ) -> list[FrameTask]:
@@ -170,6 +205,7 @@ def classic_inverse_kinematics(
     manipulability_gain: float = 0.001,
     avoid_weight_gain: float = 1.0,
     avoid_nspace_gain: float = 0.01,
+    interlocking_pairs: Sequence[tuple[str, str]] = (),
     revert_if_fail: bool = True,
     callback: Callable[[IterationInfo], None] | None = None,
 ) -> SolveResult:
@@ -189,6 +225,8 @@ def classic_inverse_kinematics(
         manipulability_gain: ``k_0`` (seed ``manipulability-gain``).
         avoid_weight_gain: Gain of the Chan–Dubey weights (0: unweighted).
         avoid_nspace_gain: Gain ``g_n`` of the null-space joint-limit term (0: off).
+        interlocking_pairs: ``[(joint_a, joint_b), ...]`` hinge/slide joints kept
+            at equal angles.
         revert_if_fail: Restore the initial configuration if not converged.
         callback: Called after each iteration with an :class:`IterationInfo`
             (``step`` is None here).
@@ -212,6 +250,7 @@ def classic_inverse_kinematics(
     tasks = _as_tasks(configuration, targets, thre, rthre)
     dofs, lower, upper, qadr = _dofs(model, joints)
     clamp = qadr >= 0
+    J_lock, lock_qadr = _interlocking_rows(model, interlocking_pairs)
     q0 = configuration.q.copy()
     times: list[float] = []
     history: list[list[float]] = []
@@ -222,8 +261,11 @@ def classic_inverse_kinematics(
         while iteration < stop:
             t0 = time.perf_counter()
             rows = [t.compute_rows(configuration) for t in tasks]
-            J = np.vstack([r.A for r in rows])[:, dofs]
-            dx = np.concatenate([r.b for r in rows])
+            q_all = configuration.q
+            J = np.vstack([r.A for r in rows] + [J_lock])[:, dofs]
+            dx = np.concatenate(
+                [r.b for r in rows] + [q_all[lock_qadr[:, 1]] - q_all[lock_qadr[:, 0]]]
+            )
             history.append([float(dx @ dx)])
             q = configuration.q[np.where(clamp, qadr, 0)]
             grad = joint_limit_gradient(q, lower, upper)
@@ -235,7 +277,7 @@ def classic_inverse_kinematics(
             J_sharp = sr_inverse(J, k, winv)
             dtheta = J_sharp @ dx
             if avoid_nspace_gain > 0:
-                z = joint_limit_nspace(q, lower, upper, avoid_nspace_gain)
+                z = winv * joint_limit_nspace(q, lower, upper, avoid_nspace_gain)
                 dtheta += z - J_sharp @ (J @ z)
             step = np.zeros(model.nv)
             step[dofs] = dtheta

@@ -39,23 +39,27 @@ from typing import Any
 import mink
 import numpy as np
 
+from . import dynamics
 from .exceptions import InvalidInput
 from .frames import Frame
 from .robot import Robot
 from .solve import SolveResult, solve
-from .tasks.frame import ONE_DEGREE, FrameTask, as_pose, constrained_axes
+from .tasks.com import CentroidTask
+from .tasks.frame import ONE_DEGREE, FrameTask, as_pose
+from .tasks.joint_limit import JointLimitTask
 from .tasks.linear import LinearTask
+from .tasks.look_at import LookAtTask
 from .tasks.mink_adapter import MinkTask
-from .tasks.task import Task, TaskRows
+from .tasks.support_polygon import SupportPolygonTask
+from .tasks.task import Task
 
 __all__ = [
     "DEFAULT_ROOT_BOUNDS",
     "DEFAULT_ROOT_WEIGHT",
-    "CentroidTask",
-    "LookAtTask",
     "fullbody_inverse_kinematics",
     "gaze_angle",
     "inverse_kinematics",
+    "sole_polygons",
     "static_balance_point",
 ]
 
@@ -76,9 +80,8 @@ Target = Any  # mink.SE3 | 4x4 array | (p, quat_wxyz) | callable -> one of these
 
 
 # ---------------------------------------------------------------------------
-# Tasks the cascade needs here. Each is used through one factory below
-# (`_centroid_task`, `_look_at_task`): swapping to pik_mj.tasks.com /
-# pik_mj.tasks.look_at is a one-line change there.
+# The seed's tasks used here, each made by one factory (`_limits`,
+# `_centroid_task`, `_look_at_task`): pik_mj.tasks.joint_limit, .com, .look_at.
 
 
 def _call_user(fn: Callable[..., Any], robot: Robot) -> Any:
@@ -97,136 +100,38 @@ def _vector3(value: Any, what: str) -> np.ndarray:
     return v
 
 
-class CentroidTask(Task):
-    """Centroid (or an offset point such as the static balance point) onto a target.
-
-    Seed ``target-centroid-pos-task``; irteus ``:centroid-offset-func`` replaces the
-    centroid by the point it returns (its Jacobian is taken as the centroid's):
-
-    .. math::
-
-        e = S\\,(c_{\\mathrm{eff}} - c^*), \\qquad S J_{com}\\, x = -\\mathrm{clamp}(e)
-
-    with ``S`` the rows of the matched axes (irteus axis names free an axis).
-
-    Args:
-        robot: The robot (its centroid and centroid Jacobian).
-        target: Target position [m] (3,), or a callable of the robot returning it.
-        axes: Axis specification (``"z"`` frees z, ``True`` matches all).
-        offset: Callable of the robot returning the point used instead of the
-            centroid [m], or None.
-        thre: Stop-test tolerance on the norm of ``e`` [m].
-        limit: Largest centroid motion asked of one iteration [m].
-        weight: Row weight [cost/m²].
-        name: Display name.
-    """
-
-    def __init__(
-        self,
-        robot: Robot,
-        target: Any,
-        *,
-        axes: bool | str | None = "z",
-        offset: Callable[..., Any] | None = None,
-        thre: float = 1e-3,
-        limit: float = 0.05,
-        weight: float = 1.0,
-        name: str = "centroid",
-    ):
-        self.robot = robot
-        self.target = target if callable(target) else _vector3(target, "target_centroid_pos")
-        self.rows = constrained_axes(axes, "centroid_axes")
-        self.offset = offset
-        self.thre, self.limit, self.weight = float(thre), float(limit), float(weight)
-        self.name = name
-        self.check = True
-
-    def point(self) -> np.ndarray:
-        """``c_eff``: the centroid, or the offset function's point [m]."""
-        if self.offset is None:
-            return self.robot.com()
-        return _vector3(_call_user(self.offset, self.robot), "centroid_offset result")
-
-    def target_now(self) -> np.ndarray:
-        if callable(self.target):
-            return _vector3(_call_user(self.target, self.robot), "target_centroid_pos result")
-        return self.target
-
-    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
-        return (self.point() - self.target_now())[self.rows]
-
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        e = self.compute_error(configuration)
-        n = float(np.linalg.norm(e))
-        if n > self.limit:
-            e = e * (self.limit / n)
-        return TaskRows.equality(self.robot.com_jacobian()[self.rows], -e, self.weight)
-
-    def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        return bool(np.linalg.norm(self.compute_error(configuration)) <= self.thre)
-
-
-class LookAtTask(MinkTask):
-    """Point a frame's gaze axis at a point (irteus ``:look-at``), via ``mink.LookAtTask``.
-
-    .. math::
-
-        e = a - \\frac{R_{WH}^T (p^* - p_{WH})}{\\|p^* - p_{WH}\\|}
-
-    Args:
-        robot: The robot.
-        frame: Name of the gazing frame (the head limb's end frame).
-        frame_type: Its type (``"site"``, ``"body"``, ``"geom"``).
-        point: Point to look at [m], or a callable of the robot returning it
-            (evaluated every iteration).
-        axis: Gaze axis in the frame [-].
-        thre: Stop-test tolerance on ``max |e|`` (≈ gaze angle [rad]).
-        check: Whether the stop test looks at it (irteus: best effort, False).
-    """
-
-    def __init__(
-        self,
-        robot: Robot,
-        frame: str,
-        frame_type: str,
-        point: Any,
-        *,
-        axis: Sequence[float] = (1.0, 0.0, 0.0),
-        thre: float = 1e-2,
-        check: bool = False,
-    ):
-        super().__init__(
-            mink.LookAtTask(frame, frame_type, axis=axis, cost=1.0),
-            name="look_at",
-            threshold=thre,
-            check=check,
-        )
-        self.robot = robot
-        self.point = point if callable(point) else _vector3(point, "look_at")
-        self._refresh()
-
-    def _refresh(self) -> None:
-        p = self.point
-        if callable(p):
-            p = _vector3(_call_user(p, self.robot), "look_at result")
-        self.task.set_target(p)
-
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        self._refresh()
-        return super().compute_rows(configuration)
-
-    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
-        self._refresh()
-        return super().compute_error(configuration)
-
-
 def _centroid_task(robot: Robot, target: Any, axes: Any, offset: Any, thre: float) -> Task:
-    return CentroidTask(robot, target, axes=axes, offset=offset, thre=thre)
+    """Seed ``target-centroid-pos-task``; irteus' ``centroid-offset-func`` gives the
+    point used instead of the CoM, pik_mj's ``com_offset`` what is added to it."""
+    com_offset = None if offset is None else (lambda _c: _call_point(offset, robot) - robot.com())
+    target_fn = (lambda _c: _call_point(target, robot)) if callable(target) else target
+    return CentroidTask(
+        robot.configuration,
+        target_fn,
+        root_body=robot.root_body,
+        translation_axis=axes,
+        centroid_thre=thre,
+        com_offset=com_offset,
+    )
 
 
-def _look_at_task(robot: Robot, point: Any, axis: Sequence[float]) -> Task:
+def _look_at_task(robot: Robot, point: Any, axis: Sequence[float], check: bool = False) -> Task:
+    """irteus ``:look-at``: the head limb's end frame gazes at ``point``."""
     head = robot.limb("head")
-    return LookAtTask(robot, head.end_frame, head.end_frame_type, point, axis=axis)
+    target = (lambda _c: _call_point(point, robot)) if callable(point) else point
+    return LookAtTask(
+        robot.configuration,
+        head.end_frame,
+        target,
+        axis=axis,
+        frame_type=head.end_frame_type,
+        check=check,
+        name="look_at",
+    )
+
+
+def _call_point(fn: Callable[..., Any], robot: Robot) -> np.ndarray:
+    return _vector3(_call_user(fn, robot), "callable result")
 
 
 def static_balance_point(
@@ -237,7 +142,8 @@ def static_balance_point(
     """irteus ``:calc-static-balance-point``: the point at ``height`` [m] where the
     ground reaction balances gravity and the external wrenches (static extended ZMP).
 
-    See the module docstring for the formula.
+    Computed by :func:`pik_mj.dynamics.static_balance_point` (formula in the module
+    docstring).
 
     Args:
         robot: The robot (mass, centroid, frame positions).
@@ -248,21 +154,16 @@ def static_balance_point(
     Returns:
         ``(p_x, p_y, height)`` [m].
     """
-    g = float(np.linalg.norm(robot.model.opt.gravity)) or GRAVITY
-    mg = robot.mass * g
-    c = robot.com()
-    num = mg * c[:2]
-    fz = 0.0
-    for frame, f, n in _parse_forces(robot, external_forces):
-        r = frame.position(robot.data)
-        num[0] += (r[2] - height) * f[0] - r[0] * f[2] + n[1]
-        num[1] += (r[2] - height) * f[1] - r[1] * f[2] - n[0]
-        fz += f[2]
-    if mg - fz <= 1e-9 * mg:
-        raise InvalidInput(
-            f"external forces lift the robot (sum f_z = {fz:.3g} N >= M g = {mg:.3g} N)"
-        )
-    return np.array([num[0] / (mg - fz), num[1] / (mg - fz), float(height)])
+    parsed = _parse_forces(robot, external_forces)
+    return dynamics.static_balance_point(
+        robot.mass,
+        robot.com(),
+        [f for _, f, _ in parsed],
+        [n for _, _, n in parsed],
+        [frame.position(robot.data) for frame, _, _ in parsed],
+        z=float(height),
+        gravity=float(np.linalg.norm(robot.model.opt.gravity)) or GRAVITY,
+    )
 
 
 def _parse_forces(robot: Robot, external_forces: Any) -> list[tuple[Frame, np.ndarray, np.ndarray]]:
@@ -281,6 +182,33 @@ def _parse_forces(robot: Robot, external_forces: Any) -> list[tuple[Frame, np.nd
             )
         )
     return out
+
+
+def sole_polygons(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> list[np.ndarray]:
+    """Bottom faces of the feet in the world [m], one ``(k, 3)`` array per leg.
+
+    Per leg: the corners of the world-frame boxes bounding the geoms of the body
+    of the leg's end frame (MuJoCo's ``geom_aabb`` placed by ``geom_xpos``,
+    ``geom_xmat``), keeping those at the lowest height.
+    """
+    model, data = robot.model, robot.data
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    polys = []
+    for leg in legs:
+        limb = robot.limb(leg)
+        body = Frame.find(model, limb.end_frame, limb.end_frame_type).body_id
+        corners = [
+            (model.geom_aabb[g, :3] + signs * model.geom_aabb[g, 3:])
+            @ data.geom_xmat[g].reshape(3, 3).T
+            + data.geom_xpos[g]
+            for g in np.flatnonzero(model.geom_bodyid == body)
+        ]
+        if not corners:
+            raise InvalidInput(f"the end body of limb {leg!r} has no geoms to stand on")
+        pts = np.vstack(corners)
+        bottom = pts[pts[:, 2] <= pts[:, 2].min() + 1e-6]
+        polys.append(bottom if len(bottom) >= 3 else pts)
+    return polys
 
 
 # ---------------------------------------------------------------------------
@@ -470,8 +398,9 @@ def _extra(extra_levels: Any) -> list[list[Any]]:
     return [list(level) for level in extra_levels]
 
 
-def _limits(robot: Robot) -> mink.ConfigurationLimit:
-    return mink.ConfigurationLimit(robot.model)
+def _limits(robot: Robot) -> Task:
+    """Seed ``minmax-angle-task`` on every limited joint, hard at level 0."""
+    return JointLimitTask.all_limited(robot.configuration)
 
 
 # ---------------------------------------------------------------------------
@@ -582,10 +511,16 @@ def _build_ik_levels(
 ) -> list[list[Any]]:
     if not isinstance(robot, Robot):
         raise InvalidInput(f"robot must be a pik_mj.robot.Robot, got {type(robot).__name__}")
-    poses = _parse_targets(robot, targets)
-    limb_names = _parse_limbs(robot, limbs, len(poses))
-    frames = _move_frames(robot, move_targets, limb_names, len(poses))
-    used = _used_joints(robot, joints, frames, limb_names)
+    if isinstance(targets, (list, tuple)) and len(targets) == 0:
+        if look_at is None:
+            raise InvalidInput("targets is empty and there is no look_at: nothing to solve")
+        poses, frames, limb_names = [], [], None
+        used: set[str] = set() if joints is None else _used_joints(robot, joints, [], None)
+    else:
+        poses = _parse_targets(robot, targets)
+        limb_names = _parse_limbs(robot, limbs, len(poses))
+        frames = _move_frames(robot, move_targets, limb_names, len(poses))
+        used = _used_joints(robot, joints, frames, limb_names)
     if look_at is not None:
         head = robot.limb("head")
         if joints == "chain":
@@ -596,12 +531,14 @@ def _build_ik_levels(
     freeze = _freeze_task(robot, _dofs_of(robot, used, with_root=False))
     if freeze is not None:
         level0.append(freeze)
-    levels: list[list[Any]] = [
-        level0,
-        list(_frame_tasks(robot, frames, poses, translation_axis, rotation_axis, thre, rthre)),
-    ]
+    levels: list[list[Any]] = [level0]
+    if frames:
+        levels.append(
+            list(_frame_tasks(robot, frames, poses, translation_axis, rotation_axis, thre, rthre))
+        )
     if look_at is not None:
-        levels.append([_look_at_task(robot, look_at, gaze_axis)])
+        # The gaze is best effort (irteus) unless it is all there is to solve.
+        levels.append([_look_at_task(robot, look_at, gaze_axis, check=not frames)])
     levels += _extra(extra_levels)
     levels.append([_posture_task(robot, posture_weight)])
     return levels
@@ -675,6 +612,7 @@ def fullbody_inverse_kinematics(
     centroid_offset: Callable[..., Any] | None = None,
     external_forces: Sequence[tuple[str, Any, Any]] | None = None,
     centroid_thre: float = 1e-3,
+    balance: str | Sequence[Task] = "centroid",
     stop: int = 50,
     revert_if_fail: bool = True,
     joints: str | Sequence[str] | None = None,
@@ -708,6 +646,11 @@ def fullbody_inverse_kinematics(
             the static balance point replaces the centroid (implies
             ``centroid_offset``).
         centroid_thre: Tolerance on the centroid error [m].
+        balance: Level-1 balance task besides the feet: ``"centroid"`` (the
+            centroid, or the offset point, over ``target_centroid_pos`` on the
+            matched axes), ``"support_polygon"`` (the centroid inside the hull of
+            the fixed feet's soles, seed ``centroid-support-polygon-task``), or a
+            list of tasks (e.g. a :class:`pik_mj.tasks.scfr.ScfrTask`).
 
     Raises:
         InvalidInput: No floating base, bad shapes, both ``centroid_offset`` and
@@ -773,7 +716,28 @@ def fullbody_inverse_kinematics(
         def centroid_offset(r: Robot) -> np.ndarray:
             return static_balance_point(r, forces, height)
 
-    if centroid_axes is not None and centroid_axes is not False:
+    if not isinstance(balance, str):
+        if centroid_offset is not None:
+            raise InvalidInput("centroid_offset/external_forces need balance='centroid'")
+        level1 += list(balance)
+    elif balance == "support_polygon":
+        if centroid_offset is not None:
+            raise InvalidInput("centroid_offset/external_forces need balance='centroid'")
+        if not feet:
+            raise InvalidInput("balance='support_polygon' needs fixed feet")
+        level1.append(
+            SupportPolygonTask(
+                robot.configuration,
+                sole_polygons(robot, tuple(feet)),
+                root_body=robot.root_body,
+                centroid_thre=centroid_thre,
+            )
+        )
+    elif balance != "centroid":
+        raise InvalidInput(
+            f"balance {balance!r}: use 'centroid', 'support_polygon' or a list of tasks"
+        )
+    elif centroid_axes is not None and centroid_axes is not False:
         if target_centroid_pos is None:
             if not foot_frames:
                 raise InvalidInput("target_centroid_pos is needed when no feet are fixed")

@@ -72,6 +72,8 @@ class ScenarioResult:
         recording: Path of the ``.rrd`` written, or None.
         balance: Simulation validation of the final pose (filled by the CLI when
             :mod:`pik_mj.sim` provides it), or None.
+        robot: The robot in its final configuration (not serialized), for
+            post-processing such as the balance hook.
     """
 
     name: str
@@ -82,6 +84,7 @@ class ScenarioResult:
     main: str | None = None
     recording: str | None = None
     balance: dict[str, Any] | None = None
+    robot: Robot | None = field(default=None, repr=False, compare=False)
 
     def check(self, label: str, ok: bool, detail: str = "") -> bool:
         """Record a check: ``ok`` False makes the scenario fail."""
@@ -247,6 +250,13 @@ class ScenarioRecorder:
 
         return on_iteration
 
+    def fill(self, result: ScenarioResult, main: str | None = None) -> None:
+        """Hand the solves, the robot and the recording path to ``result``."""
+        result.solves = dict(self.results)
+        result.main = main
+        result.robot = self.robot
+        result.recording = None if self.path is None else str(self.path)
+
     def record(self, label: str, result: SolveResult) -> SolveResult:
         """Keep ``result`` under ``label`` and log the solve's final pose."""
         self.results[label] = result
@@ -272,36 +282,37 @@ class ScenarioRecorder:
 # Geometry helpers shared by the scenarios
 
 
-def sole_polygons(robot: Robot, legs: tuple[str, ...] = ("rleg", "lleg")) -> list[np.ndarray]:
-    """Bottom faces of the feet: per leg, the corners of the world-frame boxes bounding
-    the geoms of the leg's end body, at the lowest height of those boxes [m] (k, 3)."""
-    model, data = robot.model, robot.data
-    polys = []
-    for leg in legs:
-        limb = robot.limb(leg)
-        body = Frame.find(model, limb.end_frame, limb.end_frame_type).body_id
-        corners = []
-        for g in np.flatnonzero(model.geom_bodyid == body):
-            c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
-            signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-            local = c + signs * h
-            R = data.geom_xmat[g].reshape(3, 3)
-            corners.append(local @ R.T + data.geom_xpos[g])
-        if not corners:
-            raise InvalidInput(f"the end body of limb {leg!r} has no geoms to stand on")
-        pts = np.vstack(corners)
-        bottom = pts[pts[:, 2] <= pts[:, 2].min() + 1e-6]
-        polys.append(bottom if len(bottom) >= 3 else pts)
-    return polys
-
-
 def com_margin(robot: Robot, point: np.ndarray | None = None) -> float:
     """Signed distance [m] of the CoM's (or ``point``'s) ground projection to the edges
     of the support polygon of both soles, positive inside."""
     from .balance import support_polygon
+    from .ik import sole_polygons
 
     region = support_polygon(sole_polygons(robot))
     return float(region.signed_distance(robot.com() if point is None else np.asarray(point)))
+
+
+def robot_at_spot(robot: str, spot: str, environment: str = "room") -> Robot:
+    """The robot standing in ``environment`` with its root over the site ``spot``.
+
+    The spot's position (x, y) and yaw are read from the environment model; the
+    robot is attached there with :func:`pik_mj.models.compose_scene`, so the robot
+    and the room's objects (e.g. the kettle's ``kettle_handle`` site) share one
+    world frame, and the robot's ``reset_pose`` keyframe is moved with it.
+    """
+    import mujoco
+
+    from .models import compose_scene, load_model
+
+    env = load_model(environment)
+    data = mujoco.MjData(env)
+    mujoco.mj_kinematics(env, data)
+    site = Frame.find(env, spot, "site")
+    p, R = site.position(data), site.rotation(data)
+    spec = compose_scene(
+        robot, environment, robot_pos=(p[0], p[1], 0.0), robot_yaw=math.atan2(R[1, 0], R[0, 0])
+    )
+    return Robot(spec.compile())
 
 
 # ---------------------------------------------------------------------------

@@ -48,7 +48,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-import mink
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
@@ -435,15 +434,17 @@ class HoldReport:
 # ----------------------------------------------------------------------------
 
 
-def _support(points: np.ndarray, up: np.ndarray, com: np.ndarray) -> tuple[np.ndarray, float]:
-    """Support polygon (world vertices) of ``points`` along ``up`` and the CoM margin.
+def _support(points: np.ndarray, R: np.ndarray, com: np.ndarray) -> tuple[np.ndarray, float]:
+    """Support polygon (world vertices) of ``points`` and the CoM margin.
+
+    ``R = [e1 e2 up]`` (:func:`pik_mj.balance.plane_basis`): the points and the CoM
+    are projected on ``(e1, e2)``.
 
     A degenerate set (a point or a segment) gives those 1-2 points and minus the
     distance of the projected CoM to them.
     """
     if len(points) == 0:
         return np.zeros((0, 3)), -math.inf
-    R = balance.plane_basis(up)
     uv = points @ R[:, :2]
     height = float(np.mean(points @ R[:, 2]))
     c = R[:, :2].T @ com
@@ -559,8 +560,10 @@ class Scene:
         spec.option.noslip_iterations = noslip_iterations
         self.contact_tolerance = float(contact_tolerance)
 
-        top = self.robot_model.body(int(np.flatnonzero(self.robot_model.body_parentid == 0)[1]))
-        self.root_body = top.name
+        # compose_scene checked that the robot has exactly one top-level body.
+        rm = self.robot_model
+        top = next(b for b in range(1, rm.nbody) if rm.body_parentid[b] == 0)
+        self.root_body = rm.body(top).name
         robot_joints = [
             (self.robot_model.joint(j).name, int(self.robot_model.jnt_type[j]))
             for j in range(self.robot_model.njnt)
@@ -598,6 +601,7 @@ class Scene:
         self._probe_data = mujoco.MjData(self._probe_model)
         self._geom_names = _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom)
         self._body_names = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+        self._geom_id = {n: g for g, n in enumerate(self._geom_names) if n}
         self.allowed_contacts = self._allowed(allowed_contacts)
 
     # ------------------------------------------------------------ construction
@@ -738,7 +742,10 @@ class Scene:
         return d.subtree_com[self._root_id].copy()
 
     # ---------------------------------------------------------------- contacts
-    def _contacts(self, model: mujoco.MjModel, data: mujoco.MjData, max_dist: float):
+    def _contacts(
+        self, model: mujoco.MjModel, data: mujoco.MjData, max_dist: float
+    ) -> list[ContactInfo]:
+        """Robot contacts of ``data`` with ``dist <= max_dist``."""
         out: list[ContactInfo] = []
         for i in range(data.ncon):
             c = data.contact[i]
@@ -829,7 +836,9 @@ class Scene:
         mujoco.mj_forward(m, d)
         contacts = self._contacts(m, d, self.contact_tolerance)
         com = self.com(d)
-        polygon, margin = _support(self._ground_points(contacts, max_ground_slope), self._up(), com)
+        polygon, margin = _support(
+            self._ground_points(contacts, max_ground_slope), balance.plane_basis(self._up()), com
+        )
         env = [c for c in contacts if not c.self_contact]
         gravity = np.asarray(m.opt.gravity, dtype=float)
         forces = None
@@ -913,17 +922,33 @@ class Scene:
         )
 
     # -------------------------------------------------------------- stepping
-    def _check_state(self, before: np.ndarray, messages: list[str]) -> None:
+    def _offender(self, warning: mujoco.mjtWarning, index: int) -> str:
+        """Name of what a MuJoCo warning's ``lastinfo`` index points at."""
+        m = self.model
+        try:
+            if warning == mujoco.mjtWarning.mjWARN_BADQPOS:
+                j = int(np.searchsorted(m.jnt_qposadr, index, side="right") - 1)
+                return f"qpos[{index}] (joint {m.joint(j).name!r})"
+            if warning in (mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC):
+                return f"dof {index} (joint {m.joint(int(m.dof_jntid[index])).name!r})"
+            if warning == mujoco.mjtWarning.mjWARN_BADCTRL:
+                return f"actuator {index} ({m.actuator(index).name!r})"
+        except (IndexError, KeyError):
+            pass
+        return f"index {index}"
+
+    def _check_state(self, before: np.ndarray, t: float, messages: list[str]) -> None:
         d = self.data
-        numbers = np.array([d.warning[int(w)].number for w in UNSTABLE_WARNINGS])
+        numbers = self._warning_counts()
         fired = [w for w, b, a in zip(UNSTABLE_WARNINGS, before, numbers, strict=True) if a > b]
         if fired or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            names = [w.name for w in fired] or ["non-finite qpos/qvel"]
-            info = [int(d.warning[int(w)].lastinfo) for w in fired]
+            what = [
+                f"{w.name} at {self._offender(w, int(d.warning[int(w)].lastinfo))}" for w in fired
+            ]
             detail = f"; MuJoCo says: {' | '.join(messages)}" if messages else ""
             raise SimulationUnstable(
-                f"simulation unstable at t = {d.time:.4f} s: {', '.join(names)} "
-                f"(lastinfo {info}; for BADQ* the index of the offending dof){detail}"
+                f"simulation unstable in the step from t = {t:.4f} s: "
+                f"{', '.join(what) or 'non-finite qpos/qvel'}{detail}"
             )
 
     def _warning_counts(self) -> np.ndarray:
@@ -945,9 +970,9 @@ class Scene:
         messages: list[str] = []
         with _collect_mujoco_warnings(messages):
             for _ in range(n):
-                before = self._warning_counts()
+                before, t = self._warning_counts(), float(self.data.time)
                 mujoco.mj_step(self.model, self.data)
-                self._check_state(before, messages)
+                self._check_state(before, t, messages)
 
     # -------------------------------------------------------------------- hold
     def hold(
@@ -957,6 +982,7 @@ class Scene:
         *,
         recorder: Any = None,
         record_every: int = 10,
+        margin_every: int = 5,
         allowed: Sequence[str] | None = None,
         max_drift: float = 0.01,
         max_slip: float = 0.002,
@@ -987,6 +1013,8 @@ class Scene:
             recorder: Optional :class:`pik_mj.record.Recorder`: model geometry, body
                 poses, CoM, support polygon and ``hold/*`` metrics on ``sim_time``.
             record_every: Log every this many steps.
+            margin_every: Evaluate the CoM margin every this many steps (a convex
+                hull per evaluation, ~0.5 ms).
             allowed: Robot geoms allowed to touch the environment (default: the
                 scene's ``allowed_contacts``).
             max_drift: Drift threshold [m].
@@ -1006,6 +1034,8 @@ class Scene:
             raise InvalidInput(f"duration must be > 0 [s], got {duration}")
         if not isinstance(record_every, int) or record_every < 1:
             raise InvalidInput(f"record_every must be a positive integer, got {record_every!r}")
+        if not isinstance(margin_every, int) or margin_every < 1:
+            raise InvalidInput(f"margin_every must be a positive integer, got {margin_every!r}")
         allowed_names = self.allowed_contacts if allowed is None else self._allowed(allowed)
         allowed_ids = {self.model.geom(n).id for n in allowed_names}
         m, d = self.model, self.data
@@ -1023,6 +1053,7 @@ class Scene:
         unexpected: dict[tuple[str, str], float] = {}
         fell = False
         P_h = np.eye(3) - np.outer(up, up)
+        R_up = balance.plane_basis(up)
         if recorder is not None:
             recorder.log_model_geometry(m, d, robot_root_body=self.root_body)
         messages: list[str] = []
@@ -1030,9 +1061,9 @@ class Scene:
         with _collect_mujoco_warnings(messages):
             for k in range(n_steps + 1):
                 if k > 0:
-                    before = self._warning_counts()
+                    before, t = self._warning_counts(), float(d.time)
                     mujoco.mj_step(m, d)
-                    self._check_state(before, messages)
+                    self._check_state(before, t, messages)
                     steps += 1
                 contacts = self._contacts(m, d, 0.0)
                 touching = set()
@@ -1041,7 +1072,7 @@ class Scene:
                         if not allow_self_contact:
                             unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))
                         continue
-                    g = m.geom(c.robot_geom).id
+                    g = self._geom_id[c.robot_geom]
                     if g in allowed_ids:
                         touching.add(g)
                     else:
@@ -1059,9 +1090,12 @@ class Scene:
                 drift_h = max(drift_h, float(np.linalg.norm(P_h @ dp)))
                 drift_v = max(drift_v, abs(float(dp @ up)))
                 com = self.com()
-                polygon, margin = _support(self._ground_points(contacts, max_ground_slope), up, com)
-                min_margin = min(min_margin, margin)
-                if recorder is not None and k % record_every == 0:
+                log = recorder is not None and k % record_every == 0
+                if k % margin_every == 0 or log:
+                    ground = self._ground_points(contacts, max_ground_slope)
+                    polygon, margin = _support(ground, R_up, com)
+                    min_margin = min(min_margin, margin)
+                if log:
                     self._record_hold(
                         recorder, d, com, polygon, drift, max(slip.values(), default=0.0), margin
                     )
@@ -1149,8 +1183,9 @@ class StaticCheckLog:
     reports: list[StaticReport] = field(default_factory=list)
 
     def __call__(self, info: Any) -> None:
-        q = info.configuration.q if isinstance(info.configuration, mink.Configuration) else info
-        report = self.scene.static_check(q, mu=self.mu, external=self.external, scfr=self.scfr)
+        report = self.scene.static_check(
+            info.configuration.q, mu=self.mu, external=self.external, scfr=self.scfr
+        )
         self.reports.append(report)
         if self.recorder is not None:
             self.recorder.set_time("iteration", int(info.iteration))
@@ -1219,12 +1254,15 @@ def validate_pose(
         q_robot = np.asarray(q, dtype=float)
     static = scene.static_check(q_robot, mu=mu)
     hold = scene.hold(q_robot, duration, recorder=recorder)
-    env_name = environment if isinstance(environment, (str, type(None))) else str(environment)
-    if isinstance(environment, mujoco.MjSpec):
-        env_name = environment.modelname or "spec"
+
+    def label(x: object) -> str | None:
+        if isinstance(x, mujoco.MjSpec):
+            return x.modelname or "spec"
+        return None if x is None else str(x)
+
     return {
-        "robot": robot.modelname if isinstance(robot, mujoco.MjSpec) else str(robot),
-        "environment": env_name,
+        "robot": label(robot),
+        "environment": label(environment),
         "static": static.to_dict(),
         "hold": hold.to_dict(),
         "passed": bool(static.feasible and hold.passed),

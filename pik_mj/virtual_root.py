@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput
-from .models import load_spec
+from .models import _mujoco_warnings_as_python, load_spec
 from .solve import SolveResult, solve
 from .tasks.com import robot_root_body
 
@@ -56,14 +56,14 @@ def _spec_of(source: Any) -> mujoco.MjSpec:
     )
 
 
-def _compile(spec: mujoco.MjSpec) -> mujoco.MjModel:
-    with warnings.catch_warnings():
-        # Attaching with an empty prefix keeps every name; MuJoCo warns about it.
+def _compile(spec: mujoco.MjSpec, what: str) -> mujoco.MjModel:
+    # Attaching with an empty prefix keeps every name; MuJoCo warns about it.
+    with _mujoco_warnings_as_python(), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*empty prefix.*")
         try:
             return spec.compile()
         except ValueError as exc:
-            raise InvalidInput(f"the model with a virtual root does not compile: {exc}") from exc
+            raise InvalidInput(f"{what} does not compile: {exc}") from exc
 
 
 def _joint_name(model: mujoco.MjModel, j: int) -> str:
@@ -152,7 +152,7 @@ def with_virtual_root(
             body is not top-level, a joint has no name, or ``joint_name`` is taken.
     """
     spec = _spec_of(source)
-    fixed = _compile(spec)
+    fixed = _compile(spec, "the given model")
     b = robot_root_body(fixed, root_body)
     name = mujoco.mj_id2name(fixed, mujoco.mjtObj.mjOBJ_BODY, b)
     if fixed.body_parentid[b] != 0 or not name:
@@ -178,13 +178,16 @@ def with_virtual_root(
         spec.body(name).add_freejoint(name=joint_name)
     else:
         source_copy = spec.copy()
+        for k in list(source_copy.keys):  # attaching would copy them (name clash)
+            source_copy.delete(k)
         spec.delete(spec.body(name))
         wrapper = spec.worldbody.add_body(
             name=joint_name, mass=_WRAPPER_MASS, inertia=[_WRAPPER_MASS] * 3
         )
         wrapper.add_freejoint(name=joint_name)
-        wrapper.add_frame().attach_body(source_copy.body(name), "", "")
-    floating = _compile(spec)
+        with _mujoco_warnings_as_python():
+            wrapper.add_frame().attach_body(source_copy.body(name), "", "")
+    floating = _compile(spec, "the model with a virtual root")
     jf = mujoco.mj_name2id(floating, mujoco.mjtObj.mjOBJ_JOINT, joint_name)
     qpos_map, dof_map = [], []
     for j, n in enumerate(names):
@@ -218,7 +221,7 @@ def with_virtual_root(
                 v = np.zeros(floating.nv)
                 v[dmap] = qvel
                 k.qvel = v.tolist()
-        floating = _compile(spec)
+        floating = _compile(spec, "the model with a virtual root")
     return floating, info
 
 

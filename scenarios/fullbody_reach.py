@@ -4,8 +4,9 @@ Both feet stay where they are, the centroid's x-y goes to the midpoint of the fe
 (z free, irteus ``:cog-translation-axis :z``), and the left hand reaches the seed's
 ``#f(400 100 -600)`` mm from the waist, position only (``:rotation-axis nil``);
 the floating base moves within the seed's root-link bounds. The seed first bends
-the waist by 10°; the offset is scaled by the robot's leg length so the same
-script runs on dm_control's humanoid.
+the waist by 10° (done where the robot has ``torso_waist_p``). dm_control's
+humanoid has its root at the chest, not the waist, and cannot crouch as deep
+within the root bounds: its hand target is (0.3, 0.1, -0.5) m from its root.
 """
 
 from __future__ import annotations
@@ -16,15 +17,17 @@ from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.robot import Robot
 from pik_mj.scenarios import ScenarioRecorder, ScenarioResult, com_margin, main_for
 
-SEED_OFFSET = np.array([0.4, 0.1, -0.6])  # [m] from the waist (sample robot, leg 0.835 m)
-SEED_LEG = 0.835  # [m] root height above the soles of the sample humanoid
+HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
+    "sample_humanoid": (0.4, 0.1, -0.6),  # the seed's #f(400 100 -600) mm
+    "dm_humanoid_cmu": (0.4, 0.1, -0.6),
+    "dm_humanoid": (0.3, 0.1, -0.5),
+}
+OTHER_MODELS = (0.3, 0.1, -0.4)
+FEET = ("rleg", "lleg")
 
 
 def foot_poses(robot: Robot) -> list:
     return [robot.frame_pose(robot.limb(x).end_frame, robot.limb(x).end_frame_type) for x in FEET]
-
-
-FEET = ("rleg", "lleg")
 
 
 def run(out=None, *, progress: bool = False, model: str = "sample_humanoid") -> ScenarioResult:
@@ -35,7 +38,7 @@ def run(out=None, *, progress: bool = False, model: str = "sample_humanoid") -> 
     feet0 = foot_poses(robot)
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     p_root, _ = robot.root_pose()
-    target = p_root + SEED_OFFSET * (p_root[2] - p_mid[2]) / SEED_LEG
+    target = p_root + np.array(HAND_OFFSETS.get(str(model), OTHER_MODELS))
 
     with ScenarioRecorder(out, robot, progress=progress, name="fullbody_reach") as rec:
         res = fullbody_inverse_kinematics(
@@ -53,7 +56,7 @@ def run(out=None, *, progress: bool = False, model: str = "sample_humanoid") -> 
     feet1 = foot_poses(robot)
     hand = robot.frame_pose(robot.limb("larm").end_frame, robot.limb("larm").end_frame_type)
     com = robot.com()
-    result.solves, result.main = rec.results, "reach"
+    rec.fill(result, main="reach")
     result.figures = {
         "model": model,
         "hand_target_m": target,

@@ -63,8 +63,7 @@ def run(out=None, *, progress: bool = False, samples: int = 16) -> ScenarioResul
     # Closest reachable point: straight arm (0.22 m from joint0 at z = 0.02) towards it.
     expected_gap = np.linalg.norm(np.array([0.3, 0.0, 0.0]) - [0, 0, 0.02]) - 0.22
     gap = float(np.linalg.norm(tip - [0.3, 0.0, 0.0]))
-    result.solves = rec.results
-    result.main = "seed failing case"
+    rec.fill(result, main="seed failing case")
     result.figures = {
         "x_min_analytic_m": x_min,
         "reached_x_m": reached,

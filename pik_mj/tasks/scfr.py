@@ -76,8 +76,9 @@ class ScfrTask(Task):
             seed's ``epsilon``).
         bounds: Optional box ``(x_min, x_max, y_min, y_max)`` [m] for regions
             that would be unbounded.
-        cache_tol: Largest change [m, rad-ish, N] of the contact poses / external
-            wrenches under which the previous region is reused.
+        cache_tol: The previous region is reused while every entry of the
+            contact poses (positions [m], rotation-matrix entries) and external
+            wrenches (entries in [m], [N], [N·m]) changed by at most this.
         max_iter: Largest number of LPs per region.
         check: Whether the solve loop's stop test looks at this task.
         name: Display name.
@@ -96,7 +97,7 @@ class ScfrTask(Task):
         root_body: str | None = None,
         tol: float = 1e-4,
         bounds: tuple[float, float, float, float] | None = None,
-        cache_tol: float = 1e-6,
+        cache_tol: float = 1e-4,
         max_iter: int = 500,
         check: bool = True,
         name: str | None = None,

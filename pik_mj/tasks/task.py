@@ -152,9 +152,7 @@ class TaskRows(NamedTuple):
             for name in ("A", "b", "w_A", "C", "w_C"):
                 if not np.all(np.isfinite(getattr(self, name))):
                     raise InvalidInput(f"task {owner}: {name} contains NaN or inf")
-        if np.isnan(self.d_lower.sum() + self.d_upper.sum()) and (
-            np.any(np.isnan(self.d_lower)) or np.any(np.isnan(self.d_upper))
-        ):
+        if np.isnan(self.d_lower).any() or np.isnan(self.d_upper).any():
             raise InvalidInput(f"task {owner}: inequality bounds contain NaN")
         if np.any(self.d_lower > self.d_upper):
             i = int(np.argmax(self.d_lower > self.d_upper))

@@ -12,10 +12,12 @@ interpolated at the physics rate. With MuJoCo's position actuator
     \\;\\Rightarrow\\;
     \\tau = k_p (q_{ref} - q) + k_v (\\dot q_{ref} - \\dot q)
 
-(``velocity_feedforward``) makes the damping act on the velocity error. Nothing
-else: no feed-forward torque, no balance feedback — the pattern must carry the
-robot on its own. After the pattern the last targets are held for
-``settle_time``.
+(``velocity_feedforward``) makes the damping act on the velocity error. The
+pattern's own joint torques (inverse dynamics with the ground reaction on the
+support soles, :func:`feedforward_torques`) are added as ``qfrc_applied``
+(``torque_feedforward``), so the servos only correct deviations. There is no
+balance feedback: the pattern must carry the robot on its own. After the
+pattern the last targets (and torques) are held for ``settle_time``.
 
 Measured at each pattern tick: root height, sole positions, CoM, and the ZMP of
 the floor contact forces (all contact points lie on the floor plane, so it is
@@ -38,10 +40,13 @@ from pik_mj.dynamics import joint_torques, root_wrench
 from pik_mj.exceptions import InvalidInput
 from pik_mj.record import PATHS, Recorder
 from pik_mj.sim import ContactParams, RobotLike, Scene
-from pik_mj.walking.gait import DOUBLE_SUPPORT
+from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle
 from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern, sole_corners
 
-__all__ = ["PlaybackReport", "feedforward_torques", "play_walk_pattern"]
+__all__ = ["PlaybackReport", "evaluate_walk", "feedforward_torques", "play_walk_pattern"]
+
+DEFAULT_CONTACT = ContactParams()
+"""Sole/floor contact: MuJoCo's defaults with friction 1."""
 
 
 @dataclass(frozen=True)
@@ -65,6 +70,7 @@ class PlaybackReport:
             the planned one [m].
         final_root_error: Horizontal distance of the final root position to the
             pattern's last one [m].
+        final_yaw_error: Largest heading error of a sole at the end [rad].
         foot_slip: Largest horizontal drift of a foot within one of its stance
             intervals (planned support) [m].
         foot_error: Largest horizontal distance of a supporting foot to its
@@ -84,6 +90,7 @@ class PlaybackReport:
     bad_contacts: list[str]
     final_midfeet_error: float
     final_root_error: float
+    final_yaw_error: float
     foot_slip: float
     foot_error: float
     joint_error_max: float
@@ -113,6 +120,7 @@ class PlaybackReport:
             "bad_contacts": self.bad_contacts,
             "final_midfeet_error": self.final_midfeet_error,
             "final_root_error": self.final_root_error,
+            "final_yaw_error": self.final_yaw_error,
             "foot_slip": self.foot_slip,
             "foot_error": self.foot_error,
             "joint_error_max": self.joint_error_max,
@@ -139,15 +147,15 @@ def feedforward_torques(
     total ground wrench :math:`(f, n_O)` is the free-joint rows of the inverse
     dynamics (:func:`pik_mj.dynamics.root_wrench`). It is split between the
     support soles :math:`S_i` (all on the support foot in single support; in
-    double support by the position :math:`\alpha` of the reference ZMP along
+    double support by the position :math:`\\alpha` of the reference ZMP along
     the segment between the soles) as
 
     .. math::
 
-        f_i = \alpha_i f, \qquad
-        n_i = \alpha_i \Big(n_O - \sum_j p_{S_j} \times f_j\Big)
+        f_i = \\alpha_i f, \\qquad
+        n_i = \\alpha_i \\Big(n_O - \\sum_j p_{S_j} \\times f_j\\Big)
 
-    (so :math:`\sum_i f_i = f`, :math:`\sum_i n_i + p_{S_i} \times f_i = n_O`),
+    (so :math:`\\sum_i f_i = f`, :math:`\\sum_i n_i + p_{S_i} \\times f_i = n_O`),
     and :func:`pik_mj.dynamics.joint_torques` with these contact wrenches gives
     the joint torques; the free-joint rows then vanish.
 
@@ -196,7 +204,8 @@ def play_walk_pattern(
     timestep: float = 0.002,
     settle_time: float = 1.0,
     velocity_feedforward: bool = True,
-    contact: ContactParams | None = ContactParams(),
+    torque_feedforward: bool = True,
+    contact: ContactParams | None = DEFAULT_CONTACT,
     feet_frames: Mapping[str, str] = DEFAULT_FEET,
     fall_ratio: float = 0.8,
     recorder: Recorder | None = None,
@@ -213,14 +222,18 @@ def play_walk_pattern(
         settle_time: Time the last targets are held after the pattern [s].
         velocity_feedforward: Damp the velocity error instead of the velocity
             (module docstring).
+        torque_feedforward: Add the pattern's joint torques
+            (:func:`feedforward_torques`) to the servo torques (``qfrc_applied``).
         contact: Contact parameters of the soles and the floor (see
             :class:`pik_mj.sim.ContactParams`); None keeps the model's.
         feet_frames: Sole site of each limb.
         fall_ratio: Root height ratio below which the robot counts as fallen;
             the simulation stops there.
-        recorder: If given, body poses, CoM (target: planned CoM), contact ZMP
-            and the planned support polygon are logged on the ``sim_time``
-            timeline.
+        recorder: If given, logged on the ``sim_time`` timeline: body poses,
+            CoM (target: planned CoM), the contact ZMP (``world/zmp``), the
+            reference and inverse-dynamics ZMPs of the pattern
+            (``world/zmp/reference``, ``world/zmp/inverse_dynamics``) and the
+            planned support polygon.
         record_every: Log every n-th pattern tick.
 
     Returns:
@@ -255,6 +268,12 @@ def play_walk_pattern(
     q_ref = pattern.q[:, q_adr]
     qd_ref = np.gradient(q_ref, pattern.dt, axis=0)
     gain_v = kv / kp if velocity_feedforward else 0.0
+    dof_rm = np.array([rm.jnt_dofadr[rm.joint(j).id] for j in joints])
+    dof_scene = np.array([model.jnt_dofadr[model.joint(j).id] for j in joints])
+    if torque_feedforward:
+        tau_ff = feedforward_torques(rm, pattern, feet_frames)[:, dof_rm]
+    else:
+        tau_ff = np.zeros_like(q_ref)
 
     root_id = model.body(scene.root_body).id
     robot_geom = np.asarray(model.body_rootid)[model.geom_bodyid] == root_id
@@ -263,7 +282,7 @@ def play_walk_pattern(
     plan = pattern.plan
 
     K = len(pattern.t)
-    n_settle = int(round(settle_time / pattern.dt))
+    n_settle = round(settle_time / pattern.dt)
     N = K + n_settle
     t_samples = np.arange(N) * pattern.dt
     root_p = np.full((N, 3), np.nan)
@@ -323,8 +342,14 @@ def play_walk_pattern(
             if j < K - 1:
                 target = target + gain_v * ((1.0 - a) * qd_ref[j] + a * qd_ref[j1])
             data.ctrl[act_ids] = target
+            data.qfrc_applied[dof_scene] = (1.0 - a) * tau_ff[j] + a * tau_ff[j1]
             scene.step(1)
     wall = time.perf_counter() - wall0
+    yaw_error = 0.0
+    for lb, site in site_ids.items():
+        R = data.site_xmat[site].reshape(3, 3)
+        e = wrap_angle(np.arctan2(R[1, 0], R[0, 0]) - plan.final_feet[lb].yaw)
+        yaw_error = max(yaw_error, abs(float(e)))
 
     sl = slice(0, n_done)
     heights = root_p[sl, 2]
@@ -349,11 +374,19 @@ def play_walk_pattern(
         bad_contacts=sorted(bad),
         final_midfeet_error=float(np.linalg.norm(mid_final[:2] - plan.final_midpoint[:2])),
         final_root_error=float(np.linalg.norm(root_p[n_done - 1, :2] - pattern.q[-1, :2])),
+        final_yaw_error=yaw_error,
         foot_slip=slip,
         foot_error=ferr,
         joint_error_max=joint_err,
         wall_time=wall,
-        params={"kp": kp, "kv": kv, "timestep": timestep, "settle_time": settle_time},
+        params={
+            "kp": kp,
+            "kv": kv,
+            "timestep": timestep,
+            "settle_time": settle_time,
+            "velocity_feedforward": velocity_feedforward,
+            "torque_feedforward": torque_feedforward,
+        },
     )
 
 
@@ -372,8 +405,80 @@ def _record(
     z = pattern.plan.ground_z
     if np.all(np.isfinite(zmp)):
         recorder.log_point(PATHS.zmp, [zmp[0], zmp[1], z], radius=0.02, color=(255, 0, 255))
+    for name, p_xy, color in (
+        ("reference", pattern.zmp_ref[k], (40, 200, 40)),
+        ("inverse_dynamics", pattern.zmp_computed[k], (255, 140, 0)),
+    ):
+        recorder.log_point(f"{PATHS.zmp}/{name}", [p_xy[0], p_xy[1], z], radius=0.015, color=color)
     plan = pattern.plan
     limbs = plan.params.all_limbs if plan.support[k] == DOUBLE_SUPPORT else (plan.support[k],)
     corners = np.vstack([sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k]) for lb in limbs])
     hull = convex_hull_2d(corners)
     recorder.log_polygon(np.column_stack([hull, np.full(len(hull), z)]))
+
+
+def evaluate_walk(
+    pattern: WalkPattern,
+    report: PlaybackReport,
+    *,
+    height_ratio: float = 0.8,
+    final_tolerance: float = 0.05,
+) -> tuple[dict[str, Any], list[tuple[str, bool, str]]]:
+    """Figures of a walk and the checks of the walking scenarios.
+
+    Checks: the inverse-dynamics ZMP inside the planned support polygon at every
+    tick; in physics no fall, root height >= ``height_ratio`` of standing, final
+    mid-feet point within ``final_tolerance`` [m] of the plan.
+
+    Returns:
+        ``(figures, [(label, ok, detail), ...])``.
+    """
+    margin = pattern.support_margin("computed")
+    k_min = int(np.argmin(margin))
+    K = min(len(pattern.t), len(report.t))
+    measured = report.zmp[:K]
+    ok_rows = np.all(np.isfinite(measured), axis=1)
+    sim_err = np.linalg.norm(measured[ok_rows] - pattern.zmp_ref[:K][ok_rows], axis=1)
+    figures: dict[str, Any] = {
+        "footsteps": len(pattern.plan.footsteps),
+        "ticks": len(pattern.t),
+        "dt_s": pattern.dt,
+        "duration_s": pattern.duration,
+        "ik_time_s": pattern.solve_time,
+        "ik_ms_per_tick": 1e3 * pattern.solve_time / len(pattern.t),
+        "ik_iterations_per_tick": float(np.mean(pattern.ik_iterations[1:])),
+        "ik_feet_error_max_m": float(pattern.ik_feet_error.max()),
+        "ik_com_error_max_m": float(pattern.ik_com_error[1:].max()),
+        "zmp_margin_computed_min_m": float(margin[k_min]),
+        "zmp_margin_computed_min_at_s": float(pattern.t[k_min]),
+        "zmp_margin_cart_min_m": float(pattern.support_margin("cart").min()),
+        **{f"zmp_{k}_m": v for k, v in pattern.zmp_tracking().items()},
+        "sim_zmp_vs_ref_max_m": float(sim_err.max()) if sim_err.size else float("nan"),
+        "sim_zmp_vs_ref_rms_m": float(np.sqrt(np.mean(sim_err**2)))
+        if sim_err.size
+        else float("nan"),
+        **{f"sim_{k}": v for k, v in report.to_dict().items()},
+    }
+    checks = [
+        (
+            "ZMP from inverse dynamics inside the support polygon at every tick",
+            bool(margin.min() > 0.0),
+            f"min margin {margin.min() * 1e3:.1f} mm at t = {pattern.t[k_min]:.2f} s",
+        ),
+        (
+            "physics playback: no fall",
+            not report.fell,
+            f"bad contacts {report.bad_contacts}" if report.bad_contacts else "",
+        ),
+        (
+            f"physics playback: root height >= {height_ratio:.0%} of standing",
+            report.height_ratio_min >= height_ratio,
+            f"min {report.height_ratio_min:.3f}",
+        ),
+        (
+            f"physics playback: ends within {final_tolerance * 100:.0f} cm of the plan",
+            report.final_midfeet_error <= final_tolerance,
+            f"mid-feet error {report.final_midfeet_error * 1e3:.1f} mm",
+        ),
+    ]
+    return figures, checks

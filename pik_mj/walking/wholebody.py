@@ -31,9 +31,9 @@ from pik_mj.dynamics import zmp_of_motion
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.robot import Robot
 from pik_mj.solve import solve
+from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import MinkLimit, MinkTask
-from pik_mj.tasks.task import Task
 from pik_mj.walking import footsteps as footstep_planning
 from pik_mj.walking.gait import DOUBLE_SUPPORT, Footstep, GaitParameters, GaitPlan, plan_gait
 
@@ -158,7 +158,9 @@ class WalkPattern:
         """Total duration [s]."""
         return float(self.t[-1])
 
-    def support_margin(self, which: str = "computed", sole_size: Sequence[float] = SOLE_SIZE):
+    def support_margin(
+        self, which: str = "computed", sole_size: Sequence[float] = SOLE_SIZE
+    ) -> np.ndarray:
         """:func:`support_margin` of ``zmp_computed``, ``zmp_cart`` or ``zmp_ref`` [m]."""
         zmp = {"computed": self.zmp_computed, "cart": self.zmp_cart, "ref": self.zmp_ref}
         if which not in zmp:
@@ -200,18 +202,15 @@ def feet_from_robot(
     return out
 
 
-class _ComTarget:
-    """CoM task of level 2 and the setter of its target.
-
-    One place to swap ``mink.ComTask`` for ``pik_mj.tasks.com.CentroidTask``.
-    """
-
-    def __init__(self, threshold: float):
-        self._mink = mink.ComTask(cost=1.0)
-        self.task: Task = MinkTask(self._mink, name="com", threshold=threshold)
-
-    def set(self, p_WC: np.ndarray) -> None:
-        self._mink.set_target(p_WC)
+def _com_task(configuration: mink.Configuration, threshold: float) -> CentroidTask:
+    """CoM task of level 2: all three axes matched (xy on the plan, z constant)."""
+    return CentroidTask(
+        configuration,
+        np.zeros(3),
+        translation_axis=True,
+        centroid_thre=threshold,
+        name="com",
+    )
 
 
 def calc_walk_pattern(
@@ -297,7 +296,7 @@ def calc_walk_pattern(
         )
         for lb, site in feet_frames.items()
     }
-    com = _ComTarget(ik_thre)
+    com = _com_task(configuration, ik_thre)
     upright = FrameTask(
         configuration,
         upright_body,
@@ -312,7 +311,7 @@ def calc_walk_pattern(
     levels = [
         [MinkLimit(mink.ConfigurationLimit(model))],
         list(feet_tasks.values()),
-        [com.task, upright],
+        [com, upright],
         [MinkTask(posture, name="posture", check=False)],
     ]
 
@@ -331,7 +330,7 @@ def calc_walk_pattern(
             yaw = float(plan.feet_yaw[lb][k])
             task.set_target((plan.feet_p[lb][k], _rot_z(yaw)))
             yaw_mid += yaw / len(feet_tasks)
-        com.set(com_ref[k])
+        com.set_target(com_ref[k])
         upright.set_target((np.zeros(3), _rot_z(yaw_mid)))
         result = solve(
             configuration,

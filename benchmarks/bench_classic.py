@@ -1,0 +1,118 @@
+"""irteus' classic IK vs pik_mj's cascade vs mink.solve_ik on 3-DoF arm targets.
+
+Targets are reachable by construction: the end pose of a random configuration
+inside the joint ranges (x, z and the pitch about y: the arm is planar). Every
+solver starts from the same configuration and stops at ``--stop`` iterations or
+when the tip is within 1 mm and 1 degree.
+
+    python benchmarks/bench_classic.py --n 100 --seed 0
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import mink
+import numpy as np
+
+from pik_mj import FrameTask, solve
+from pik_mj.classic_ik import classic_inverse_kinematics
+from pik_mj.models import load_model
+
+THRE, RTHRE = 1e-3, np.deg2rad(1.0)
+
+
+def _arm_task(conf: mink.Configuration, target: mink.SE3) -> FrameTask:
+    # The arm moves in the xz-plane: match x, z (y free) and the rotation about y.
+    return FrameTask(
+        conf, "end", target, translation_axis="y", rotation_axis="zx", thre=THRE, rthre=RTHRE
+    )
+
+
+def _run_classic(conf, target, stop):
+    r = classic_inverse_kinematics(conf, [_arm_task(conf, target)], stop=stop)
+    return r.converged, r.iterations, float(np.sum(r.iteration_times))
+
+
+def _run_pik(conf, target, stop):
+    levels = [[mink.ConfigurationLimit(conf.model)], [_arm_task(conf, target)]]
+    r = solve(conf, levels, stop=stop)
+    return r.converged, r.iterations, float(np.sum(r.iteration_times))
+
+
+def _run_mink(conf, target, stop):
+    task = mink.FrameTask("end", "site", position_cost=1.0, orientation_cost=1.0)
+    task.set_target(target)
+    limits = [mink.ConfigurationLimit(conf.model)]
+    t0 = time.perf_counter()
+    for it in range(1, stop + 1):
+        v = mink.solve_ik(conf, [task], 1.0, "daqp", damping=1e-6, limits=limits)
+        conf.integrate_inplace(v, 1.0)
+        e = task.compute_error(conf)
+        if np.linalg.norm(e[:3]) <= THRE and np.linalg.norm(e[3:]) <= RTHRE:
+            return True, it, time.perf_counter() - t0
+    return False, stop, time.perf_counter() - t0
+
+
+SOLVERS = {
+    "classic (SR-inverse)": _run_classic,
+    "pik_mj.solve": _run_pik,
+    "mink.solve_ik": _run_mink,
+}
+
+
+def compare(n: int = 100, seed: int = 0, stop: int = 50, q_start=(0.3, 0.3, 0.3)) -> dict:
+    """Success rate, iterations and time per iteration of each solver on ``n`` targets."""
+    model = load_model("three_dof_arm")
+    conf = mink.Configuration(model)
+    rng = np.random.default_rng(seed)
+    lo, hi = model.jnt_range[:, 0], model.jnt_range[:, 1]
+    targets = []
+    for _ in range(n):
+        conf.update(rng.uniform(lo, hi))
+        targets.append(conf.get_transform_frame_to_world("end", "site"))
+    out = {}
+    for name, run in SOLVERS.items():
+        ok, iters, secs = [], [], []
+        for target in targets:
+            conf.update(np.array(q_start, dtype=float))
+            c, i, t = run(conf, target, stop)
+            ok.append(c)
+            iters.append(i)
+            secs.append(t)
+        ok_arr = np.array(ok)
+        iters_arr = np.array(iters)
+        out[name] = {
+            "success_rate": float(ok_arr.mean()),
+            "mean_iterations_converged": float(iters_arr[ok_arr].mean()) if ok_arr.any() else None,
+            "ms_per_iteration": 1e3 * float(np.sum(secs) / max(iters_arr.sum(), 1)),
+        }
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=100)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--stop", type=int, default=50)
+    parser.add_argument("--start", type=float, nargs=3, default=(0.3, 0.3, 0.3))
+    parser.add_argument("--json", action="store_true", help="print JSON")
+    args = parser.parse_args()
+    result = compare(args.n, args.seed, args.stop, args.start)
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return
+    print(f"{args.n} reachable 3-DoF arm targets, start q = {list(args.start)}, stop = {args.stop}")
+    for name, r in result.items():
+        iters = r["mean_iterations_converged"]
+        print(
+            f"  {name:<22} success {100 * r['success_rate']:5.1f} %   "
+            f"iterations {iters if iters is None else f'{iters:5.1f}'}   "
+            f"{r['ms_per_iteration']:.3f} ms/iteration"
+        )
+
+
+if __name__ == "__main__":
+    main()

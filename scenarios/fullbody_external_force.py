@@ -1,0 +1,107 @@
+"""Fullbody IK with external forces on both hands (seed 001, ``:centroid-offset-func``
+with ``:calc-static-balance-point``).
+
+Both hands receive the seed's force (-20, 0, 0) N and moment (10, 0, 0) N·m; the
+feet stay, the hands go to the seed's ``#f(400 ∓300 0)`` mm from the waist
+(position only), and the *static balance point* — where the ground reaction
+balances gravity and the hand wrenches — is brought over the midpoint of the
+feet instead of the centroid. The check is independent of the formula used in
+the solve: the total moment of gravity and the hand wrenches about the feet
+midpoint has no horizontal component (a pure vertical ground force there balances).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pik_mj.ik import fullbody_inverse_kinematics, static_balance_point
+from pik_mj.robot import Robot
+from pik_mj.scenarios import ScenarioRecorder, ScenarioResult, com_margin, main_for
+
+FORCE = np.array([-20.0, 0.0, 0.0])  # [N] on each hand
+MOMENT = np.array([10.0, 0.0, 0.0])  # [N·m] on each hand
+HANDS = ("rarm", "larm")
+FEET = ("rleg", "lleg")
+
+
+def frame_of(robot: Robot, limb: str):
+    return robot.frame_pose(robot.limb(limb).end_frame, robot.limb(limb).end_frame_type)
+
+
+def run(out=None, *, progress: bool = False) -> ScenarioResult:
+    result = ScenarioResult("fullbody_external_force")
+    robot = Robot.load("sample_humanoid")
+    feet0 = [frame_of(robot, x) for x in FEET]
+    p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
+    p_root, _ = robot.root_pose()
+    targets = [p_root + np.array([0.4, -0.3, 0.0]), p_root + np.array([0.4, 0.3, 0.0])]
+    forces = [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
+
+    with ScenarioRecorder(out, robot, progress=progress, name="fullbody_external_force") as rec:
+        res = fullbody_inverse_kinematics(
+            robot,
+            [(p, np.array([1.0, 0.0, 0.0, 0.0])) for p in targets],
+            limbs=list(HANDS),
+            rotation_axis=None,
+            external_forces=forces,
+            target_centroid_pos=p_mid,
+            centroid_axes="z",
+            stop=100,
+            callback=rec.callback("reach with forces"),
+        )
+        rec.record("reach with forces", res)
+
+    # Independent check: moments about the feet midpoint (3D cross products), where
+    # a pure vertical ground force must balance gravity and the hand wrenches.
+    p = static_balance_point(robot, forces, height=p_mid[2])
+    g = robot.mass * robot.model.opt.gravity
+    moment = np.cross(robot.com() - p_mid, g)
+    for h in HANDS:
+        moment += np.cross(frame_of(robot, h).translation() - p_mid, FORCE) + MOMENT
+    feet1 = [frame_of(robot, x) for x in FEET]
+    com = robot.com()
+    hand_errors = [
+        float(np.linalg.norm(frame_of(robot, h).translation() - t))
+        for h, t in zip(HANDS, targets, strict=True)
+    ]
+    rec.fill(result, main="reach with forces")
+    result.figures = {
+        "balance_point_m": p,
+        "balance_point_xy_error_m": float(np.linalg.norm(p[:2] - p_mid[:2])),
+        "horizontal_moment_about_feet_midpoint_Nm": moment[:2],
+        "com_m": com,
+        "com_shift_from_feet_midpoint_m": com[:2] - p_mid[:2],
+        "balance_point_margin_m": com_margin(robot, p),
+        "hand_errors_m": hand_errors,
+        "feet_moved_m": max(
+            float(np.linalg.norm(a.translation() - b.translation()))
+            for a, b in zip(feet0, feet1, strict=True)
+        ),
+        "median_iteration_ms": res.median_iteration_ms,
+    }
+    f = result.figures
+    result.check("converged", res.converged, f"{res.iterations} iterations")
+    result.check("hands on target (1 mm)", max(hand_errors) <= 1e-3)
+    result.check("feet did not move (0.1 mm)", f["feet_moved_m"] <= 1e-4)
+    result.check(
+        "balance point over the feet midpoint (1 mm)", f["balance_point_xy_error_m"] <= 1e-3
+    )
+    result.check(
+        "no horizontal moment about the feet midpoint (M g · 1 mm)",
+        float(np.abs(moment[:2]).max()) <= robot.mass * 9.81 * 1e-3,
+        f"{moment[:2]}",
+    )
+    result.check("balance point inside the support polygon", f["balance_point_margin_m"] > 0)
+    result.check(
+        "CoM leans into the pull (x forward of the feet midpoint by > 2 cm)",
+        f["com_shift_from_feet_midpoint_m"][0] > 0.02,
+    )
+    return result
+
+
+def main(argv=None) -> int:
+    return main_for(run, argv, __doc__)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,384 @@
+"""Simulation-coupled static balance (pik_mj.sim): contacts, equilibrium, physics hold.
+
+Poses are built with pik_mj.solve on the robot-only sample humanoid; the scene
+adds a floor (and a wall). Numbers are checked against independent
+constructions: support polygons from the sole boxes' geometry, force and moment
+balance of the LP's contact forces, and the robot placement transform.
+"""
+
+from __future__ import annotations
+
+import json
+
+import mink
+import mujoco
+import numpy as np
+import pytest
+
+import pik_mj
+from pik_mj import balance
+from pik_mj.exceptions import InvalidInput, SimulationUnstable, UnknownName
+from pik_mj.record import PATHS, Recorder, read_recording
+from pik_mj.robot import Robot
+from pik_mj.sim import Scene, add_wall, floor_environment, validate_pose
+from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.linear import LinearTask
+
+SOLES = ("rleg_sole", "lleg_sole")
+WALL_X = 0.65  # wall face [m], facing -x, in front of the robot
+HAND_ON_WALL = ["rleg_sole", "lleg_sole", "rarm_hand"]
+
+
+# ----------------------------------------------------------------- helpers
+def sole_bottom_corners(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """World corners (8, 3) of the bottom faces of both sole boxes (from geometry)."""
+    out = []
+    for name in SOLES:
+        g = model.geom(name).id
+        R, p, h = data.geom_xmat[g].reshape(3, 3), data.geom_xpos[g], model.geom_size[g]
+        for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
+            out.append(p + R @ np.array([sx * h[0], sy * h[1], -h[2]]))
+    return np.array(out)
+
+
+def check_force_balance(report, mass: float, gravity=(0.0, 0.0, -9.81)) -> None:
+    """The LP's contact forces cancel gravity: sum f = -m g, sum (p - c) x f = 0."""
+    env = report.environment_contacts
+    f = report.forces
+    p = np.array([c.position for c in env])
+    w = mass * np.asarray(gravity)
+    np.testing.assert_allclose(f.sum(axis=0), -w, atol=1e-6 * mass * 9.81)
+    moment = np.cross(p - report.com, f).sum(axis=0)
+    np.testing.assert_allclose(moment, 0.0, atol=1e-6 * mass * 9.81)
+    # Each force lies in its contact's friction cone (pushes, |f_t| <= mu f_n).
+    for c, fi in zip(env, f, strict=True):
+        fn = fi @ c.normal
+        assert fn >= -1e-6
+        assert np.linalg.norm(fi - fn * c.normal) <= c.friction * fn + 1e-6
+
+
+def feet_levels(robot: Robot) -> list:
+    cfg = robot.configuration
+    return [
+        FrameTask(cfg, s, robot.frame_pose(s), name=s, thre=1e-4, rthre=1e-3)
+        for s in ("rleg_end", "lleg_end")
+    ]
+
+
+def com_task(robot: Robot, x: float, p_limit: float = 0.03) -> LinearTask:
+    """CoM (x, y) onto (x, 0): rows ``J_com[:2] dq = clamp(p_target - p_com)`` [m],
+    at most ``p_limit`` [m] per iteration."""
+    target = np.array([x, 0.0])
+
+    def b(cfg: mink.Configuration) -> np.ndarray:
+        e = target - robot.com()[:2]
+        return e * min(1.0, p_limit / max(np.linalg.norm(e), 1e-12))
+
+    return LinearTask(
+        A=lambda cfg: robot.com_jacobian()[:2],
+        b=b,
+        threshold=2e-3,
+        name="com_xy",
+    )
+
+
+def posture(robot: Robot, cost, check: bool = False) -> pik_mj.MinkTask:
+    task = mink.PostureTask(robot.model, cost=cost)
+    task.set_target(robot.configuration.q.copy())
+    return pik_mj.MinkTask(task, check=check)
+
+
+# ----------------------------------------------------------------- fixtures
+@pytest.fixture(scope="module")
+def scene() -> Scene:
+    return Scene("sample_humanoid")
+
+
+@pytest.fixture(scope="module")
+def reset_q(scene) -> np.ndarray:
+    rm = scene.robot_model
+    return rm.key_qpos[rm.key("reset_pose").id].copy()
+
+
+@pytest.fixture(scope="module")
+def lean():
+    """CoM 8 cm ahead of the toes (x = 0.14 m), feet kept flat; per-iteration checks."""
+    robot = Robot.load("sample_humanoid")
+    scene = Scene("sample_humanoid")
+    log = scene.iteration_callback(mu=1.0)
+    levels = [
+        [mink.ConfigurationLimit(robot.model)],
+        feet_levels(robot),
+        [com_task(robot, 0.22)],
+        [posture(robot, 1e-2)],
+    ]
+    result = pik_mj.solve(robot.configuration, levels, stop=100, callback=log)
+    assert result.converged, result.summary()
+    return robot, scene, log, result
+
+
+@pytest.fixture(scope="module")
+def wall_pose():
+    """Right hand's fingertips on a wall ahead, CoM 3 cm ahead of the toes."""
+    robot = Robot.load("sample_humanoid")
+    m = robot.model
+    keep = np.zeros(m.nv)  # left arm and head stay where they are
+    for j in range(m.njnt):
+        if m.joint(j).name.startswith(("larm", "head")):
+            keep[m.jnt_dofadr[j]] = 1.0
+    # Hand z (towards the elbow) along -x: the fingertip face (0.05 m beyond the
+    # site along -z_hand) 0.5 mm into the wall; rotation about hand z free.
+    R_WT = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+    hand = FrameTask(
+        robot.configuration,
+        "rarm_end",
+        (np.array([WALL_X - 0.05 + 5e-4, -0.3, 1.2]), R_WT),
+        rotation_axis="z",
+        name="hand",
+        thre=2e-4,
+        rthre=1e-2,
+    )
+    levels = [
+        [mink.ConfigurationLimit(m)],
+        [*feet_levels(robot), posture(robot, keep)],
+        [hand],
+        [com_task(robot, 0.17)],
+        [posture(robot, 1e-2)],
+    ]
+    result = pik_mj.solve(robot.configuration, levels, stop=100)
+    assert result.converged, result.summary()
+    return robot, robot.configuration.q.copy()
+
+
+def wall_scene(with_wall: bool) -> Scene:
+    env = floor_environment()
+    if with_wall:
+        add_wall(env, (WALL_X, 0.0, 0.0), (-1.0, 0.0, 0.0))
+    return Scene("sample_humanoid", env, allowed_contacts=HAND_ON_WALL)
+
+
+# --------------------------------------------------------- reset pose
+def test_reset_pose_static_check_matches_sole_geometry(scene, reset_q):
+    report = scene.static_check(reset_q, scfr=True)
+    assert report.feasible, report.message
+    assert report.touching_geoms == sorted(SOLES)
+    assert report.self_contacts == []
+    # Independent: hull of the sole boxes' bottom corners and the robot-only CoM.
+    robot = Robot.load("sample_humanoid")
+    corners = sole_bottom_corners(robot.model, robot.data)
+    region = balance.support_polygon([corners])
+    expected = region.signed_distance(robot.com())
+    assert expected > 0.05
+    assert report.margin == pytest.approx(expected, abs=1e-6)
+    np.testing.assert_allclose(report.com, robot.com(), atol=1e-9)
+    assert report.support_polygon.shape == (4, 3)
+    # Flat ground, mu = 1: the SCFR of the actual contacts is the support polygon.
+    assert report.scfr_margin == pytest.approx(report.margin, abs=2e-4)
+    check_force_balance(report, scene.mass)
+    assert scene.mass == pytest.approx(robot.mass)
+    json.dumps(report.to_dict())
+
+
+def test_reset_pose_hold_passes(scene, reset_q):
+    hold = scene.hold(reset_q, 3.0)
+    assert hold.passed, hold.failures
+    assert hold.steps == 1500 and hold.simulated == pytest.approx(3.0)
+    assert hold.drift < 0.01 and hold.slip < 0.002 and not hold.fell
+    assert set(hold.slip_per_geom) == set(SOLES)
+    assert hold.min_margin > 0.05
+    assert hold.unexpected_contacts == []
+    json.dumps(hold.to_dict())
+
+
+def test_contact_tolerance_counts_touching_not_hovering(scene, reset_q):
+    lifted = reset_q.copy()
+    lifted[2] += 1.5e-3
+    report = scene.static_check(lifted)
+    assert report.touching_geoms == sorted(SOLES)
+    dists = [c.dist for c in report.contacts]
+    np.testing.assert_allclose(dists, 1.5e-3, atol=1e-8)
+    assert report.feasible
+    lifted[2] += 1.5e-3  # 3 mm > contact_tolerance = 2 mm
+    report = scene.static_check(lifted)
+    assert report.contacts == [] and not report.feasible
+    assert report.margin == -np.inf and report.to_dict()["margin"] is None
+    # The tolerance lives in a collision-only copy; the physics keeps margin 0.
+    assert np.all(scene.model.geom_margin == 0.0)
+
+
+def test_robot_placement_maps_the_pose(reset_q):
+    pos, yaw = np.array([0.3, -0.2, 0.0]), 0.7
+    scene = Scene("sample_humanoid", "room", robot_pos=pos, robot_yaw=yaw)
+    scene.set_pose(reset_q)
+    robot = Robot.load("sample_humanoid")
+    c, s = np.cos(yaw), np.sin(yaw)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    for site in ("rarm_end", "lleg_end", "head_end"):
+        expected = pos + R @ robot.data.site(site).xpos
+        np.testing.assert_allclose(scene.data.site(site).xpos, expected, atol=1e-9)
+    np.testing.assert_allclose(scene.com(), pos + R @ robot.com(), atol=1e-9)
+    # Servo targets are the pose.
+    for j in ("rleg_knee_p", "larm_elbow_p"):
+        assert scene.data.actuator(f"{j}_servo").ctrl[0] == scene.data.joint(j).qpos[0]
+
+
+# --------------------------------------------------------- CoM outside
+def test_com_ahead_of_toes_is_infeasible_and_falls(lean):
+    robot, scene, _, _ = lean
+    q = robot.configuration.q
+    report = scene.static_check(q, mu=1.0)
+    assert report.touching_geoms == sorted(SOLES)
+    assert not report.feasible and report.forces is None
+    # Independent: distance beyond the front edge of the sole boxes (x = 0.14 m).
+    toes = sole_bottom_corners(robot.model, robot.data)[:, 0].max()
+    assert toes == pytest.approx(0.14, abs=1e-3)
+    assert report.margin == pytest.approx(-(robot.com()[0] - toes), abs=1e-3)
+    assert report.margin < -0.07
+    hold = scene.hold(q)
+    assert not hold.passed
+    assert hold.fell and hold.drift > 0.1
+
+
+def test_iteration_callback_records_every_iteration(lean):
+    _, _, log, result = lean
+    # Steps of at most 3 cm take the CoM from 1.4 cm to 22 cm: it crosses the toes.
+    assert len(log.reports) == result.iterations >= 7
+    assert log.reports[0].feasible and log.reports[0].margin > 0
+    assert not log.reports[-1].feasible and log.reports[-1].margin < 0
+    np.testing.assert_allclose(log.reports[-1].q, result.q)
+    # Feasible exactly while the CoM is inside the polygon (flat ground, mu = 1).
+    for r in log.reports:
+        if abs(r.margin) > 1e-3:
+            assert r.feasible == (r.margin > 0)
+    assert len(log.to_dicts()) == result.iterations
+
+
+# --------------------------------------------------------- hand on a wall
+def test_hand_on_wall_balances_only_with_the_wall(wall_pose):
+    robot, q = wall_pose
+    toes = sole_bottom_corners(robot.model, robot.data)[:, 0].max()
+    assert robot.com()[0] > toes + 0.02
+
+    with_wall = wall_scene(True)
+    report = with_wall.static_check(q, scfr=True)
+    assert report.touching_geoms == sorted(HAND_ON_WALL)
+    assert report.self_contacts == []
+    hand = [c for c in report.environment_contacts if c.robot_geom == "rarm_hand"]
+    assert all(c.other_geom == "wall" for c in hand)
+    for c in hand:  # on the wall face, pushed back along -x
+        assert c.position[0] == pytest.approx(WALL_X, abs=1e-3)
+        np.testing.assert_allclose(c.normal, [-1.0, 0.0, 0.0], atol=1e-9)
+    assert report.margin < -0.02  # outside the feet's polygon ...
+    assert report.feasible  # ... yet balanced by the wall
+    assert report.scfr_margin > 0.0
+    check_force_balance(report, with_wall.mass)
+    # The wall pushes back: on a frictionless floor nothing resists it.
+    assert not with_wall.static_check(q, mu=0.0).feasible
+    hold = with_wall.hold(q)
+    assert hold.passed, hold.failures
+    assert "rarm_hand" in hold.slip_per_geom
+
+    without = wall_scene(False)
+    report = without.static_check(q)
+    assert report.touching_geoms == sorted(SOLES)
+    assert not report.feasible
+    hold = without.hold(q)
+    assert not hold.passed and hold.fell
+
+
+def test_unexpected_contact_fails_the_hold(wall_pose):
+    _, q = wall_pose
+    env = floor_environment()
+    add_wall(env, (WALL_X, 0.0, 0.0), (-1.0, 0.0, 0.0))
+    scene = Scene("sample_humanoid", env)  # the hand is not allowed by default
+    hold = scene.hold(q, 0.2)
+    assert not hold.passed
+    assert ("rarm_hand", "wall") in {(a, b) for a, b, _ in hold.unexpected_contacts}
+
+
+# --------------------------------------------------------- guard
+def test_absurd_velocity_raises(scene, reset_q):
+    scene.set_pose(reset_q)
+    scene.data.qvel[:] = 1e12
+    with pytest.raises(SimulationUnstable, match="BADQVEL"):
+        scene.step()
+
+
+def test_nan_position_raises(scene, reset_q):
+    scene.set_pose(reset_q)
+    scene.data.qpos[scene.model.joint("rleg_knee_p").qposadr[0]] = np.nan
+    with pytest.raises(SimulationUnstable, match="rleg_knee_p"):
+        scene.step()
+
+
+def test_diverging_servos_raise_during_hold(reset_q):
+    # kp 1e8 on joints of ~0.01 kg m² at dt = 0.002: omega dt ~ 200, explicit
+    # stiffness diverges within a few steps.
+    scene = Scene("sample_humanoid", kp=1e8, kv=0.0)
+    with pytest.raises(SimulationUnstable, match="unstable"):
+        scene.hold(reset_q, 1.0)
+
+
+# --------------------------------------------------------- recording, CLI
+def test_hold_records_on_sim_time(tmp_path, scene, reset_q):
+    path = tmp_path / "hold.rrd"
+    with Recorder.to_file(path) as rec:
+        hold = scene.hold(reset_q, 0.5, recorder=rec, record_every=25)
+    out = read_recording(path)
+    drift = out[PATHS.hold_metric("drift")]
+    (component,) = drift.temporal
+    times, values = drift.series(component, "sim_time")
+    assert len(times) == 250 // 25 + 1
+    np.testing.assert_allclose(times, np.arange(11) * 0.05, atol=1e-9)
+    assert max(np.ravel(values)) == pytest.approx(hold.drift, rel=0.2)
+    assert PATHS.body("pelvis") in out
+
+
+def test_validate_pose():
+    out = validate_pose("sample_humanoid", "reset_pose", duration=1.0)
+    assert out["passed"] and out["static"]["feasible"] and out["hold"]["passed"]
+    json.dumps(out)
+    with pytest.raises(UnknownName, match="reset_pose"):
+        validate_pose("sample_humanoid", "nope", duration=0.1)
+    with pytest.raises(InvalidInput, match="shape"):
+        validate_pose("sample_humanoid", np.zeros(5), duration=0.1)
+
+
+def test_bad_inputs(scene, reset_q):
+    with pytest.raises(UnknownName, match="rleg_sole"):
+        scene.hold(reset_q, 0.1, allowed=["nope"])
+    with pytest.raises(InvalidInput, match="NaN"):
+        scene.static_check(np.full(scene.robot_nq, np.nan))
+    with pytest.raises(InvalidInput, match="horizontal"):
+        add_wall(floor_environment(), (1, 0, 0), (0, 0, 1))
+    with pytest.raises(UnknownName, match="rleg_knee_p"):
+        Scene("sample_humanoid", kp={"nope": 1.0})
+
+
+def test_degenerate_support_is_a_negative_distance():
+    from pik_mj.sim import _support
+
+    R = balance.plane_basis(np.array([0.0, 0.0, 1.0]))
+    segment = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    vertices, margin = _support(segment, R, np.array([0.5, 0.3, 1.0]))
+    assert vertices.shape == (2, 3) and margin == pytest.approx(-0.3)
+    assert _support(segment, R, np.array([2.0, 0.0, 0.0]))[1] == pytest.approx(-1.0)
+    point = segment[:1]
+    assert _support(point, R, np.array([0.3, 0.4, 0.0]))[1] == pytest.approx(-0.5)
+
+
+def test_robot_actuators_and_keyframe_ctrl_are_kept():
+    from pik_mj.models import load_spec
+
+    spec = load_spec("sample_humanoid")
+    spec.add_actuator(name="knee_motor", target="rleg_knee_p", trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    key = spec.key("reset_pose")
+    key.ctrl = [0.25]
+    scene = Scene(spec)
+    m = scene.model
+    assert m.nu == 1 + len(scene.servo_joints) and m.actuator(0).name == "knee_motor"
+    k = m.key("reset_pose").id
+    assert m.key_ctrl[k, 0] == 0.25
+    for j in ("rleg_knee_p", "larm_elbow_p", "rleg_hip_p"):
+        a = m.actuator(f"{j}_servo").id
+        assert m.key_ctrl[k, a] == m.key_qpos[k, m.joint(j).qposadr[0]]

@@ -1,0 +1,415 @@
+"""Joint, centroid and virtual-root tasks against finite differences and brute force.
+
+Every Jacobian is compared with central differences of the task's error (or, for
+inequality tasks, of its row values ``d(q)``), perturbing ``q`` with
+``mujoco.mj_integratePos`` along each tangent direction (eps 1e-6, tol 1e-6).
+"""
+
+from __future__ import annotations
+
+import mink
+import mujoco
+import numpy as np
+import pytest
+
+import pik_mj
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.models import compose_scene, load_model
+from pik_mj.tasks.com import CentroidTask, robot_root_body
+from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.joint_coupling import JointCouplingTask
+from pik_mj.tasks.joint_limit import JointLimitTask
+from pik_mj.tasks.joint_velocity import JointVelocityTask
+from pik_mj.virtual_root import solve_with_virtual_root, with_virtual_root
+
+EPS = 1e-6
+TOL = 1e-6
+
+BALL_XML = """
+<mujoco>
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="base">
+      <geom type="box" size="0.05 0.05 0.05" mass="1"/>
+      <body name="link" pos="0 0 0.05">
+        <joint name="ball" type="ball" range="0 0.6"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.3" size="0.02" mass="0.5"/>
+        <site name="tip" pos="0 0 0.3"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def fd_jacobian(model: mujoco.MjModel, q: np.ndarray, f, eps: float = EPS) -> np.ndarray:
+    """Central differences of ``f(configuration)`` along each tangent direction."""
+    cfg = mink.Configuration(model)
+    cols = []
+    for i in range(model.nv):
+        values = []
+        for sign in (1.0, -1.0):
+            qq = q.copy()
+            v = np.zeros(model.nv)
+            v[i] = sign * eps
+            mujoco.mj_integratePos(model, qq, v, 1.0)
+            cfg.update(qq)
+            values.append(np.asarray(f(cfg), dtype=float))
+        cols.append((values[0] - values[1]) / (2 * eps))
+    return np.column_stack(cols)
+
+
+def random_posture(model: mujoco.MjModel, seed: int) -> np.ndarray:
+    """``qpos0`` with a random free-base pose and joints uniform in 80 % of their range."""
+    rng = np.random.default_rng(seed)
+    q = model.qpos0.copy()
+    for j in range(model.njnt):
+        a = model.jnt_qposadr[j]
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
+            quat = rng.normal(size=4)
+            q[a : a + 3] = rng.normal(scale=0.2, size=3)
+            q[a + 3 : a + 7] = quat / np.linalg.norm(quat)
+        elif model.jnt_type[j] == mujoco.mjtJoint.mjJNT_BALL:
+            quat = np.r_[1.0, rng.normal(scale=0.2, size=3)]
+            q[a : a + 4] = quat / np.linalg.norm(quat)
+        elif model.jnt_limited[j]:
+            lo, hi = model.jnt_range[j]
+            q[a] = 0.5 * (lo + hi) + 0.4 * (hi - lo) * rng.uniform(-1, 1)
+    return q
+
+
+@pytest.fixture(scope="module")
+def humanoid():
+    return load_model("dm_humanoid")
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return load_model("three_dof_arm")
+
+
+@pytest.fixture(scope="module")
+def ball_model():
+    return mujoco.MjModel.from_xml_string(BALL_XML)
+
+
+def configured(model, q) -> mink.Configuration:
+    cfg = mink.Configuration(model)
+    cfg.update(q)
+    return cfg
+
+
+# ----------------------------------------------------------------------------- limits
+
+
+@pytest.mark.parametrize("name", ["humanoid", "arm"])
+def test_joint_limit_rows_are_range_minus_angle_with_fd_jacobian(name, request):
+    model = request.getfixturevalue(name)
+    q = random_posture(model, 1)
+    cfg = configured(model, q)
+    task = JointLimitTask.all_limited(cfg)
+    rows = task.compute_rows(cfg)
+    limited = [j for j in range(model.njnt) if model.jnt_limited[j]]
+    assert len(task.joints) == len(limited)
+    for i, j in enumerate(limited):
+        name_j = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j)
+        angle = cfg.data.joint(name_j).qpos[0]
+        assert rows.d_lower[i] == pytest.approx(model.jnt_range[j, 0] - angle, abs=1e-12)
+        assert rows.d_upper[i] == pytest.approx(model.jnt_range[j, 1] - angle, abs=1e-12)
+    J_fd = fd_jacobian(model, q, task.values)
+    assert np.max(np.abs(J_fd - rows.C)) < TOL
+
+
+def test_ball_joint_cone_row_matches_fd_and_mujoco_angle(ball_model):
+    q = np.array([np.cos(0.35), 0.6 * np.sin(0.35), -0.8 * np.sin(0.35), 0.0])
+    cfg = configured(ball_model, q)
+    task = JointLimitTask(cfg, "ball")
+    assert task.check_margin[0] == 1e-3 and task.max_angle[0] == pytest.approx(0.6)
+    # MuJoCo's own quaternion -> rotation vector.
+    rvec = np.zeros(3)
+    mujoco.mju_quat2Vel(rvec, q, 1.0)
+    assert task.values(cfg)[0] == pytest.approx(np.linalg.norm(rvec), abs=1e-12)
+    rows = task.compute_rows(cfg)
+    assert rows.d_upper[0] == pytest.approx(0.6 - 0.7, abs=1e-12)
+    assert np.isneginf(rows.d_lower[0])
+    J_fd = fd_jacobian(ball_model, q, task.values)
+    assert np.max(np.abs(J_fd - rows.C)) < TOL
+    assert task.violations(cfg)["ball"] == pytest.approx(0.1, abs=1e-12)
+    assert not task.is_satisfied(cfg)
+
+
+def test_ball_joint_limit_holds_in_a_solve(ball_model):
+    cfg = configured(ball_model, ball_model.qpos0.copy())
+    limit = JointLimitTask(cfg, "ball")
+    # The tip 90 degrees over: needs a 1.57 rad rotation, the cone allows 0.6.
+    reach = FrameTask(cfg, "tip", ([0.3, 0.0, 0.05], [1, 0, 0, 0]), rotation_axis=None)
+    result = pik_mj.solve(cfg, [[limit], [reach]], stop=40, revert_if_fail=False)
+    assert not result.converged
+    assert limit.values(cfg)[0] <= 0.6 + 1e-3
+    assert limit.values(cfg)[0] >= 0.6 - 1e-2  # pressed against the cone
+
+
+def test_joint_limit_reports_violations_per_joint(arm):
+    q = np.array([2.0, 0.1, -1.9])
+    cfg = configured(arm, q)
+    task = JointLimitTask.all_limited(cfg)
+    lim = arm.jnt_range[0, 1]
+    v = task.violations(cfg)
+    assert v["joint0"] == pytest.approx(2.0 - lim)
+    assert v["joint1"] == 0.0
+    assert v["joint2"] == pytest.approx(1.9 - lim)
+    assert not task.is_satisfied(cfg)
+    cfg.update(np.zeros(3))
+    assert task.is_satisfied(cfg)
+
+
+def test_joint_limit_is_respected_by_the_solve_and_given_limits_override(arm):
+    cfg = configured(arm, np.zeros(3))
+    limit = JointLimitTask(cfg, ["joint0", "joint1"], min_angle=-0.3, max_angle=[0.3, 0.5])
+    reach = FrameTask(cfg, "end", ([0.2, 0.0, 0.05], [1, 0, 0, 0]), rotation_axis=None)
+    pik_mj.solve(cfg, [[limit], [reach]], stop=40, revert_if_fail=False)
+    assert -0.3 - 1e-5 <= cfg.q[0] <= 0.3 + 1e-5
+    assert -0.3 - 1e-5 <= cfg.q[1] <= 0.5 + 1e-5
+    assert cfg.q[0] == pytest.approx(0.3, abs=1e-4)  # the limit is active
+    assert limit.is_satisfied(cfg)
+
+
+# --------------------------------------------------------------------------- velocity
+
+
+def test_joint_velocity_bounds_every_step(arm):
+    cfg = configured(arm, np.zeros(3))
+    vel = JointVelocityTask(cfg, ["joint0", "joint1", "joint2"], max_vel=[1.0, 2.0, 2.0])
+    rows = vel.compute_rows(cfg)
+    assert np.allclose(rows.d_upper, [0.05, 0.1, 0.1]) and np.allclose(rows.d_lower, -rows.d_upper)
+    reach = FrameTask(cfg, "end", ([0.15, 0.0, 0.1], [1, 0, 0, 0]), rotation_axis=None)
+    steps = []
+    q_prev = [cfg.q.copy()]
+
+    def record(info):
+        steps.append(np.abs(info.configuration.q - q_prev[0]))
+        q_prev[0] = info.configuration.q.copy()
+
+    pik_mj.solve(cfg, [[vel], [reach]], stop=60, callback=record, correct=False)
+    steps = np.array(steps)
+    assert np.all(steps <= np.array([0.05, 0.1, 0.1]) + 1e-6)
+    assert steps[:, 0].max() >= 0.05 - 1e-4  # the bound was active
+    assert reach.is_satisfied(cfg)
+
+
+# --------------------------------------------------------------------------- coupling
+
+
+def test_joint_coupling_fd_and_solve(humanoid):
+    q = random_posture(humanoid, 2)
+    cfg = configured(humanoid, q)
+    task = JointCouplingTask(cfg, "right_hip_y", "left_hip_y", ratio=0.5, offset=0.1)
+    e = task.compute_error(cfg)[0]
+    assert e == pytest.approx(
+        cfg.data.joint("left_hip_y").qpos[0] - (0.5 * cfg.data.joint("right_hip_y").qpos[0] + 0.1)
+    )
+    J_fd = fd_jacobian(humanoid, q, task.compute_error)
+    cfg.update(q)
+    assert np.max(np.abs(J_fd - task.compute_jacobian(cfg))) < TOL
+    value = JointCouplingTask(cfg, -0.4, "right_knee")
+    result = pik_mj.solve(
+        cfg, [[JointLimitTask.all_limited(cfg)], [task, value]], stop=20, revert_if_fail=False
+    )
+    assert result.converged
+    assert abs(task.compute_error(cfg)[0]) <= 1e-5
+    assert cfg.data.joint("right_knee").qpos[0] == pytest.approx(-0.4, abs=1e-5)
+
+
+# --------------------------------------------------------------------------- centroid
+
+AXES = [True, "x", "y", "z", "xy", "yz", "zx"]
+
+
+@pytest.mark.parametrize("axis", AXES)
+@pytest.mark.parametrize(
+    "frame", ["world", "rotation", "quaternion", "right_hand", "left_foot"], ids=str
+)
+def test_centroid_jacobian_fd_every_axis_and_frame(humanoid, axis, frame):
+    q = random_posture(humanoid, 3)
+    cfg = configured(humanoid, q)
+    rot = mink.SO3.from_rpy_radians(0.3, -0.5, 1.1)
+    option = {"rotation": rot.as_matrix(), "quaternion": rot.wxyz}.get(frame, frame)
+    task = CentroidTask(cfg, [0.3, -0.2, 0.5], translation_axis=axis, frame=option)
+    assert task.root_body_name == "torso"
+    J_fd = fd_jacobian(humanoid, q, task.compute_error)
+    cfg.update(q)
+    J = task.compute_jacobian(cfg)
+    assert J.shape == (3 - (0 if axis is True else len(axis)), humanoid.nv)
+    assert np.max(np.abs(J_fd - J)) < TOL
+
+
+@pytest.mark.parametrize("frame", ["world", "l3"])
+def test_centroid_jacobian_fd_on_the_fixed_arm(arm, frame):
+    q = np.array([0.4, -0.7, 1.1])
+    cfg = configured(arm, q)
+    task = CentroidTask(cfg, [0.0, 0.0, 0.1], translation_axis=True, frame=frame)
+    assert task.root_body_name == "l1"
+    J_fd = fd_jacobian(arm, q, task.compute_error)
+    cfg.update(q)
+    assert np.max(np.abs(J_fd - task.compute_jacobian(cfg))) < TOL
+
+
+def test_centroid_counts_only_the_robot_in_a_scene():
+    model = compose_scene("sample_humanoid", "room").compile()
+    cfg = configured(model, model.qpos0.copy())
+    task = CentroidTask(cfg, [0, 0, 0])
+    root = task.root_body
+    assert task.root_body_name == "pelvis"
+    robot = [b for b in range(model.nbody) if model.body_rootid[b] == root]
+    mass = model.body_mass[robot]
+    brute = (mass[:, None] * cfg.data.xipos[robot]).sum(axis=0) / mass.sum()
+    assert np.allclose(task.com(cfg), brute, atol=1e-12)
+    assert mass.sum() == pytest.approx(58.5, rel=1e-6)
+    # The world's subtree (kettle included) differs.
+    assert np.linalg.norm(cfg.data.subtree_com[0] - brute) > 1e-3
+
+
+def test_centroid_solve_matches_xy_leaves_z_free_and_clamps(arm):
+    cfg = configured(arm, np.array([0.2, 0.3, -0.2]))
+    c0 = CentroidTask(cfg, [0, 0, 0]).com(cfg)
+    target = c0 + np.array([0.02, 0.0, -5.0])  # z is free (default axis "z")
+    task = CentroidTask(cfg, target, p_limit=0.005)
+    rows = task.compute_rows(cfg)
+    assert rows.b.shape == (2,)
+    assert np.linalg.norm(rows.b) == pytest.approx(0.005)  # clamped from 0.02
+    result = pik_mj.solve(cfg, [[JointLimitTask.all_limited(cfg)], [task]], stop=50)
+    assert result.converged
+    c = task.com(cfg)
+    assert np.linalg.norm(c[:2] - target[:2]) <= 1e-3
+    assert abs(c[2] - target[2]) > 4.0
+
+
+def test_centroid_offset_is_added(arm):
+    cfg = configured(arm, np.zeros(3))
+    offset = np.array([0.01, -0.02, 0.03])
+    plain = CentroidTask(cfg, [0.1, 0.1, 0.1], translation_axis=True)
+    shifted = CentroidTask(cfg, [0.1, 0.1, 0.1], translation_axis=True, com_offset=lambda c: offset)
+    assert np.allclose(shifted.compute_error(cfg) - plain.compute_error(cfg), offset)
+    assert "CentroidTask" in repr(shifted)
+
+
+# ------------------------------------------------------------------------ virtual root
+
+
+def test_virtual_root_reaches_a_target_the_fixed_arm_cannot(arm):
+    target = np.array([0.5, 0.2, 0.1])
+
+    def levels(cfg):
+        reach = FrameTask(cfg, "end", (target, [1, 0, 0, 0]), rotation_axis=None)
+        return [[JointLimitTask.all_limited(cfg)], [reach]]
+
+    fixed = configured(arm, np.zeros(3))
+    assert not pik_mj.solve(fixed, levels(fixed), stop=50).converged
+    res = solve_with_virtual_root("three_dof_arm", None, levels, stop=50)
+    assert res.solve.converged
+    assert res.q.shape == (3,) and np.all(np.abs(res.q) <= arm.jnt_range[:, 1] + 1e-5)
+    # Independent check: the fixed model at res.q, moved rigidly by the displacement.
+    data = mujoco.MjData(arm)
+    data.qpos[:] = res.q
+    mujoco.mj_kinematics(arm, data)
+    p = res.displacement.apply(data.site("end").xpos)
+    assert np.linalg.norm(p - target) <= 1e-3
+    # l1 sits at the origin of the fixed model, so the base pose is the displacement.
+    assert np.allclose(res.base_pose.as_matrix(), res.displacement.as_matrix(), atol=1e-12)
+    assert np.linalg.norm(res.base_pose.translation()) > 0.1
+
+
+def test_virtual_root_wraps_a_jointed_top_body_and_maps_keyframes():
+    xml = """
+    <mujoco><worldbody>
+      <body name="other" pos="1 0 0"><joint name="ofree" type="free"/>
+        <geom size=".1"/></body>
+      <body name="base" pos="0 0 0.5">
+        <joint name="slide" type="slide" axis="1 0 0" range="-1 1"/>
+        <geom size=".1" mass="1"/>
+        <body name="l2" pos="0 0 .2"><joint name="h" axis="0 1 0"/>
+          <geom size=".05" mass="0.2"/><site name="tip"/></body></body>
+    </worldbody>
+    <keyframe><key name="k" qpos="1 0 0 1 0 0 0 0.3 0.2"/></keyframe></mujoco>"""
+    spec = mujoco.MjSpec.from_string(xml)
+    fixed = spec.compile()
+    model, info = with_virtual_root(spec, root_body="base")
+    assert info.wrapped and model.nq == fixed.nq + 7
+    q_fixed = fixed.key_qpos[0]
+    assert np.allclose(info.to_fixed(model.key_qpos[0]), q_fixed)
+    assert np.allclose(info.to_fixed(info.to_floating(q_fixed)), q_fixed)
+    # Undisplaced: every body where the fixed model puts it.
+    d_fixed, d_float = mujoco.MjData(fixed), mujoco.MjData(model)
+    d_fixed.qpos[:], d_float.qpos[:] = q_fixed, info.to_floating(q_fixed)
+    mujoco.mj_kinematics(fixed, d_fixed)
+    mujoco.mj_kinematics(model, d_float)
+    for body in ("other", "base", "l2"):
+        assert np.allclose(d_fixed.body(body).xpos, d_float.body(body).xpos)
+    # Moving the free joint moves the robot, not the other body.
+    base = np.r_[0.1, 0.2, 0.3, np.cos(0.2), 0, 0, np.sin(0.2)]
+    d_float.qpos[:] = info.to_floating(q_fixed, base)
+    mujoco.mj_kinematics(model, d_float)
+    X = info.displacement(d_float.qpos)
+    assert np.allclose(d_float.site("tip").xpos, X.apply(d_fixed.site("tip").xpos))
+    assert np.allclose(d_float.body("other").xpos, d_fixed.body("other").xpos)
+
+
+# -------------------------------------------------------------------------- bad input
+
+
+def test_bad_inputs_raise_clear_errors(arm, humanoid, ball_model):
+    cfg = configured(arm, np.zeros(3))
+    with pytest.raises(UnknownName, match="joint0"):
+        JointLimitTask(cfg, "nope")
+    with pytest.raises(InvalidInput, match="inverted"):
+        JointLimitTask(cfg, "joint0", min_angle=0.5, max_angle=0.1)
+    with pytest.raises(InvalidInput, match="NaN"):
+        JointLimitTask(cfg, "joint0", min_angle=np.nan, max_angle=0.1)
+    with pytest.raises(InvalidInput, match="one value per joint"):
+        JointLimitTask(cfg, ["joint0", "joint1"], min_angle=[0, 0, 0], max_angle=1.0)
+    with pytest.raises(InvalidInput, match="twice"):
+        JointLimitTask(cfg, ["joint0", "joint0"])
+    hcfg = configured(humanoid, humanoid.qpos0.copy())
+    with pytest.raises(InvalidInput, match="free joint"):
+        JointLimitTask(hcfg, "root")
+    bcfg = configured(ball_model, ball_model.qpos0.copy())
+    with pytest.raises(InvalidInput, match="cone"):
+        JointLimitTask(bcfg, "ball", min_angle=-0.2, max_angle=0.5)
+    with pytest.raises(InvalidInput, match="inverted"):
+        JointVelocityTask(cfg, "joint0", max_vel=-1.0)
+    with pytest.raises(InvalidInput, match="periodic_time"):
+        JointVelocityTask(cfg, "joint0", max_vel=1.0, periodic_time=0.0)
+    with pytest.raises(InvalidInput, match="degree of freedom"):
+        JointVelocityTask(cfg, "joint0", max_vel=[1.0, 2.0])
+    with pytest.raises(InvalidInput, match="both values"):
+        JointCouplingTask(cfg, 0.1, 0.2)
+    with pytest.raises(InvalidInput, match="ball"):
+        JointCouplingTask(bcfg, "ball", 0.0)
+    with pytest.raises(UnknownName, match="joint1"):
+        JointCouplingTask(cfg, "joint0", "jointX")
+    with pytest.raises(InvalidInput, match="finite"):
+        JointCouplingTask(cfg, "joint0", "joint1", ratio=np.inf)
+    with pytest.raises(InvalidInput, match="translation_axis"):
+        CentroidTask(cfg, [0, 0, 0], translation_axis="w")
+    with pytest.raises(InvalidInput, match="3 finite numbers"):
+        CentroidTask(cfg, [0, 0, np.nan])
+    with pytest.raises(InvalidInput, match="p_limit"):
+        CentroidTask(cfg, [0, 0, 0], p_limit=-1.0)
+    with pytest.raises(UnknownName, match="l1"):
+        CentroidTask(cfg, [0, 0, 0], root_body="torso")
+    with pytest.raises(InvalidInput, match="world body"):
+        robot_root_body(arm, "world")
+    with pytest.raises(InvalidInput, match="frame must be"):
+        CentroidTask(cfg, [0, 0, 0], frame=np.ones((3, 3)))
+    bad_offset = CentroidTask(cfg, [0, 0, 0], com_offset=lambda c: [1.0, 2.0])
+    with pytest.raises(InvalidInput, match="com_offset"):
+        bad_offset.compute_error(cfg)
+    with pytest.raises(InvalidInput, match="already has a free joint"):
+        with_virtual_root("dm_humanoid")
+    with pytest.raises(InvalidInput, match="MjSpec"):
+        with_virtual_root(arm)
+    with pytest.raises(InvalidInput, match="already a joint"):
+        with_virtual_root("three_dof_arm", joint_name="joint0")
+    _, info = with_virtual_root("three_dof_arm")
+    with pytest.raises(InvalidInput, match="nq"):
+        info.to_floating(np.zeros(4))
