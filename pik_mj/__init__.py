@@ -9,7 +9,9 @@ from .exceptions import (
     SimulationUnstable,
     UnknownName,
 )
+from .ik import fullbody_inverse_kinematics, inverse_kinematics
 from .qp import LevelProblem, OSQPBackend, make_backend
+from .robot import Robot
 from .solve import SolveResult, TaskReport, solve
 from .tasks import (
     AttachedContact,
@@ -50,6 +52,7 @@ __all__ = [
     "PikError",
     "QPFailure",
     "Regularization",
+    "Robot",
     "ScfrTask",
     "SimulationUnstable",
     "SolveResult",
@@ -58,6 +61,8 @@ __all__ = [
     "TaskReport",
     "TaskRows",
     "UnknownName",
+    "fullbody_inverse_kinematics",
+    "inverse_kinematics",
     "make_backend",
     "solve",
     "solve_cascade",

@@ -85,8 +85,6 @@ def _run(args: argparse.Namespace) -> int:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(result.to_dict(), indent=2))
         print(f"JSON summary: {path}")
-    if out is not None:
-        print(f"rerun recording: {out}  (view with: rerun {out})")
     return EXIT_PASSED if result.passed else EXIT_FAILED
 
 

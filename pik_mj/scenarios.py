@@ -146,7 +146,7 @@ class ScenarioResult:
                 lines.append(f"  {k} = {_short(v)}")
         lines += self.messages
         if self.recording:
-            lines.append(f"recording: {self.recording}")
+            lines.append(f"recording: {self.recording}  (view with: rerun {self.recording})")
         return "\n".join(lines)
 
 
