@@ -33,11 +33,13 @@ def satisfied(task, cfg) -> bool:
     return bool(np.linalg.norm(e[:3]) <= THRE and np.linalg.norm(e[3:]) <= RTHRE)
 
 
-def run_cascade(model, target, stop=50, callback=None):
+def run_cascade(model, target, stop=50, callback=None, qp_solver="osqp"):
     cfg = mink.Configuration(model)
     cfg.update(cases.stance(model))
     stack = cases.reach_stack(cfg, target)
-    result = pik_mj.solve(cfg, stack.levels, stop=stop, revert_if_fail=False, callback=callback)
+    result = pik_mj.solve(
+        cfg, stack.levels, stop=stop, revert_if_fail=False, callback=callback, qp_solver=qp_solver
+    )
     return result, stack, cfg
 
 
@@ -73,11 +75,13 @@ def main(argv=None) -> dict:
 
     c_ok, c_its, c_times = 0, [], []
     m_ok, m_its, m_times = 0, [], []
+    d_times: list[float] = []
     for target in targets:
         result, _, _ = run_cascade(model, target)
         c_ok += result.converged
         c_its.append(result.iterations)
         c_times += result.iteration_times
+        d_times += run_cascade(model, target, qp_solver="daqp")[0].iteration_times
         ok, its, times, _ = run_mink(model, target)
         m_ok += ok
         m_its.append(its)
@@ -104,6 +108,7 @@ def main(argv=None) -> dict:
     )
 
     c_ms, m_ms = 1e3 * np.median(c_times), 1e3 * np.median(m_times)
+    d_ms = 1e3 * np.median(d_times)
     figures = {
         "targets": len(targets),
         "cascade_success": c_ok / len(targets),
@@ -115,6 +120,8 @@ def main(argv=None) -> dict:
         "cascade_ms_per_iteration": c_ms,
         "mink_ms_per_iteration": m_ms,
         "ratio": c_ms / m_ms,
+        "cascade_daqp_ms_per_iteration": d_ms,
+        "ratio_daqp": d_ms / m_ms,
     }
     print(f"dm_control humanoid, {len(targets)} reachable targets, 1 mm / 1 deg, stop 50")
     print(f"{'':34}{'cascade':>12}{'mink':>12}{'ratio':>8}")
@@ -128,6 +135,7 @@ def main(argv=None) -> dict:
         f"{figures['mink_max_foot_drift_m']:>12.1e}"
     )
     print(f"{'median time per iteration [ms]':34}{c_ms:>12.3f}{m_ms:>12.3f}{c_ms / m_ms:>8.2f}")
+    print(f"{'  cascade with qp_solver=daqp':34}{d_ms:>12.3f}{m_ms:>12.3f}{d_ms / m_ms:>8.2f}")
     return figures
 
 

@@ -1,9 +1,13 @@
-"""irteus' classic IK vs pik_mj's cascade vs mink.solve_ik on 3-DoF arm targets.
+"""irteus' classic IK vs pik_mj's cascade vs mink.solve_ik, on 3-DoF arm and
+full-body targets.
 
-Targets are reachable by construction: the end pose of a random configuration
-inside the joint ranges (x, z and the pitch about y: the arm is planar). Every
-solver starts from the same configuration and stops at ``--stop`` iterations or
-when the tip is within 1 mm and 1 degree.
+Arm: targets are reachable by construction: the end pose of a random
+configuration inside the joint ranges (x, z and the pitch about y: the arm is
+planar). Full body: dm_control's humanoid with both feet and the right hand as
+targets (:mod:`pik_mj.cases`; the classic solver stacks all three in one
+SR-inverse, the cascade puts the feet above the hand, mink weighs them in one
+QP). Every solver starts from the same configuration and stops at ``--stop``
+iterations or when every target is within 1 mm and 1 degree.
 
     python benchmarks/bench_classic.py --n 100 --seed 0
 """
@@ -17,7 +21,7 @@ import time
 import mink
 import numpy as np
 
-from pik_mj import FrameTask, solve
+from pik_mj import FrameTask, cases, solve
 from pik_mj.classic_ik import classic_inverse_kinematics
 from pik_mj.models import load_model
 
@@ -92,6 +96,76 @@ def compare(n: int = 100, seed: int = 0, stop: int = 50, q_start=(0.3, 0.3, 0.3)
     return out
 
 
+def _fullbody_satisfied(stack, conf) -> bool:
+    return all(t.is_satisfied(conf) for t in [*stack.feet, stack.hand])
+
+
+def _fullbody_classic(conf, stack, stop):
+    r = classic_inverse_kinematics(conf, [*stack.feet, stack.hand], stop=stop)
+    return r.converged, r.iterations, float(np.sum(r.iteration_times))
+
+
+def _fullbody_pik(conf, stack, stop):
+    r = solve(conf, stack.levels, stop=stop)
+    return r.converged, r.iterations, float(np.sum(r.iteration_times))
+
+
+def _fullbody_mink(conf, stack, stop):
+    p_WT, R_WT = stack.hand.target_pose_now(conf)
+    target = mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(R_WT), p_WT)
+    tasks = cases.mink_reach_tasks(conf, target)
+    limits = [mink.ConfigurationLimit(conf.model)]
+    t0 = time.perf_counter()
+    for it in range(1, stop + 1):
+        v = mink.solve_ik(conf, tasks, 1.0, "daqp", damping=1e-6, limits=limits)
+        conf.integrate_inplace(v, 1.0)
+        if _fullbody_satisfied(stack, conf):
+            return True, it, time.perf_counter() - t0
+    return False, stop, time.perf_counter() - t0
+
+
+FULLBODY_SOLVERS = {
+    "classic (SR-inverse)": _fullbody_classic,
+    "pik_mj.solve": _fullbody_pik,
+    "mink.solve_ik": _fullbody_mink,
+}
+
+
+def compare_fullbody(n: int = 100, seed: int = 0, stop: int = 50) -> dict:
+    """The same figures on ``n`` reachable full-body targets (feet fixed, right hand)."""
+    model = cases.dm_humanoid()
+    conf = mink.Configuration(model)
+    targets = cases.reachable_hand_targets(model, n, seed=seed)
+    out = {}
+    for name, run in FULLBODY_SOLVERS.items():
+        ok, iters, secs = [], [], []
+        for target in targets:
+            conf.update(cases.stance(model))
+            stack = cases.reach_stack(conf, target)
+            c, i, t = run(conf, stack, stop)
+            ok.append(c)
+            iters.append(i)
+            secs.append(t)
+        ok_arr, iters_arr = np.array(ok), np.array(iters)
+        out[name] = {
+            "success_rate": float(ok_arr.mean()),
+            "mean_iterations_converged": float(iters_arr[ok_arr].mean()) if ok_arr.any() else None,
+            "ms_per_iteration": 1e3 * float(np.sum(secs) / max(iters_arr.sum(), 1)),
+        }
+    return out
+
+
+def _print(title: str, result: dict) -> None:
+    print(title)
+    for name, r in result.items():
+        iters = r["mean_iterations_converged"]
+        print(
+            f"  {name:<22} success {100 * r['success_rate']:5.1f} %   "
+            f"iterations {iters if iters is None else f'{iters:5.1f}'}   "
+            f"{r['ms_per_iteration']:.3f} ms/iteration"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=100)
@@ -100,18 +174,22 @@ def main() -> None:
     parser.add_argument("--start", type=float, nargs=3, default=(0.3, 0.3, 0.3))
     parser.add_argument("--json", action="store_true", help="print JSON")
     args = parser.parse_args()
-    result = compare(args.n, args.seed, args.stop, args.start)
+    result = {
+        "arm": compare(args.n, args.seed, args.stop, args.start),
+        "fullbody": compare_fullbody(args.n, args.seed, args.stop),
+    }
     if args.json:
         print(json.dumps(result, indent=2))
         return
-    print(f"{args.n} reachable 3-DoF arm targets, start q = {list(args.start)}, stop = {args.stop}")
-    for name, r in result.items():
-        iters = r["mean_iterations_converged"]
-        print(
-            f"  {name:<22} success {100 * r['success_rate']:5.1f} %   "
-            f"iterations {iters if iters is None else f'{iters:5.1f}'}   "
-            f"{r['ms_per_iteration']:.3f} ms/iteration"
-        )
+    _print(
+        f"{args.n} reachable 3-DoF arm targets, start q = {list(args.start)}, stop = {args.stop}",
+        result["arm"],
+    )
+    _print(
+        f"{args.n} reachable full-body targets (dm_control humanoid: feet + right hand), "
+        f"stop = {args.stop}",
+        result["fullbody"],
+    )
 
 
 if __name__ == "__main__":
