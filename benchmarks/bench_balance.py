@@ -81,7 +81,7 @@ def sample_targets(p_WP: np.ndarray, n: int, seed: int) -> np.ndarray:
     return rng.uniform(lo, hi, size=(n, 3))
 
 
-def solve_case(robot: Robot, target: np.ndarray, balanced: bool) -> tuple:
+def solve_case(robot: Robot, target: np.ndarray, balanced: bool, margin: float = MARGIN) -> tuple:
     """Reach ``target`` from ``reset_pose``; returns (result, IK wall time [s])."""
     robot.reset_pose()
     balance = []
@@ -91,7 +91,7 @@ def solve_case(robot: Robot, target: np.ndarray, balanced: bool) -> tuple:
                 robot.configuration,
                 sole_polygons(robot),
                 root_body=robot.root_body,
-                margin=MARGIN,
+                margin=margin,
             )
         ]
     t0 = time.perf_counter()
@@ -107,8 +107,15 @@ def solve_case(robot: Robot, target: np.ndarray, balanced: bool) -> tuple:
     return result, time.perf_counter() - t0
 
 
-def run_case(robot: Robot, scene: Scene, target: np.ndarray, balanced: bool, duration: float):
-    result, ik_time = solve_case(robot, target, balanced)
+def run_case(
+    robot: Robot,
+    scene: Scene,
+    target: np.ndarray,
+    balanced: bool,
+    duration: float,
+    margin: float = MARGIN,
+) -> Case:
+    result, ik_time = solve_case(robot, target, balanced, margin)
     limb = robot.limb(HAND)
     p_hand = robot.frame_pose(limb.end_frame, limb.end_frame_type).translation()
     hold = scene.hold(robot.configuration.q.copy(), duration)
@@ -134,6 +141,11 @@ def summarize(cases: list[Case]) -> dict:
         "drift_fail": sum(c.hold.drift >= MAX_DRIFT for c in cases) / n,
         "drift_fail_standing": sum(c.hold.drift >= MAX_DRIFT and not c.hold.fell for c in cases)
         / n,
+        "drift_fail_transient": sum(
+            c.hold.drift >= MAX_DRIFT and np.linalg.norm(c.hold.final_displacement) < MAX_DRIFT
+            for c in cases
+        )
+        / n,
         "slip_fail": sum(c.hold.slip >= MAX_SLIP for c in cases) / n,
         "unexpected_contact": sum(c.unexpected for c in cases) / n,
         "ik_converged": sum(c.converged for c in cases) / n,
@@ -152,6 +164,7 @@ ROWS = (
     ("  fell", "fell", "%"),
     ("  base drift >= 1 cm", "drift_fail", "%"),
     ("  ... of which did not fall", "drift_fail_standing", "%"),
+    ("  ... back within 1 cm at the end", "drift_fail_transient", "%"),
     ("  foot slip >= 2 mm", "slip_fail", "%"),
     ("  unexpected contact", "unexpected_contact", "%"),
     ("IK converged (1 mm)", "ik_converged", "%"),
@@ -192,6 +205,11 @@ def main(argv=None) -> dict:
     parser.add_argument("--n", type=int, default=100, help="number of targets")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--duration", type=float, default=3.0, help="hold duration [s]")
+    parser.add_argument(
+        "--margin", type=float, default=MARGIN, help="support-polygon margin [m] (diagnosis)"
+    )
+    parser.add_argument("--kp", type=float, default=None, help="servo kp (default: Scene's)")
+    parser.add_argument("--kv", type=float, default=None, help="servo kv (default: Scene's)")
     parser.add_argument("--quiet", action="store_true", help="no per-case failure listing")
     args = parser.parse_args(argv)
     if args.n < 1:
@@ -201,18 +219,22 @@ def main(argv=None) -> dict:
     robot.reset_pose()
     p_WP, _ = robot.root_pose()
     targets = sample_targets(p_WP, args.n, args.seed)
-    scene = Scene(MODEL)
+    gains = {k: v for k, v in (("kp", args.kp), ("kv", args.kv)) if v is not None}
+    scene = Scene(MODEL, **gains)
     cases = {
-        v: [run_case(robot, scene, t, v == "balanced", args.duration) for t in targets]
+        v: [run_case(robot, scene, t, v == "balanced", args.duration, args.margin) for t in targets]
         for v in VARIANTS
     }
     figures = {v: summarize(cases[v]) for v in VARIANTS}
     figures["targets"] = args.n
+    figures["margin_m"] = args.margin
 
     print(
         f"{MODEL}: {args.n} right-hand targets (seed {args.seed}), feet fixed, "
-        f"hold {args.duration:g} s; balanced = CoM in support polygon, margin {MARGIN} m"
+        f"hold {args.duration:g} s; balanced = CoM in support polygon, margin {args.margin} m"
     )
+    if gains:
+        print(f"servo gains changed for diagnosis: {gains}")
     print(f"{'':42}{'balanced':>13}{'unbalanced':>13}")
     for label, key, fmt in ROWS:
         print(f"{label:42}" + "".join(_cell(figures[v][key], fmt) for v in VARIANTS))

@@ -80,6 +80,8 @@ class EntityPaths:
         errors: Parent of task error series: ``errors/level_<k>/<task>``.
         events: Text log of the run.
         hold: Parent of physics-hold metrics: ``hold/<metric>`` (e.g. ``hold/drift``).
+        balance: Parent of per-iteration balance metrics of the simulated static
+            check: ``balance/<metric>`` (e.g. ``balance/margin``).
     """
 
     world: str = "world"
@@ -96,6 +98,7 @@ class EntityPaths:
     errors: str = "errors"
     events: str = "log/events"
     hold: str = "hold"
+    balance: str = "balance"
 
     def body(self, name: str, *, robot: bool = True) -> str:
         """Path of a body's frame ``X_WB`` (its geoms are children)."""
@@ -124,6 +127,10 @@ class EntityPaths:
     def hold_metric(self, name: str) -> str:
         """Path of a physics-hold metric series, e.g. ``hold/drift``."""
         return f"{self.hold}/{_part(name)}"
+
+    def balance_metric(self, name: str) -> str:
+        """Path of a per-iteration balance metric series, e.g. ``balance/margin``."""
+        return f"{self.balance}/{_part(name)}"
 
 
 #: The one entity-path table of pik_mj.
@@ -890,21 +897,34 @@ class Recorder:
             raise InvalidInput(f"text level must be one of {_TEXT_LEVELS}, got {level!r}")
         self._log(self.paths.events, rr.TextLog(str(message), level=level))
 
-    def send_blueprint(self, levels: Iterable[int]) -> None:
-        """Send :func:`blueprint` of ``levels`` with the stream (made active)."""
+    def send_blueprint(self, levels: Iterable[int], extra: Sequence[tuple[str, str]] = ()) -> None:
+        """Send :func:`blueprint` of ``levels`` (and ``extra`` series) with the stream
+        (made active)."""
         self._check_open()
-        self.stream.send_blueprint(blueprint(list(levels), self.paths))
+        self.stream.send_blueprint(blueprint(list(levels), self.paths, extra=extra))
 
 
-def blueprint(levels: Sequence[int], paths: EntityPaths = PATHS) -> rrb.Blueprint:
-    """Viewer layout: the 3D ``world`` view beside one time series per level."""
+def blueprint(
+    levels: Sequence[int],
+    paths: EntityPaths = PATHS,
+    *,
+    extra: Sequence[tuple[str, str]] = (),
+) -> rrb.Blueprint:
+    """Viewer layout: the 3D ``world`` view beside one time series per level.
+
+    Args:
+        levels: Priority levels whose error series get a view.
+        paths: Entity-path table.
+        extra: More time-series views ``(origin, name)`` below the level views
+            (e.g. ``(paths.balance, "balance")``).
+    """
     view3d = rrb.Spatial3DView(origin=paths.world, name="world")
-    if not levels:
-        return rrb.Blueprint(view3d)
     series = [
         rrb.TimeSeriesView(origin=paths.level_errors(k), name=f"level {int(k)} errors")
         for k in levels
-    ]
+    ] + [rrb.TimeSeriesView(origin=origin, name=name) for origin, name in extra]
+    if not series:
+        return rrb.Blueprint(view3d)
     return rrb.Blueprint(rrb.Horizontal(view3d, rrb.Vertical(*series), column_shares=[2, 1]))
 
 

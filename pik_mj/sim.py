@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike
 
 from pik_mj import balance
 from pik_mj.exceptions import InvalidInput, SimulationUnstable, UnknownName
+from pik_mj.frames import Frame
 from pik_mj.models import compose_scene, load_spec
 
 __all__ = [
@@ -975,6 +976,26 @@ class Scene:
                 self._check_state(before, t, messages)
 
     # -------------------------------------------------------------------- hold
+    def _external_wrench(self, frame: str, force: ArrayLike, moment: ArrayLike):
+        """A function writing ``(force at the frame origin, moment)`` to
+        ``xfrc_applied`` of the frame's body: torque about the body CoM
+        ``n + (p_WF - p_WCoM) × f``."""
+        f = np.asarray(force, dtype=float).reshape(-1)
+        n = np.asarray(moment, dtype=float).reshape(-1)
+        if f.shape != (3,) or n.shape != (3,) or not np.all(np.isfinite(np.r_[f, n])):
+            raise InvalidInput(
+                f"external wrench at {frame!r}: force and moment must be 3 finite numbers"
+            )
+        target = Frame.find(self.model, frame)
+        body = target.body_id
+
+        def apply(d: mujoco.MjData) -> None:
+            lever = target.position(d) - d.xipos[body]
+            d.xfrc_applied[body, :3] = f
+            d.xfrc_applied[body, 3:] = n + np.cross(lever, f)
+
+        return apply
+
     def hold(
         self,
         q_robot: ArrayLike,
@@ -990,6 +1011,8 @@ class Scene:
         allow_self_contact: bool = False,
         stop_on_fall: bool = True,
         max_ground_slope: float = math.pi / 4,
+        feet: Sequence[str] | None = None,
+        external: Sequence[tuple[str, ArrayLike, ArrayLike]] = (),
     ) -> HoldReport:
         """Hold ``q_robot`` with the servos and step the physics for ``duration``.
 
@@ -1003,7 +1026,8 @@ class Scene:
             \\text{slip} = \\max_{g,t} \\|(p_g(t) - p_g(t_g))_{xy}\\|
 
         where ``t_g`` is when geom ``g`` last came into contact. Verdict: drift <
-        ``max_drift``, slip < ``max_slip``, no fall (root height >= ``fall_ratio``
+        ``max_drift``, foot slip (``slip`` over the ``feet`` geoms) < ``max_slip``,
+        no fall (root height >= ``fall_ratio``
         of its start), no contact of a robot geom outside ``allowed`` with the
         environment and (unless ``allow_self_contact``) no self-contact.
 
@@ -1023,6 +1047,13 @@ class Scene:
             allow_self_contact: Do not count robot self-contacts as unexpected.
             stop_on_fall: End the simulation as soon as the robot fell.
             max_ground_slope: See :meth:`static_check`.
+            feet: Geoms whose slip is the verdict's foot slip (default: the allowed
+                geoms named ``*sole*`` or ``*foot*``, else all allowed geoms). A
+                hand on a wall or a handle still appears in ``slip_per_geom``.
+            external: Wrenches acting on the robot during the hold, as
+                ``(frame, force (3,) [N], moment (3,) [N·m])`` with the force applied
+                at the frame's origin (a site or body name of the scene), written
+                to ``xfrc_applied`` of the frame's body every step.
 
         Returns:
             A :class:`HoldReport`.
@@ -1038,6 +1069,10 @@ class Scene:
             raise InvalidInput(f"margin_every must be a positive integer, got {margin_every!r}")
         allowed_names = self.allowed_contacts if allowed is None else self._allowed(allowed)
         allowed_ids = {self.model.geom(n).id for n in allowed_names}
+        if feet is None:
+            feet = [n for n in allowed_names if "sole" in n or "foot" in n] or list(allowed_names)
+        foot_names = set(self._allowed(feet))
+        wrenches = [self._external_wrench(*w) for w in external]
         m, d = self.model, self.data
         mujoco.mj_resetData(m, d)
         self.set_pose(q_robot)
@@ -1062,6 +1097,8 @@ class Scene:
             for k in range(n_steps + 1):
                 if k > 0:
                     before, t = self._warning_counts(), float(d.time)
+                    for apply in wrenches:
+                        apply(d)
                     mujoco.mj_step(m, d)
                     self._check_state(before, t, messages)
                     steps += 1
@@ -1104,7 +1141,7 @@ class Scene:
                     if stop_on_fall:
                         break
         final = d.xpos[self._root_id] - p0
-        max_slip_seen = max(slip.values(), default=0.0)
+        max_slip_seen = max((v for n, v in slip.items() if n in foot_names), default=0.0)
         failures = []
         if drift >= max_drift:
             failures.append(f"base drift {drift * 1e3:.1f} mm >= {max_drift * 1e3:.1f} mm")

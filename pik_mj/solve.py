@@ -162,16 +162,6 @@ def _satisfaction(configuration: mink.Configuration, levels: list[list[Task]]) -
     return everything, prefix
 
 
-CORRECTION_STEP = 1e-3
-"""Largest step entry [m or rad] below which no correction runs: the drift a step
-causes in achieved tasks is second order, ~½‖x‖² × curvature (≈ 1/m for limbs of
-metre scale), so under 1e-3 it stays below ~1e-6 m."""
-
-
-def _needs_correction(x: np.ndarray) -> bool:
-    return bool(np.max(np.abs(x)) >= CORRECTION_STEP)
-
-
 def _level_rows(configuration: mink.Configuration, levels: list[list[Task]]) -> list[TaskRows]:
     nv = configuration.model.nv
     stacked = []
@@ -224,11 +214,10 @@ def solve(
             :class:`~pik_mj.qp.OSQPBackend` to successive solves (e.g. one per tick
             of a motion) reuses its OSQP workspaces: no ``setup()`` after the first.
         qp_args: Solver settings (seed ``qp-args``).
-        correct: After each step of at least :data:`CORRECTION_STEP`, re-linearize
-            and re-solve the leading levels that were satisfied before it (a Newton
-            projection), so that the second-order drift a step causes in tasks
-            already achieved (feet fixed while a hand reaches) is removed within
-            the same iteration.
+        correct: After each step, re-linearize and re-solve the leading levels
+            that were satisfied before it (a Newton projection), so that the
+            second-order drift a step causes in tasks already achieved (feet
+            fixed while a hand reaches) is removed within the same iteration.
         callback: Called after every iteration with an :class:`IterationInfo`.
 
     Returns:
@@ -276,7 +265,7 @@ def solve(
                 step = solve_cascade(rows[0], rows[1:], regs, backend, relaxation)
                 qp_time = time.perf_counter() - t1
                 configuration.integrate_inplace(step.x, 1.0)
-                if correct and 0 < prefix < n_solved and _needs_correction(step.x):
+                if correct and 0 < prefix < n_solved:
                     kept = _level_rows(configuration, task_levels[: prefix + 1])
                     t2 = time.perf_counter()
                     fix = solve_cascade(

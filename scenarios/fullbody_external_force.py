@@ -38,6 +38,7 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     forces = [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
 
     with ScenarioRecorder(out, robot, progress=progress, name="fullbody_external_force") as rec:
+        rec.hold_external(forces)  # the physics hold applies the same hand wrenches
         res = fullbody_inverse_kinematics(
             robot,
             [(p, np.array([1.0, 0.0, 0.0, 0.0])) for p in targets],

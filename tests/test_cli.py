@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -31,7 +32,8 @@ def test_run_writes_json_and_recording(tmp_path, capsys):
     d = json.loads(js.read_text())
     for key in ("converged", "iterations", "tasks", "timing", "figures", "balance", "solves"):
         assert key in d
-    assert d["balance"] is None  # hook: filled once pik_mj.sim validation is wired in
+    # The 3-DoF arm has no floating base: no simulation, no hold, no pose to validate.
+    assert d["balance"] is None and d["simulation"] is None and d["robot"] is None
     assert d["converged"] is False and d["passed"] is True  # main solve: the seed's failing case
     assert {"name", "level", "error", "satisfied"} <= set(d["tasks"][0])
     rec = read_recording(rrd)
@@ -45,8 +47,15 @@ def test_run_writes_json_and_recording(tmp_path, capsys):
 def test_run_default_is_fullbody_reach_into_out_dir(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert cli.main(["run", "--quiet"]) == 0
-    assert (tmp_path / "out" / "fullbody_reach.rrd").is_file()
-    assert "fullbody_reach: PASSED" in capsys.readouterr().out
+    rrd = Path("out") / "fullbody_reach.rrd"
+    assert (tmp_path / rrd).is_file()
+    out = capsys.readouterr().out
+    assert "fullbody_reach: PASSED" in out
+    # solved, validated in simulation (every iteration and a 3 s hold), recorded
+    assert "simulation, every iteration: 21/21 iterations in static equilibrium" in out
+    assert "[ok] simulation: final pose in static equilibrium and held 3 s in physics" in out
+    assert out.rstrip().splitlines()[-1].startswith(f"recording: {rrd}")
+    assert out.count(f"recording: {rrd}") == 1
 
 
 def test_run_with_model_option(tmp_path):
@@ -60,10 +69,18 @@ def test_run_with_model_option(tmp_path):
             "--json",
             str(tmp_path / "d.json"),
             "--quiet",
+            "--hold",
+            "0",
         ]
     )
     assert code == 0
-    assert json.loads((tmp_path / "d.json").read_text())["figures"]["model"] == "dm_humanoid"
+    d = json.loads((tmp_path / "d.json").read_text())
+    assert d["figures"]["model"] == "dm_humanoid"
+    assert d["balance"] is None  # --hold 0
+    # dm_control's humanoid starts 0.2145 m above its floor: the scene lowers it.
+    assert d["robot"]["model"] == "dm_humanoid"
+    assert d["robot"]["robot_pos"][2] == pytest.approx(-0.2145, abs=1e-3)
+    assert d["simulation"]["iterations_checked"] == d["timing"]["total_iterations"]
 
 
 def test_exit_codes_for_failing_and_bad_runs(tmp_path, monkeypatch, capsys):
@@ -78,6 +95,13 @@ def test_exit_codes_for_failing_and_bad_runs(tmp_path, monkeypatch, capsys):
     assert cli.main(["run", "no_such_scenario"]) == 2
     assert "Valid scenario names" in capsys.readouterr().err
     assert cli.main(["run", "kettle", "--model", "dm_humanoid", "--no-record"]) == 2
+    assert cli.main(["run", "kettle", "--hold", "-1", "--no-record"]) == 2
+    assert "--hold" in capsys.readouterr().err
+    assert cli.main(["validate", str(tmp_path / "missing.json")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    (tmp_path / "arm.json").write_text(json.dumps({"name": "three_dof_reach", "robot": None}))
+    assert cli.main(["validate", str(tmp_path / "arm.json")]) == 2
+    assert "holds no pose" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         cli.main(["frobnicate"])
 

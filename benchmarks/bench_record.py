@@ -1,0 +1,206 @@
+"""Overhead of per-iteration rerun recording on the full-body reach solve.
+
+The solve is ``scenarios/fullbody_reach.py``'s (sample humanoid, waist 10°, both
+feet fixed, centroid x-y over the feet, left hand to the seed's (0.4, 0.1, -0.6) m
+from the pelvis, position only, ``stop=100``). It is timed without a callback and
+with a callback that records, every iteration, what
+:class:`pik_mj.scenarios.ScenarioRecorder` records plus the task frames: all body
+poses, the CoM and its target, each task's error norm, and the hand's and feet's
+current and target frames — through :class:`pik_mj.record.Recorder` into a
+temporary ``.rrd``.
+
+Times are medians over ``--reps`` repetitions (alternating order, after one
+warm-up each):
+
+* ``plain``: the solve alone;
+* ``recorded``: the solve with the callback, plus the final flush and close (the
+  buffered rows are sent there);
+* ``setup``: opening the file and logging the model geometry (once per run).
+
+.. math::
+
+    \\text{overhead} = t_{recorded} / t_{plain} - 1
+
+Also printed: the time spent inside the callback (every task's error is
+recomputed there, as ScenarioRecorder does) and in the final flush/close.
+
+Run: ``python benchmarks/bench_record.py [--reps 20]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from pik_mj.frames import Frame
+from pik_mj.ik import fullbody_inverse_kinematics
+from pik_mj.record import Recorder
+from pik_mj.robot import Robot
+from pik_mj.solve import IterationInfo, SolveResult
+
+MODEL = "sample_humanoid"
+HAND = "larm"
+HAND_OFFSET = np.array([0.4, 0.1, -0.6])  # [m] from the pelvis (seed #f(400 100 -600) mm)
+FEET = ("rleg", "lleg")
+IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def start(robot: Robot) -> tuple[np.ndarray, np.ndarray]:
+    """Reset the robot to the scenario's start; returns (hand target, CoM target) [m]."""
+    robot.reset_pose()
+    robot.set_angle_vector([np.deg2rad(10.0)], ["torso_waist_p"])
+    feet = [robot.frame_pose(robot.limb(x).end_frame, robot.limb(x).end_frame_type) for x in FEET]
+    p_mid = 0.5 * (feet[0].translation() + feet[1].translation())
+    return robot.root_pose()[0] + HAND_OFFSET, p_mid
+
+
+def solve(robot: Robot, target: np.ndarray, p_mid: np.ndarray, callback=None) -> SolveResult:
+    return fullbody_inverse_kinematics(
+        robot,
+        [(target, IDENTITY)],
+        limbs=[HAND],
+        rotation_axis=[None],
+        target_centroid_pos=p_mid,
+        centroid_axes="z",
+        stop=100,
+        callback=callback,
+    )
+
+
+def recording_callback(
+    rec: Recorder, robot: Robot, hand_target: np.ndarray, com_target: np.ndarray
+) -> tuple[Callable[[IterationInfo], None], list[float]]:
+    """Per-iteration logging as ScenarioRecorder does, plus end frames and targets.
+
+    Returns the callback and a list that collects the time spent in it [s].
+    """
+    limbs = [robot.limb(x) for x in (HAND, *FEET)]
+    frames = [Frame.find(robot.model, x.end_frame, x.end_frame_type) for x in limbs]
+    data = robot.data
+    rec.log_frame(rec.paths.task_target(frames[0].name), hand_target, IDENTITY)
+    for f in frames[1:]:
+        rec.log_frame(rec.paths.task_target(f.name), f.position(data), _quat(f.rotation(data)))
+    current = [rec.paths.task_current(f.name) for f in frames]
+    spent: list[float] = []
+
+    def on_iteration(info: IterationInfo) -> None:
+        t0 = time.perf_counter()
+        rec.log_body_poses(data, time=info.iteration)
+        rec.log_com(robot.com(), target=com_target)
+        errors = {}
+        for k, level in enumerate(info.levels):
+            for task in level:
+                errors[(k, task.name)] = float(
+                    np.linalg.norm(task.compute_error(info.configuration))
+                )
+        rec.log_task_errors(errors)
+        for f, path in zip(frames, current, strict=True):
+            rec.log_frame(path, f.position(data), _quat(f.rotation(data)))
+        spent.append(time.perf_counter() - t0)
+
+    return on_iteration, spent
+
+
+def _quat(R_WF: np.ndarray) -> np.ndarray:
+    """Rotation matrix -> quaternion (w, x, y, z) (MuJoCo's ``mju_mat2Quat``)."""
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R_WF).reshape(9))
+    return q
+
+
+def time_plain(robot: Robot) -> tuple[float, SolveResult]:
+    target, p_mid = start(robot)
+    t0 = time.perf_counter()
+    result = solve(robot, target, p_mid)
+    return time.perf_counter() - t0, result
+
+
+def time_recorded(robot: Robot, path: Path) -> tuple[float, float, float, float, SolveResult]:
+    """Returns (setup, solve + flush/close, in the callback, flush/close) times [s], result."""
+    target, p_mid = start(robot)
+    t0 = time.perf_counter()
+    rec = Recorder.to_file(path, application_id="bench_record")
+    rec.log_model_geometry(robot.model, robot.data, robot_root_body=robot.root_body)
+    rec.set_time("iteration", 0)
+    callback, spent = recording_callback(rec, robot, target, p_mid)
+    t1 = time.perf_counter()
+    result = solve(robot, target, p_mid, callback)
+    t2 = time.perf_counter()
+    rec.close()
+    t3 = time.perf_counter()
+    return t1 - t0, t3 - t1, sum(spent), t3 - t2, result
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--reps", type=int, default=20, help="repetitions (median)")
+    args = parser.parse_args(argv)
+    if args.reps < 1:
+        parser.error("--reps must be >= 1")
+
+    robot = Robot.load(MODEL)
+    plain, recorded, setup, in_callback, closing = [], [], [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench_record.rrd"
+        _, ref = time_plain(robot)  # warm-up
+        time_recorded(robot, path)
+        for i in range(args.reps):
+            order = (0, 1) if i % 2 == 0 else (1, 0)
+            for which in order:
+                if which == 0:
+                    t, result = time_plain(robot)
+                    plain.append(t)
+                else:
+                    s, t, cb, close, result = time_recorded(robot, path)
+                    setup.append(s)
+                    recorded.append(t)
+                    in_callback.append(cb)
+                    closing.append(close)
+                if result.iterations != ref.iterations or result.converged != ref.converged:
+                    raise RuntimeError(
+                        f"the solve is not repeatable: {result.iterations} vs {ref.iterations}"
+                        " iterations"
+                    )
+        rrd_bytes = path.stat().st_size
+
+    t_plain, t_rec, t_setup, t_cb, t_close = (
+        float(np.median(x)) for x in (plain, recorded, setup, in_callback, closing)
+    )
+    figures = {
+        "reps": args.reps,
+        "iterations": ref.iterations,
+        "converged": ref.converged,
+        "plain_s": t_plain,
+        "recorded_s": t_rec,
+        "setup_s": t_setup,
+        "callback_s": t_cb,
+        "close_s": t_close,
+        "overhead": t_rec / t_plain - 1.0,
+        "overhead_in_callback": t_cb / t_plain,
+        "overhead_with_setup": (t_rec + t_setup) / t_plain - 1.0,
+        "rrd_bytes": rrd_bytes,
+    }
+    print(
+        f"{MODEL} full-body reach: {ref.iterations} iterations "
+        f"({'converged' if ref.converged else 'NOT converged'}), median of {args.reps}"
+    )
+    print(f"{'solve, unrecorded [ms]':40}{1e3 * t_plain:>10.2f}")
+    print(f"{'solve, recorded + flush/close [ms]':40}{1e3 * t_rec:>10.2f}")
+    print(f"{'recording overhead':40}{figures['overhead']:>10.1%}   (target <= 30%)")
+    print(f"{'  of which in the callback [ms]':40}{1e3 * t_cb:>10.2f}")
+    print(f"{'  of which flush + close [ms]':40}{1e3 * t_close:>10.2f}")
+    print(f"{'overhead of the callback alone':40}{figures['overhead_in_callback']:>10.1%}")
+    print(f"{'file + model geometry, once [ms]':40}{1e3 * t_setup:>10.2f}")
+    print(f"{'overhead including that':40}{figures['overhead_with_setup']:>10.1%}")
+    print(f"{'.rrd size [kB]':40}{rrd_bytes / 1e3:>10.1f}")
+    return figures
+
+
+if __name__ == "__main__":
+    main()

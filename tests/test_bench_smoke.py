@@ -1,0 +1,115 @@
+"""Smoke runs of the benchmarks with tiny sizes, so that they keep working.
+
+Each benchmark's ``main(argv)`` runs for real (IK, MuJoCo holds, rerun files) and
+returns its figures; the checks are on what those figures must satisfy whatever
+the machine's speed.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+
+
+def _load(name: str):
+    """Import ``benchmarks/<name>.py`` (not a package) under the name ``_bench_<name>``."""
+    key = f"_bench_{name}"
+    if key in sys.modules:
+        return sys.modules[key]
+    spec = importlib.util.spec_from_file_location(key, BENCHMARKS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[key] = module  # dataclasses resolve annotations through sys.modules
+    spec.loader.exec_module(module)
+    return module
+
+
+FRACTIONS = (
+    "pass",
+    "balance_pass",
+    "fell",
+    "drift_fail",
+    "drift_fail_standing",
+    "drift_fail_transient",
+    "slip_fail",
+    "unexpected_contact",
+    "ik_converged",
+)
+TIMES = ("median_ik_s", "max_ik_s", "median_hold_s", "max_hold_s")
+
+
+def test_bench_balance_small(capsys):
+    bench = _load("bench_balance")
+    n = 2
+    figures = bench.main(["--n", str(n), "--duration", "0.5", "--quiet"])
+    out = capsys.readouterr().out
+    assert "balanced" in out and "unbalanced" in out
+    assert figures["targets"] == n
+    for variant in ("balanced", "unbalanced"):
+        f = figures[variant]
+        for key in FRACTIONS:
+            assert 0.0 <= f[key] <= 1.0, (variant, key, f[key])
+            # a fraction of n cases
+            assert np.isclose(f[key] * n, round(f[key] * n)), (variant, key, f[key])
+        for key in TIMES:
+            assert f[key] > 0.0, (variant, key)
+        assert f["max_ik_s"] >= f["median_ik_s"]
+        assert f["max_hold_s"] >= f["median_hold_s"]
+        # a passing hold passes the balance criteria too; failures are subsets
+        assert f["pass"] <= f["balance_pass"]
+        assert f["drift_fail_standing"] <= f["drift_fail"]
+        assert f["drift_fail_transient"] <= f["drift_fail"]
+        assert f["median_drift_m"] >= 0.0
+    # the balanced stack keeps the CoM 2 cm inside the soles (level 1, 1 mm tolerance)
+    assert figures["balanced"]["min_static_margin_m"] >= bench.MARGIN - 1e-3
+
+
+def test_bench_balance_targets_in_the_box():
+    bench = _load("bench_balance")
+    p_WP = np.array([0.1, -0.2, 0.8])
+    t = bench.sample_targets(p_WP, 500, seed=3)
+    assert t.shape == (500, 3)
+    assert np.all(t[:, 0] >= p_WP[0] + 0.2) and np.all(t[:, 0] <= p_WP[0] + 0.7)
+    assert np.all(t[:, 1] >= p_WP[1] - 0.5) and np.all(t[:, 1] <= p_WP[1] + 0.2)
+    assert np.all(t[:, 2] >= 0.2) and np.all(t[:, 2] <= 1.3)
+    np.testing.assert_array_equal(t, bench.sample_targets(p_WP, 500, seed=3))
+
+
+def test_bench_record_small(capsys):
+    bench = _load("bench_record")
+    figures = bench.main(["--reps", "2"])
+    assert "recording overhead" in capsys.readouterr().out
+    assert figures["reps"] == 2
+    assert figures["converged"] is True
+    assert figures["iterations"] > 0
+    for key in ("plain_s", "recorded_s", "setup_s", "callback_s", "close_s"):
+        assert figures[key] > 0.0, key
+    assert figures["callback_s"] + figures["close_s"] <= figures["recorded_s"]
+    assert figures["overhead"] == pytest.approx(figures["recorded_s"] / figures["plain_s"] - 1)
+    assert figures["rrd_bytes"] > 10_000  # geometry + per-iteration rows were written
+
+
+def test_bench_record_rrd_holds_the_iterations(tmp_path):
+    """The callback logs one body-pose row and one error row per solver iteration."""
+    from pik_mj.record import PATHS, read_recording
+    from pik_mj.robot import Robot
+
+    bench = _load("bench_record")
+    robot = Robot.load(bench.MODEL)
+    path = tmp_path / "r.rrd"
+    _, _, _, _, result = bench.time_recorded(robot, path)
+    data = read_recording(path)
+    hand = robot.limb(bench.HAND).end_frame
+    err = data[PATHS.task_error(2, f"target:{hand}")]
+    (component,) = [c for c in err.temporal if "Scalar" in c]
+    times, values = err.series(component, "iteration")
+    np.testing.assert_array_equal(times, np.arange(1, result.iterations + 1))
+    # last logged hand error equals the solve's final report for that task
+    final = next(t for t in result.tasks if t.name == f"target:{hand}")
+    assert np.ravel(values[-1])[0] == pytest.approx(np.linalg.norm(final.error), rel=1e-9)
+    assert PATHS.task_current(hand) in data
