@@ -56,6 +56,7 @@ from pik_mj import balance
 from pik_mj.exceptions import InvalidInput, SimulationUnstable, UnknownName
 from pik_mj.frames import Frame
 from pik_mj.models import compose_scene, load_spec
+from pik_mj.tasks.frame import skew
 
 __all__ = [
     "ContactInfo",
@@ -482,6 +483,53 @@ def _names(model: mujoco.MjModel, obj: mujoco.mjtObj, count: int) -> list[str]:
 # ----------------------------------------------------------------------------
 
 
+def _least_norm_forces(
+    report: StaticReport,
+    mass: float,
+    gravity: np.ndarray,
+    external: Sequence[balance.ExternalWrench],
+) -> np.ndarray | None:
+    r"""Least-norm contact forces inside the friction pyramids that balance
+    gravity at the CoM and ``external`` (a QP, DAQP); None if there are none.
+
+    .. math::
+
+        \min \sum_i \|f_i\|^2 \;\text{s.t.}\; \sum_i [f_i; p_i \times f_i]
+        = -\Big[m g + \sum F_e;\; c \times m g + \sum (p_e \times F_e + M_e)\Big],
+        \quad |t_{k,i} \cdot f_i| \le \tfrac{\mu}{\sqrt 2}\, n_i \cdot f_i
+    """
+    import qpsolvers
+
+    contacts = report.environment_contacts
+    n = len(contacts)
+    A = np.zeros((6, 3 * n))
+    G = np.zeros((5 * n, 3 * n))
+    for i, c in enumerate(contacts):
+        cols = slice(3 * i, 3 * i + 3)
+        A[:3, cols] = np.eye(3)
+        A[3:, cols] = skew(c.position)
+        t1, t2, normal = balance.plane_basis(c.normal).T
+        mu = (report.mu if report.mu is not None else c.friction) / np.sqrt(2.0)
+        G[5 * i : 5 * i + 5, cols] = [
+            -normal,
+            t1 - mu * normal,
+            -t1 - mu * normal,
+            t2 - mu * normal,
+            -t2 - mu * normal,
+        ]
+    weight = mass * np.asarray(gravity, dtype=float)
+    b = -np.concatenate([weight, np.cross(report.com, weight)])
+    for w in external:
+        F, M = np.asarray(w.force, float), np.asarray(w.moment, float)
+        b -= np.concatenate([F, np.cross(np.asarray(w.p_W, float), F) + M])
+    # Forces in units of the weight keep the QP O(1).
+    scale = float(np.linalg.norm(weight)) or 1.0
+    f = qpsolvers.solve_qp(
+        np.eye(3 * n), np.zeros(3 * n), G, np.zeros(5 * n), A, b / scale, solver="daqp"
+    )
+    return None if f is None else scale * f.reshape(n, 3)
+
+
 class Scene:
     """A robot on a floor in an environment, with joint servos, for balance checks.
 
@@ -671,6 +719,9 @@ class Scene:
         self._src, self._dst = np.array(src, dtype=int), np.array(dst, dtype=int)
         servo_adr = [m.jnt_qposadr[m.joint(j).id] for j in self.servo_joints]
         self._servo_qadr = np.array(servo_adr, dtype=int)
+        self._servo_dofs = np.array(
+            [m.jnt_dofadr[m.joint(j).id] for j in self.servo_joints], dtype=int
+        )
         c, s = math.cos(self.robot_yaw), math.sin(self.robot_yaw)
         self._R_WR = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         self._quat_WR = np.array([math.cos(self.robot_yaw / 2), 0, 0, math.sin(self.robot_yaw / 2)])
@@ -976,6 +1027,59 @@ class Scene:
                 self._check_state(before, t, messages)
 
     # -------------------------------------------------------------------- hold
+    def holding_torques(
+        self, q_robot: ArrayLike, external: Sequence[tuple[str, ArrayLike, ArrayLike]] = ()
+    ) -> np.ndarray | None:
+        r"""Generalized forces that hold ``q_robot`` still against gravity, the
+        contact forces and the external wrenches:
+
+        .. math::
+
+            \tau = g(q) - \sum_i J_{p}(p_i)^T f_i - \sum_e J_e^T w_e
+
+        ``g`` comes from ``qfrc_bias`` at zero velocity; ``f_i`` are the
+        least-norm forces inside the friction pyramids that balance the robot at
+        the actual contacts ``p_i`` (the equilibrium LP's own forces are any
+        feasible point, often on a cone's edge, which would push the feet to
+        slip). The rows on the servo joints are the static feed-forward of a PD
+        hold with gravity compensation; the free-joint rows are ~0.
+
+        Returns:
+            ``(nv,)`` [N, N·m], or None when the pose has no static equilibrium.
+        """
+        m, d = self.model, self.data
+        self.set_pose(q_robot)
+        wrenches = [
+            balance.ExternalWrench(Frame.find(m, f).position(d), F, M) for f, F, M in external
+        ]
+        report = self.static_check(q_robot, external=wrenches)
+        if not report.feasible or report.forces is None:
+            return None
+        forces = _least_norm_forces(report, self.mass, m.opt.gravity, wrenches)
+        if forces is None:
+            return None
+        self.set_pose(q_robot)
+        tau = d.qfrc_bias.copy()
+        jacp = np.zeros((3, m.nv))
+        for c, f in zip(report.environment_contacts, forces, strict=True):
+            mujoco.mj_jac(
+                m, d, jacp, None, c.position, int(m.geom_bodyid[self._geom_id[c.robot_geom]])
+            )
+            tau -= jacp.T @ f
+        qfrc = np.zeros(m.nv)
+        for (frame, F, M), w in zip(external, wrenches, strict=True):
+            body = Frame.find(m, frame).body_id
+            mujoco.mj_applyFT(
+                m,
+                d,
+                np.asarray(F, float),
+                np.asarray(M, float),
+                np.asarray(w.p_W, float),
+                body,
+                qfrc,
+            )
+        return tau - qfrc
+
     def _external_wrench(self, frame: str, force: ArrayLike, moment: ArrayLike):
         """A function writing ``(force at the frame origin, moment)`` to
         ``xfrc_applied`` of the frame's body: torque about the body CoM
@@ -1013,6 +1117,7 @@ class Scene:
         max_ground_slope: float = math.pi / 4,
         feet: Sequence[str] | None = None,
         external: Sequence[tuple[str, ArrayLike, ArrayLike]] = (),
+        feedforward: bool = True,
     ) -> HoldReport:
         """Hold ``q_robot`` with the servos and step the physics for ``duration``.
 
@@ -1054,6 +1159,11 @@ class Scene:
                 ``(frame, force (3,) [N], moment (3,) [N·m])`` with the force applied
                 at the frame's origin (a site or body name of the scene), written
                 to ``xfrc_applied`` of the frame's body every step.
+            feedforward: Add :meth:`holding_torques` on the servo joints (PD with
+                gravity compensation): the hold then starts in equilibrium instead
+                of sagging onto its servos' error, which with the default gains
+                (damping ratio ~0.1) overshoots by 1-2 cm and can tip a pose with
+                a small margin. Nothing is added when the pose has no equilibrium.
 
         Returns:
             A :class:`HoldReport`.
@@ -1074,8 +1184,11 @@ class Scene:
         foot_names = set(self._allowed(feet))
         wrenches = [self._external_wrench(*w) for w in external]
         m, d = self.model, self.data
+        tau = self.holding_torques(q_robot, external) if feedforward else None
         mujoco.mj_resetData(m, d)
         self.set_pose(q_robot)
+        if tau is not None:
+            d.qfrc_applied[self._servo_dofs] = tau[self._servo_dofs]
         t_wall = time.perf_counter()
         n_steps = max(1, round(duration / m.opt.timestep))
         up = self._up()
