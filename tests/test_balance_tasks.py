@@ -15,6 +15,7 @@ import mink
 import mujoco
 import numpy as np
 import pytest
+from fd import fd_jacobian
 
 import pik_mj
 from pik_mj.balance import ContactConstraint, contact_from_normal, foot_contact, support_polygon
@@ -32,22 +33,6 @@ TOL = 1e-6
 # Sole rectangle of sample_humanoid (0.22 m x 0.12 m) in the sole site's frame.
 SOLE = np.array([[0.11, 0.06, 0.0], [-0.11, 0.06, 0.0], [-0.11, -0.06, 0.0], [0.11, -0.06, 0.0]])
 SOLE_CONTACT = ContactConstraint(np.zeros(3), np.eye(3), half_x=0.11, half_y=0.06, mu=10.0)
-
-
-def fd_jacobian(model: mujoco.MjModel, q: np.ndarray, f, eps: float = EPS) -> np.ndarray:
-    cfg = mink.Configuration(model)
-    cols = []
-    for i in range(model.nv):
-        values = []
-        for sign in (1.0, -1.0):
-            qq = q.copy()
-            v = np.zeros(model.nv)
-            v[i] = sign * eps
-            mujoco.mj_integratePos(model, qq, v, 1.0)
-            cfg.update(qq)
-            values.append(np.asarray(f(cfg), dtype=float))
-        cols.append((values[0] - values[1]) / (2 * eps))
-    return np.column_stack(cols)
 
 
 def random_posture(model: mujoco.MjModel, seed: int) -> np.ndarray:

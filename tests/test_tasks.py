@@ -11,6 +11,7 @@ import mink
 import mujoco
 import numpy as np
 import pytest
+from fd import fd_jacobian
 
 import pik_mj
 from pik_mj.exceptions import InvalidInput, UnknownName
@@ -40,23 +41,6 @@ BALL_XML = """
   </worldbody>
 </mujoco>
 """
-
-
-def fd_jacobian(model: mujoco.MjModel, q: np.ndarray, f, eps: float = EPS) -> np.ndarray:
-    """Central differences of ``f(configuration)`` along each tangent direction."""
-    cfg = mink.Configuration(model)
-    cols = []
-    for i in range(model.nv):
-        values = []
-        for sign in (1.0, -1.0):
-            qq = q.copy()
-            v = np.zeros(model.nv)
-            v[i] = sign * eps
-            mujoco.mj_integratePos(model, qq, v, 1.0)
-            cfg.update(qq)
-            values.append(np.asarray(f(cfg), dtype=float))
-        cols.append((values[0] - values[1]) / (2 * eps))
-    return np.column_stack(cols)
 
 
 def random_posture(model: mujoco.MjModel, seed: int) -> np.ndarray:
