@@ -77,23 +77,28 @@ def compare(n: int = 100, seed: int = 0, stop: int = 50, q_start=(0.3, 0.3, 0.3)
     for _ in range(n):
         conf.update(rng.uniform(lo, hi))
         targets.append(conf.get_transform_frame_to_world("end", "site"))
+    q0 = np.array(q_start, dtype=float)
     out = {}
     for name, run in SOLVERS.items():
-        ok, iters, secs = [], [], []
+        runs = []
         for target in targets:
-            conf.update(np.array(q_start, dtype=float))
-            c, i, t = run(conf, target, stop)
-            ok.append(c)
-            iters.append(i)
-            secs.append(t)
-        ok_arr = np.array(ok)
-        iters_arr = np.array(iters)
-        out[name] = {
-            "success_rate": float(ok_arr.mean()),
-            "mean_iterations_converged": float(iters_arr[ok_arr].mean()) if ok_arr.any() else None,
-            "ms_per_iteration": 1e3 * float(np.sum(secs) / max(iters_arr.sum(), 1)),
-        }
+            conf.update(q0)
+            runs.append(run(conf, target, stop))
+        out[name] = _tally(runs)
     return out
+
+
+def _tally(runs: list[tuple[bool, int, float]]) -> dict:
+    """Success rate, mean iterations of the converged runs and time per iteration
+    from ``(converged, iterations, seconds)`` per target."""
+    ok = np.array([r[0] for r in runs])
+    iters = np.array([r[1] for r in runs])
+    secs = sum(r[2] for r in runs)
+    return {
+        "success_rate": float(ok.mean()),
+        "mean_iterations_converged": float(iters[ok].mean()) if ok.any() else None,
+        "ms_per_iteration": 1e3 * float(secs / max(iters.sum(), 1)),
+    }
 
 
 def _fullbody_satisfied(stack, conf) -> bool:
@@ -136,22 +141,14 @@ def compare_fullbody(n: int = 100, seed: int = 0, stop: int = 50) -> dict:
     model = cases.dm_humanoid()
     conf = mink.Configuration(model)
     targets = cases.reachable_hand_targets(model, n, seed=seed)
+    stance = cases.stance(model)
     out = {}
     for name, run in FULLBODY_SOLVERS.items():
-        ok, iters, secs = [], [], []
+        runs = []
         for target in targets:
-            conf.update(cases.stance(model))
-            stack = cases.reach_stack(conf, target)
-            c, i, t = run(conf, stack, stop)
-            ok.append(c)
-            iters.append(i)
-            secs.append(t)
-        ok_arr, iters_arr = np.array(ok), np.array(iters)
-        out[name] = {
-            "success_rate": float(ok_arr.mean()),
-            "mean_iterations_converged": float(iters_arr[ok_arr].mean()) if ok_arr.any() else None,
-            "ms_per_iteration": 1e3 * float(np.sum(secs) / max(iters_arr.sum(), 1)),
-        }
+            conf.update(stance)
+            runs.append(run(conf, cases.reach_stack(conf, target), stop))
+        out[name] = _tally(runs)
     return out
 
 
