@@ -961,7 +961,8 @@ def read_recording(path: str | Path, *, blueprint: bool = False) -> dict[str, En
 
     Args:
         path: The ``.rrd`` file.
-        blueprint: Read the file's first blueprint store instead of its recording.
+        blueprint: Read the file's active blueprint (the last one sent) instead of
+            its recording.
     """
     import pyarrow as pa
     from rerun.chunk import RrdReader
@@ -975,7 +976,9 @@ def read_recording(path: str | Path, *, blueprint: bool = False) -> dict[str, En
         stores = reader.blueprints()
         if not stores:
             raise InvalidInput(f"recording {str(path)!r} holds no blueprint")
-        store = stores[0]
+        # each send_blueprint makes a store with a random id, listed in no set
+        # order: the viewer shows the last one sent, so take the newest
+        store = max(stores, key=lambda st: _newest_timestamp(reader, st))
     out: dict[str, EntityData] = {}
     for chunk in reader.stream(store=store).to_chunks():
         entity = out.setdefault(chunk.entity_path.lstrip("/"), EntityData())
@@ -1006,3 +1009,17 @@ def read_recording(path: str | Path, *, blueprint: bool = False) -> dict[str, En
                 if v is not None:
                     rows.append(({tl: index[tl][r] for tl in index}, v))
     return out
+
+
+def _newest_timestamp(reader: Any, store: Any) -> int:
+    """Latest timestamp index (ns) over ``store``'s chunks; blueprints are stamped
+    with the time they were sent."""
+    import pyarrow as pa
+
+    newest = -1
+    for chunk in reader.stream(store=store).to_chunks():
+        batch = chunk.to_record_batch()
+        for i, f in enumerate(batch.schema):
+            if pa.types.is_timestamp(f.type) and len(batch.column(i)):
+                newest = max(newest, int(max(batch.column(i).cast(pa.int64()).to_pylist())))
+    return newest

@@ -793,7 +793,9 @@ class ScenarioRecorder:
                         rec.log_polygon(v, path=rec.paths.scfr, color=(40, 200, 120))
         self._log_pose(com_target)
         rec.log_task_errors(errors)
-        levels = tuple(range(1, len(info.levels)))
+        # the blueprint covers every level seen so far: a later solve with fewer
+        # levels must not hide the plots of an earlier one
+        levels = tuple(range(1, max(len(info.levels), len(self._levels) + 1)))
         if levels != self._levels:
             self._levels = levels
             extra = [(rec.paths.balance, "balance (simulation)")] if self._simulate else []

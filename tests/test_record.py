@@ -478,6 +478,21 @@ def test_rrd_verify_and_blueprint(model, tmp_path):
     assert isinstance(blueprint([]), rr.blueprint.Blueprint)
 
 
+def test_blueprint_read_back_is_the_last_one_sent(tmp_path):
+    # every send_blueprint makes its own store, listed in no set order
+    path = tmp_path / "resent.rrd"
+    with Recorder.to_file(path) as rec:
+        for n in range(1, 6):
+            rec.send_blueprint(levels=range(1, n + 1))
+    bp = read_recording(path, blueprint=True)
+    origins = {
+        e.temporal["ViewBlueprint:space_origin"][-1][1][0]
+        for e in bp.values()
+        if "ViewBlueprint:space_origin" in e.temporal
+    }
+    assert origins == {"world"} | {f"errors/level_{k}" for k in range(1, 6)}
+
+
 def test_recording_is_valid_after_an_exception(model, tmp_path):
     path = tmp_path / "failed.rrd"
     with pytest.raises(RuntimeError, match="solver exploded"):
