@@ -34,10 +34,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from .exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
-from .qp import LevelProblem, QPBackend
+from .qp import LevelProblem, QPBackend, QPSolution
 from .tasks.task import TaskRows
 
 DEFAULT_RELAXATION = 1e-5
@@ -137,14 +138,18 @@ def build_level_problem(
     nv = rows.A.shape[1]
     s = rows.n_in
     n = nv + s
-    P = np.zeros((n, n))
+    M, lo, hi = constraint_rows
     WA = rows.A * rows.w_A[:, None]
+    if s == 0:  # equality rows only: no slack block
+        P = rows.A.T @ WA
+        P.flat[:: n + 1] += lam
+        return LevelProblem(level, P, -(WA.T @ rows.b), M, lo, hi, nv, role)
+    P = np.zeros((n, n))
     P[:nv, :nv] = rows.A.T @ WA
-    P[np.arange(nv), np.arange(nv)] += lam
-    P[np.arange(nv, n), np.arange(nv, n)] = rows.w_C
+    P.flat[: nv * (n + 1) : n + 1] += lam
+    P.flat[nv * (n + 1) :: n + 1] = rows.w_C
     q = np.zeros(n)
     q[:nv] = -(WA.T @ rows.b)
-    M, lo, hi = constraint_rows
     A = np.zeros((M.shape[0] + s, n))
     A[: M.shape[0], :nv] = M
     A[M.shape[0] :, :nv] = rows.C
@@ -152,6 +157,29 @@ def build_level_problem(
     l = np.concatenate([lo, rows.d_lower])
     u = np.concatenate([hi, rows.d_upper])
     return LevelProblem(level, P, q, A, l, u, nv, role)
+
+
+def unconstrained_optimum(problem: LevelProblem) -> QPSolution | None:
+    """The exact optimum of ``problem`` when no constraint is active, else None.
+
+    ``P`` is positive definite (``λ > 0`` on ``x``, slack weights ``> 0``), so
+    ``z = -P⁻¹ q`` (MuJoCo's dense Cholesky, ``mju_cholFactor``/``mju_cholSolve``)
+    is the unique minimizer of the objective; when it also
+    satisfies ``l <= A z <= u`` it is the QP's optimum (the active set is
+    empty). This is the common case of level 1, whose only constraints are
+    the hard rows (joint limits far from the step): one 27×27 solve instead of
+    an ADMM run.
+    """
+    n = problem.P.shape[0]
+    L = np.array(problem.P, dtype=float)  # factorized in place: P = L Lᵀ
+    if mujoco.mju_cholFactor(L, 0.0) < n:  # not positive definite
+        return None
+    z = np.empty(n)
+    mujoco.mju_cholSolve(z, L, -problem.q)
+    Az = problem.A @ z
+    if not (np.all(np.isfinite(z)) and np.all(problem.l <= Az) and np.all(Az <= problem.u)):
+        return None
+    return QPSolution(z, "unconstrained optimum (no active constraint)", True)
 
 
 def solve_cascade(
@@ -189,11 +217,17 @@ def solve_cascade(
     problems: list[LevelProblem] = []
     violations: list[float] = []
     x = np.zeros(nv)
+    n_levels = len(levels)
     for k, (rows, reg) in enumerate(zip(levels, regularization, strict=True), start=1):
         e_k = rows.squared_error()
         lam = reg.weight(e_k) + rows.damping
         problem = build_level_problem(k, rows, (M, lo, hi), lam, role)
-        solution = backend.solve(problem)
+        solution = None
+        if M.shape[0] == n_hard:  # no kept rows yet: the free optimum may be feasible
+            solution = unconstrained_optimum(problem)
+        exact = solution is not None  # feasible by the check: no violation
+        if solution is None:
+            solution = backend.solve(problem)
         if not solution.ok or solution.z is None:
             if k == 1 and "infeasible" in solution.status.lower():
                 raise InfeasibleHardConstraints(
@@ -207,10 +241,13 @@ def solve_cascade(
         problems.append(problem)
         # x met every constraint only to within v: rows kept from higher levels
         # must tolerate that much too, or hard rows and kept rows could conflict.
-        violation = problem.max_violation(solution.z)
+        violation = 0.0 if exact else problem.max_violation(solution.z)
         violations.append(violation)
+        if k == n_levels:  # nothing below to keep these rows for
+            break
         if violation > 0 and M.shape[0] > n_hard:
             widen = violation * np.abs(M[n_hard:]).sum(axis=1)
+            lo, hi = lo.copy(), hi.copy()  # earlier problems hold the old bounds
             lo[n_hard:] -= widen
             hi[n_hard:] += widen
         M_k, lo_k, hi_k = _bounds_kept(rows, x, relaxation, violation)

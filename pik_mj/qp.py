@@ -106,16 +106,19 @@ class _Pattern:
     """A fixed CSC sparsity pattern taken from a dense matrix's nonzeros.
 
     ``data(M)`` extracts ``M``'s values in CSC order; ``covers(M)`` tells whether
-    every nonzero of ``M`` lies inside the pattern (else the pattern must grow
-    and the solver must be set up again).
+    every nonzero of ``M`` (within ``region`` if given) lies inside the pattern
+    (else the pattern must grow and the solver must be set up again). With the
+    upper triangle as region, the full symmetric ``P`` is read directly.
     """
 
-    def __init__(self, mask: np.ndarray):
+    def __init__(self, mask: np.ndarray, region: np.ndarray | None = None):
         self.mask = mask
         cols, rows = np.nonzero(mask.T)  # column-major order = CSC order
         self.rows, self.cols = rows, cols
         self.flat = rows * mask.shape[1] + cols
-        self.outside = np.flatnonzero(~mask)
+        # entries of the matrices handed in that must be zero: outside the
+        # pattern, within ``region`` (the upper triangle for OSQP's P)
+        self.outside = np.flatnonzero(~mask if region is None else region & ~mask)
         self.indptr = np.concatenate([[0], np.cumsum(mask.sum(axis=0))]).astype(np.int64)
 
     def data(self, M: np.ndarray) -> np.ndarray:
@@ -165,16 +168,16 @@ class OSQPBackend:
         self.settings = {**OSQP_DEFAULTS, **self.settings}
 
     def solve(self, problem: LevelProblem) -> QPSolution:
-        P_upper = np.triu(problem.P)
+        P = problem.P
         cached = self._levels.get((problem.role, problem.level))
         shape = problem.A.shape
         if (
             cached is None
-            or cached.shape != shape
-            or not cached.P_pattern.covers(P_upper)
+            or cached.shape != shape  # (m, n): P is (n, n)
+            or not cached.P_pattern.covers(P)
             or not cached.A_pattern.covers(problem.A)
         ):
-            cached = self._setup(problem, P_upper, cached)
+            cached = self._setup(problem, cached)
         else:
             # The extension's own update/solve: osqp's Python wrapper spends ~4x
             # the C solve time per call on bookkeeping for derivatives.
@@ -185,7 +188,7 @@ class OSQPBackend:
                 u=np.minimum(problem.u, _OSQP_INFTY),
             )
             ext.update_data_mat(
-                P_x=cached.P_pattern.data(P_upper),
+                P_x=cached.P_pattern.data(P),
                 P_i=None,
                 A_x=cached.A_pattern.data(problem.A),
                 A_i=None,
@@ -202,25 +205,30 @@ class OSQPBackend:
                 return QPSolution(rescue.z, f"{self.fallback} after OSQP {info.status}", True)
         return QPSolution(None, info.status, False)
 
-    def _setup(
-        self, problem: LevelProblem, P_upper: np.ndarray, old: _OSQPLevel | None
-    ) -> _OSQPLevel:
-        P_mask = P_upper != 0
+    def _setup(self, problem: LevelProblem, old: _OSQPLevel | None) -> _OSQPLevel:
+        # The pattern is the nonzeros as they are, although a posture's
+        # coincidental zeros (an aligned root) cost one more setup() when they
+        # fill in: densifying Jacobian rows up front was measured slower, as
+        # every later update refactorizes a denser KKT system.
+        upper = np.triu(np.ones(problem.P.shape, dtype=bool))
+        P_mask = (problem.P != 0) & upper
         P_mask[np.diag_indices_from(P_mask)] = True
         A_mask = problem.A != 0
         if old is not None and old.shape == problem.A.shape:  # grow, never shrink
             P_mask |= old.P_pattern.mask
             A_mask |= old.A_pattern.mask
-        P_pattern, A_pattern = _Pattern(P_mask), _Pattern(A_mask)
+        P_pattern, A_pattern = _Pattern(P_mask, upper), _Pattern(A_mask)
         settings = dict(self.settings)
         if problem.role == "correction":
             # The correction ends on a level whose null space only the
             # regularization fixes: warm-started from an earlier solution, ADMM
             # would stop with that solution's null-space motion in it.
             settings["warm_starting"] = False
-        solver = osqp.OSQP()
+        # naming the algebra spares OSQP() probing for its optional CUDA/MKL
+        # modules by import on every construction (~0.3 ms)
+        solver = osqp.OSQP(algebra="builtin")
         solver.setup(
-            P_pattern.csc(P_upper),
+            P_pattern.csc(problem.P),
             problem.q,
             A_pattern.csc(problem.A),
             problem.l,

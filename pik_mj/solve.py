@@ -44,13 +44,24 @@ class TaskReport:
 
 @dataclass
 class IterationInfo:
-    """What the per-iteration callback receives (after the step was applied)."""
+    """What the per-iteration callback receives (after the step was applied).
+
+    Attributes:
+        iteration: 1-based iteration count.
+        configuration: The configuration after the step.
+        levels: The tasks, level 0 first.
+        step: The cascade's step (None for solvers without one).
+        elapsed: Wall time of the iteration [s].
+        tasks: Every task's error and stop test at ``configuration``, as the
+            loop evaluated them (read these rather than evaluating again).
+    """
 
     iteration: int
     configuration: mink.Configuration
     levels: list[list[Task]]
-    step: CascadeStep
+    step: CascadeStep | None
     elapsed: float
+    tasks: list[TaskReport] = field(default_factory=list)
 
 
 @dataclass
@@ -136,23 +147,42 @@ def normalize_levels(levels: Sequence[Sequence[object]], dt: float) -> list[list
 
 def task_reports(configuration: mink.Configuration, levels: list[list[Task]]) -> list[TaskReport]:
     """Error and satisfaction of every task at the current configuration."""
-    reports = []
+    return evaluate_levels(configuration, levels, validate=False)[1]
+
+
+def evaluate_levels(
+    configuration: mink.Configuration, levels: list[list[Task]], validate: bool = True
+) -> tuple[list[TaskRows], list[TaskReport]]:
+    """Every task's rows (stacked per level) and report at ``configuration``.
+
+    One :meth:`Task.evaluate` per task: the rows of the next cascade step and
+    the stop test of the one just taken come from the same evaluation.
+    """
+    nv = configuration.model.nv
+    stacked: list[TaskRows] = []
+    reports: list[TaskReport] = []
     for k, level in enumerate(levels):
+        rows = []
         for task in level:
-            error = float(np.linalg.norm(task.compute_error(configuration)))
-            reports.append(
-                TaskReport(task.name, k, error, task.is_satisfied(configuration), task.check)
-            )
-    return reports
+            state = task.evaluate(configuration)
+            if validate:
+                state.rows.validate(nv, task.name)
+            rows.append(state.rows)
+            reports.append(TaskReport(task.name, k, state.error, state.satisfied, task.check))
+        stacked.append(TaskRows.stack(rows, nv))
+    return stacked, reports
 
 
-def _satisfaction(configuration: mink.Configuration, levels: list[list[Task]]) -> tuple[bool, int]:
+def _satisfaction(reports: list[TaskReport], n_levels: int) -> tuple[bool, int]:
     """``(all checked tasks satisfied, number of leading solved levels satisfied)``.
 
     A level counts towards the prefix when it has a checked task and all its
     checked tasks hold; level 0 (hard) does not count.
     """
-    per_level = [[t.is_satisfied(configuration) for t in level if t.check] for level in levels]
+    per_level: list[list[bool]] = [[] for _ in range(n_levels)]
+    for r in reports:
+        if r.checked:
+            per_level[r.level].append(r.satisfied)
     everything = all(all(s) for s in per_level)
     prefix = 0
     for s in per_level[1:]:
@@ -160,19 +190,6 @@ def _satisfaction(configuration: mink.Configuration, levels: list[list[Task]]) -
             break
         prefix += 1
     return everything, prefix
-
-
-def _level_rows(configuration: mink.Configuration, levels: list[list[Task]]) -> list[TaskRows]:
-    nv = configuration.model.nv
-    stacked = []
-    for level in levels:
-        rows = []
-        for task in level:
-            r = task.compute_rows(configuration)
-            r.validate(nv, task.name)
-            rows.append(r)
-        stacked.append(TaskRows.stack(rows, nv))
-    return stacked
 
 
 def solve(
@@ -256,17 +273,16 @@ def solve(
     converged = False
     iteration = 0
     try:
-        _, prefix = _satisfaction(configuration, task_levels)
+        rows, reports = evaluate_levels(configuration, task_levels)
+        _, prefix = _satisfaction(reports, len(task_levels))
         while iteration < stop:
             t0 = time.perf_counter()
-            rows = _level_rows(configuration, task_levels)
-            t1 = time.perf_counter()
             try:
                 step = solve_cascade(rows[0], rows[1:], regs, backend, relaxation)
-                qp_time = time.perf_counter() - t1
+                qp_time = time.perf_counter() - t0
                 configuration.integrate_inplace(step.x, 1.0)
                 if correct and 0 < prefix < n_solved:
-                    kept = _level_rows(configuration, task_levels[: prefix + 1])
+                    kept, _ = evaluate_levels(configuration, task_levels[: prefix + 1])
                     t2 = time.perf_counter()
                     fix = solve_cascade(
                         kept[0], kept[1:], regs[:prefix], backend, relaxation, "correction"
@@ -277,23 +293,27 @@ def solve(
                 if not revert_if_fail:
                     raise
                 failure = str(exc)
+                # the step may have moved the robot since the last evaluation
+                rows, reports = evaluate_levels(configuration, task_levels)
                 break
             iteration += 1
             history.append(step.level_errors)
-            everything, prefix = _satisfaction(configuration, task_levels)
+            # the stop test's evaluation is also the next iteration's linearization
+            rows, reports = evaluate_levels(configuration, task_levels)
+            everything, prefix = _satisfaction(reports, len(task_levels))
             converged = iteration >= min_loop and everything
             qp_times.append(qp_time)
             times.append(time.perf_counter() - t0)
             if callback is not None:
-                callback(IterationInfo(iteration, configuration, task_levels, step, times[-1]))
+                callback(
+                    IterationInfo(iteration, configuration, task_levels, step, times[-1], reports)
+                )
             if converged:
                 break
     except BaseException:
         configuration.update(q0)
         raise
-    final_rows = _level_rows(configuration, task_levels)
-    level_errors = [r.squared_error() for r in final_rows[1:]]
-    reports = task_reports(configuration, task_levels)
+    level_errors = [r.squared_error() for r in rows[1:]]
     reverted = False
     if not converged and revert_if_fail:
         configuration.update(q0)

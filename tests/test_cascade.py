@@ -281,10 +281,49 @@ def test_failed_level_carries_level_and_problem():
             return QPSolution(None, "max iterations", False)
 
     levels = [TaskRows.equality(np.eye(NV), np.ones(NV))] * 2
+    # the hard row x_0 <= 0 is active, so level 1 needs the backend
+    hard = TaskRows.inequality(np.eye(NV)[:1], -np.inf, 0.0)
     with pytest.raises(QPFailure) as info:
-        solve_cascade(TaskRows.empty(NV), levels, [Regularization()] * 2, Failing())
+        solve_cascade(hard, levels, [Regularization()] * 2, Failing())
     assert info.value.level == 1
     assert info.value.problem.P.shape == (NV, NV)
+
+
+def test_level_without_active_constraint_is_solved_in_closed_form():
+    """Level 1 with inactive hard rows never reaches the backend, and its closed
+    form ``-P⁻¹q`` is the backend's optimum; an active hard row sends it there."""
+
+    class Counting:
+        def __init__(self):
+            self.levels, self.inner = [], OSQPBackend(dict(TIGHT.settings))
+
+        def solve(self, problem):
+            self.levels.append(problem.level)
+            return self.inner.solve(problem)
+
+    rng = np.random.default_rng(3)
+    A1 = rng.normal(size=(3, NV))
+    levels = [
+        TaskRows.equality(A1, 0.01 * rng.normal(size=3)),
+        TaskRows.equality(np.eye(NV), np.zeros(NV), 0.1),
+    ]
+    regs = [Regularization()] * 2
+    loose = TaskRows.inequality(np.eye(NV), -1.0, 1.0)  # |x_i| <= 1: inactive
+    backend = Counting()
+    step = solve_cascade(loose, levels, regs, backend)
+    assert backend.levels == [2]
+    reference = QpsolversBackend("daqp").solve(step.problems[0])  # exact active set
+    np.testing.assert_allclose(step.level_x[0], reference.z[:NV], atol=1e-10)
+    assert step.violations[0] == 0.0
+
+    x_free = step.level_x[0]
+    i = int(np.argmax(np.abs(x_free)))
+    bound = 0.5 * abs(x_free[i])
+    tight = TaskRows.inequality(np.eye(NV)[i : i + 1], -bound, bound)
+    backend = Counting()
+    step = solve_cascade(tight, levels, regs, backend)
+    assert backend.levels == [1, 2]
+    assert abs(step.level_x[0][i]) <= bound + 1e-6
 
 
 def test_tight_osqp_rarely_needs_the_fallback():

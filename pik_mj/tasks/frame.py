@@ -29,15 +29,17 @@ Each iteration asks ``J x = -clamp(e)``, the translation clamped to norm
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 import mink
+import mujoco
 import numpy as np
 
 from ..exceptions import InvalidInput
 from ..frames import Frame
-from .task import Task, TaskRows, diagonal_weights
+from .task import Task, TaskRows, TaskState, diagonal_weights
 
 AxisSpec = bool | str | None
 
@@ -67,7 +69,21 @@ def constrained_axes(spec: AxisSpec, what: str) -> np.ndarray:
 
 def skew(v: np.ndarray) -> np.ndarray:
     """``[v]×`` such that ``[v]× w = v × w``."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    x, y, z = float(v[0]), float(v[1]), float(v[2])
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def rotation_vector(R: np.ndarray) -> np.ndarray:
+    """``log(R)`` as a rotation vector ``θ u`` [rad], ``θ ∈ [0, π]``.
+
+    MuJoCo's ``mju_mat2Quat`` then ``mju_quat2Vel`` (unit time step), which
+    picks the shorter of the two rotations a quaternion's sign leaves open.
+    """
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(R, dtype=float).reshape(9))
+    e = np.empty(3)
+    mujoco.mju_quat2Vel(e, quat, 1.0)
+    return e
 
 
 def ljacinv(e: np.ndarray) -> np.ndarray:
@@ -83,13 +99,24 @@ def ljacinv(e: np.ndarray) -> np.ndarray:
     and costs ~0.3 ms a call); below 1e-6 rad the series
     ``I - ½[e]× + [e]×²/12`` is exact to double precision.
     """
-    theta = float(np.linalg.norm(e))
-    E = skew(e)
+    x, y, z = float(e[0]), float(e[1]), float(e[2])
+    theta2 = x * x + y * y + z * z
+    theta = math.sqrt(theta2)
     if theta < 1e-6:
-        coeff = 1.0 / 12.0
+        c = 1.0 / 12.0
     else:
-        coeff = 1.0 / theta**2 - (1.0 + np.cos(theta)) / (2.0 * theta * np.sin(theta))
-    return np.eye(3) - 0.5 * E + coeff * (E @ E)
+        c = 1.0 / theta2 - (1.0 + math.cos(theta)) / (2.0 * theta * math.sin(theta))
+    # written out with [e]×² = e eᵀ - θ² I: 3x3 numpy temporaries cost more
+    # than the arithmetic
+    a = 1.0 - c * theta2
+    cxy, cxz, cyz = c * x * y, c * x * z, c * y * z
+    return np.array(
+        [
+            [a + c * x * x, cxy + 0.5 * z, cxz - 0.5 * y],
+            [cxy - 0.5 * z, a + c * y * y, cyz + 0.5 * x],
+            [cxz + 0.5 * y, cyz - 0.5 * x, a + c * z * z],
+        ]
+    )
 
 
 def as_pose(value: Any, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
@@ -120,11 +147,6 @@ def as_pose(value: Any, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
     if not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
         raise InvalidInput(f"{what}: rotation is not orthonormal")
     return p, R
-
-
-def _clamp(v: np.ndarray, limit: float) -> np.ndarray:
-    n = float(np.linalg.norm(v))
-    return v if n <= limit else v * (limit / n)
 
 
 class FrameTask(Task):
@@ -199,6 +221,13 @@ class FrameTask(Task):
             raise InvalidInput("thre and rthre must be >= 0")
         self.check = check
         self.name = name or f"frame:{move_target}"
+        self._weights = np.concatenate([self.w_trans[self.trans_rows], self.w_rot[self.rot_rows]])
+        self._rows = np.concatenate([self.trans_rows, 3 + self.rot_rows])
+        self._empty = np.zeros(0)
+        self._both_local = all(
+            isinstance(f, str) and f == "local"
+            for f in (self.translation_frame, self.rotation_frame)
+        )
 
     # -- configuration ------------------------------------------------------
     def set_target(self, target: Any, target_type: str | None = None, model=None) -> None:
@@ -243,54 +272,100 @@ class FrameTask(Task):
         return option
 
     def _errors_world(self, configuration: mink.Configuration):
+        """``(e_tW, e_rW, R_WM, R_e)``: world-frame errors [m, rad] and rotations."""
         data = configuration.data
         p_WM, R_WM = self.move_target.position(data), self.move_target.rotation(data)
         p_WT, R_WT = self.target_pose_now(configuration)
         R_e = R_WM @ R_WT.T
-        return p_WM - p_WT, mink.SO3.from_matrix(R_e).log(), R_WM, R_e
+        return p_WM - p_WT, rotation_vector(R_e), R_WM, R_e
+
+    def _in_frames(self, e_tW: np.ndarray, e_rW: np.ndarray, R_WM: np.ndarray) -> np.ndarray:
+        """``[e_t; e_r]`` (6,) in the translation and rotation frames, all axes."""
+        e = np.empty(6)
+        e[:3] = self._R_WF(self.translation_frame, R_WM).T @ e_tW
+        e[3:] = self._R_WF(self.rotation_frame, R_WM).T @ e_rW
+        return e
 
     def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
         """Selected ``[e_t; e_r]`` in their frames [m, rad], unclamped."""
         e_tW, e_rW, R_WM, _ = self._errors_world(configuration)
-        e_t = self._R_WF(self.translation_frame, R_WM).T @ e_tW
-        e_r = self._R_WF(self.rotation_frame, R_WM).T @ e_rW
-        return np.concatenate([e_t[self.trans_rows], e_r[self.rot_rows]])
+        return self._in_frames(e_tW, e_rW, R_WM)[self._rows]
 
     def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
         """``d e / d q`` in the tangent space, shape (rows, nv)."""
         return self._error_and_jacobian(configuration)[1]
 
     def _error_and_jacobian(self, configuration: mink.Configuration):
+        """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
         data = configuration.data
         e_tW, e_rW, R_WM, R_e = self._errors_world(configuration)
         Jp_M, Jr_M = self.move_target.jacobians(data)
+        nv = Jp_M.shape[1]
+        J = np.empty((2, 3, nv))  # [translation; rotation] blocks
         if self.target_frame is not None:
             Jp_T, Jr_T = self.target_frame.jacobians(data)
-            dp, dr = Jp_M - Jp_T, ljacinv(e_rW) @ (Jr_M - R_e @ Jr_T)
+            np.subtract(Jp_M, Jp_T, out=J[0])
+            J[1] = ljacinv(e_rW) @ (Jr_M - R_e @ Jr_T)
         else:
-            dp, dr = Jp_M, ljacinv(e_rW) @ Jr_M
-        blocks_e, blocks_J = [], []
-        for e_W, dW, option, rows in (
-            (e_tW, dp, self.translation_frame, self.trans_rows),
-            (e_rW, dr, self.rotation_frame, self.rot_rows),
-        ):
-            R_WF = self._R_WF(option, R_WM)
-            J = dW + skew(e_W) @ Jr_M if isinstance(option, str) and option == "local" else dW
-            blocks_e.append((R_WF.T @ e_W)[rows])
-            blocks_J.append((R_WF.T @ J)[rows])
-        return blocks_e, np.vstack(blocks_J)
+            J[0] = Jp_M
+            J[1] = ljacinv(e_rW) @ Jr_M
+        if self._both_local:  # the default: one batched product for both blocks
+            tx, ty, tz = e_tW.tolist()
+            rx, ry, rz = e_rW.tolist()
+            S = np.array(  # [[e_t]×; [e_r]×]
+                [
+                    [[0.0, -tz, ty], [tz, 0.0, -tx], [-ty, tx, 0.0]],
+                    [[0.0, -rz, ry], [rz, 0.0, -rx], [-ry, rx, 0.0]],
+                ]
+            )
+            J += S @ Jr_M
+            J = R_WM.T @ J
+            e = (np.array([[tx, ty, tz], [rx, ry, rz]]) @ R_WM).reshape(6)
+        else:
+            for block, e_W, option in (
+                (J[0], e_tW, self.translation_frame),
+                (J[1], e_rW, self.rotation_frame),
+            ):
+                if isinstance(option, str):
+                    if option == "local":
+                        block += skew(e_W) @ Jr_M
+                        block[:] = R_WM.T @ block
+                else:
+                    block[:] = option.T @ block
+            e = self._in_frames(e_tW, e_rW, R_WM)
+        J = J.reshape(6, nv)
+        if self._rows.size < 6:
+            e, J = e[self._rows], J[self._rows]
+        return e, J
 
     # -- cascade contract -------------------------------------------------------
+    def _rows_from(self, e: np.ndarray, J: np.ndarray) -> TaskRows:
+        """``J x = -[clamp(e_t, p_limit); clamp(e_r, r_limit)]``."""
+        n_t = self.trans_rows.size
+        b = -e
+        for part, limit in ((b[:n_t], self.p_limit), (b[n_t:], self.r_limit)):
+            norm = math.sqrt(float(part @ part))
+            if norm > limit:
+                part *= limit / norm
+        empty = self._empty
+        return TaskRows(J, b, self._weights, np.zeros((0, J.shape[1])), empty, empty, empty)
+
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        (e_t, e_r), J = self._error_and_jacobian(configuration)
-        b = -np.concatenate([_clamp(e_t, self.p_limit), _clamp(e_r, self.r_limit)])
-        w = np.concatenate([self.w_trans[self.trans_rows], self.w_rot[self.rot_rows]])
-        return TaskRows.equality(J, b, w)
+        return self._rows_from(*self._error_and_jacobian(configuration))
+
+    def _satisfied_by(self, e: np.ndarray) -> bool:
+        n_t = self.trans_rows.size
+        return _within(e[:n_t], self.thre, self.trans_rows) and _within(
+            e[n_t:], self.rthre, self.rot_rows
+        )
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        e = self.compute_error(configuration)
-        e_t, e_r = e[: self.trans_rows.size], e[self.trans_rows.size :]
-        return _within(e_t, self.thre, self.trans_rows) and _within(e_r, self.rthre, self.rot_rows)
+        return self._satisfied_by(self.compute_error(configuration))
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, error norm and stop test from one evaluation of the error."""
+        e, J = self._error_and_jacobian(configuration)
+        return TaskState(self._rows_from(e, J), math.sqrt(float(e @ e)), self._satisfied_by(e))
 
     def __repr__(self) -> str:
         target = (
@@ -310,5 +385,5 @@ def _within(e: np.ndarray, tol: np.ndarray, rows: np.ndarray) -> bool:
     if e.size == 0:
         return True
     if tol.ndim == 0:
-        return bool(np.linalg.norm(e) <= tol)
+        return math.sqrt(float(e @ e)) <= float(tol)
     return bool(np.all(np.abs(e) <= tol[rows]))

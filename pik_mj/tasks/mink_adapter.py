@@ -18,7 +18,7 @@ import numpy as np
 from mink.tasks.task import BaseTask
 
 from ..exceptions import InvalidInput
-from .task import Task, TaskRows
+from .task import Task, TaskRows, TaskState
 
 
 class MinkTask(Task):
@@ -51,15 +51,23 @@ class MinkTask(Task):
             threshold = (1e-3, np.deg2rad(1.0)) if self._is_frame else 1e-3
         self.threshold = threshold
 
+    def _task_rows(self, error: np.ndarray, configuration: mink.Configuration) -> TaskRows:
+        """Rows of a :class:`mink.Task` whose error at ``configuration`` is ``error``."""
+        task = self.task
+        jacobian = np.asarray(task.compute_jacobian(configuration), dtype=float)
+        cost = np.asarray(task.cost, dtype=float)
+        if cost.shape != error.shape:
+            cost = np.broadcast_to(cost, error.shape)
+        weighted = cost * task.gain * error
+        mu = task.lm_damping * float(weighted @ weighted)
+        if jacobian.ndim != 2:
+            return TaskRows.equality(jacobian, -task.gain * error, cost**2, mu)
+        return TaskRows(jacobian, -task.gain * error, cost * cost, *_no_inequality(jacobian), mu)
+
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         task = self.task
         if isinstance(task, mink.Task):
-            error = task.compute_error(configuration)
-            jacobian = task.compute_jacobian(configuration)
-            cost = np.broadcast_to(np.asarray(task.cost, dtype=float), error.shape)
-            weighted = cost * task.gain * error
-            mu = task.lm_damping * float(weighted @ weighted)
-            return TaskRows.equality(jacobian, -task.gain * error, cost**2, mu)
+            return self._task_rows(task.compute_error(configuration), configuration)
         residual = task.compute_qp_residual(configuration)
         if residual is not None:
             weighted_jacobian, weighted_error, mu = residual
@@ -79,11 +87,21 @@ class MinkTask(Task):
         return self.compute_rows(configuration).violation()
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        e = self.compute_error(configuration)
+        return self._satisfied_by(self.compute_error(configuration))
+
+    def _satisfied_by(self, e: np.ndarray) -> bool:
         if self._is_frame:
             thre, rthre = self.threshold  # type: ignore[misc]
             return bool(np.linalg.norm(e[:3]) <= thre and np.linalg.norm(e[3:]) <= rthre)
         return bool(np.max(np.abs(e), initial=0.0) <= float(self.threshold))  # type: ignore[arg-type]
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, error norm and stop test from one ``compute_error``."""
+        if not isinstance(self.task, mink.Task):
+            return super().evaluate(configuration)
+        e = np.asarray(self.task.compute_error(configuration), dtype=float)
+        rows = self._task_rows(e, configuration)
+        return TaskState(rows, float(np.linalg.norm(e)), self._satisfied_by(e))
 
     def __repr__(self) -> str:
         return f"MinkTask({self.task!r}, name={self.name!r})"
@@ -119,21 +137,43 @@ class MinkLimit(Task):
         self.slack_weight = slack_weight
         self.check_margin = check_margin
         self.check = True
+        # lower bounds (-inf) and slack weights of the last row count, reused
+        self._bounds: tuple[np.ndarray, np.ndarray] | None = None
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         G, h = self.limit.compute_qp_inequalities(configuration, self.dt)
         nv = configuration.model.nv
         if G is None or h is None:
             return TaskRows.empty(nv)
-        G = np.atleast_2d(G)
-        return TaskRows.inequality(G, -np.inf, np.asarray(h, float), self.slack_weight)
+        G = np.atleast_2d(np.asarray(G, dtype=float))
+        h = np.asarray(h, dtype=float).reshape(-1)
+        if self._bounds is None or self._bounds[0].shape != h.shape:
+            self._bounds = (np.full(h.shape, -np.inf), np.full(h.shape, float(self.slack_weight)))
+        lower, weights = self._bounds
+        empty = np.zeros(0)
+        return TaskRows(np.zeros((0, G.shape[1])), empty, empty, G, lower, h, weights)
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
+        return self.evaluate(configuration).satisfied
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows once; the error is their violation at ``x = 0`` (``max(-h, 0)``),
+        satisfied within ``check_margin``."""
         rows = self.compute_rows(configuration)
-        return bool(np.all(rows.d_upper >= -self.check_margin))
+        if rows.n_in == 0:
+            return TaskState(rows, 0.0, True)
+        worst = -float(rows.d_upper.min())
+        error = float(np.linalg.norm(np.maximum(-rows.d_upper, 0.0))) if worst > 0 else 0.0
+        return TaskState(rows, error, worst <= self.check_margin)
 
     def __repr__(self) -> str:
         return f"MinkLimit({type(self.limit).__name__}, name={self.name!r}, dt={self.dt})"
+
+
+def _no_inequality(A: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``(C, d_lower, d_upper, w_C)`` of rows without inequalities."""
+    empty = np.zeros(0)
+    return np.zeros((0, A.shape[1])), empty, empty, empty
 
 
 def as_task(item: object, dt: float = 1.0) -> Task:

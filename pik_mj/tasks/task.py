@@ -133,7 +133,13 @@ class TaskRows(NamedTuple):
         return np.concatenate([-self.b, viol])
 
     def validate(self, nv: int, owner: str) -> None:
-        """Raise :class:`InvalidInput` naming ``owner`` if shapes or values are bad."""
+        """Raise :class:`InvalidInput` naming ``owner`` if shapes or values are bad.
+
+        Runs every iteration for every task, so the common case costs a handful
+        of reductions: a NaN or inf anywhere makes a sum non-finite, and a NaN
+        bound fails ``d_lower <= d_upper`` like an inverted one; only then are
+        the arrays searched for the culprit.
+        """
         m_eq, m_in = self.b.size, self.C.shape[0]
         if (
             self.A.shape != (m_eq, nv)
@@ -146,12 +152,20 @@ class TaskRows(NamedTuple):
                 f"b {self.b.shape}, w_A {self.w_A.shape}, C {self.C.shape}, d_lower "
                 f"{self.d_lower.shape}, d_upper {self.d_upper.shape}, w_C {self.w_C.shape}"
             )
-        # Fast path: a NaN or inf anywhere makes the sum non-finite.
-        total = self.A.sum() + self.b.sum() + self.w_A.sum() + self.C.sum() + self.w_C.sum()
-        if not np.isfinite(total):
-            for name in ("A", "b", "w_A", "C", "w_C"):
-                if not np.all(np.isfinite(getattr(self, name))):
-                    raise InvalidInput(f"task {owner}: {name} contains NaN or inf")
+        ok = self.damping >= 0
+        if m_eq:
+            ok = ok and np.isfinite(self.A.sum() + self.b.sum() + self.w_A.sum())
+            ok = ok and self.w_A.min() >= 0
+        if m_in:
+            ok = ok and np.isfinite(self.C.sum() + self.w_C.sum()) and self.w_C.min() > 0
+            ok = ok and bool((self.d_lower <= self.d_upper).all())
+        if not ok:
+            self._raise_invalid(owner)
+
+    def _raise_invalid(self, owner: str) -> None:
+        for name in ("A", "b", "w_A", "C", "w_C"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise InvalidInput(f"task {owner}: {name} contains NaN or inf")
         if np.isnan(self.d_lower).any() or np.isnan(self.d_upper).any():
             raise InvalidInput(f"task {owner}: inequality bounds contain NaN")
         if np.any(self.d_lower > self.d_upper):
@@ -160,8 +174,16 @@ class TaskRows(NamedTuple):
                 f"task {owner}: inverted bounds on row {i}: "
                 f"lower {self.d_lower[i]:.6g} > upper {self.d_upper[i]:.6g}"
             )
-        if np.any(self.w_A < 0) or np.any(self.w_C <= 0) or self.damping < 0:
-            raise InvalidInput(f"task {owner}: weights must be >= 0 (equality) and > 0 (slack)")
+        raise InvalidInput(f"task {owner}: weights must be >= 0 (equality) and > 0 (slack)")
+
+
+class TaskState(NamedTuple):
+    """A task at one configuration: its rows, ``‖e‖`` (in its own units) and
+    whether its stop test holds (:meth:`Task.evaluate`)."""
+
+    rows: TaskRows
+    error: float
+    satisfied: bool
 
 
 class Task(abc.ABC):
@@ -191,6 +213,17 @@ class Task(abc.ABC):
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
         """Stop test of the solve loop (seed ``:is-satisfied``)."""
         return bool(np.all(np.abs(self.compute_error(configuration)) <= 1e-6))
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, error norm and stop test at ``configuration``, as the solve loop
+        uses them (once per iteration and task). Tasks that can share the work
+        between the three override it."""
+        error = self.compute_error(configuration)
+        return TaskState(
+            self.compute_rows(configuration),
+            float(np.linalg.norm(error)),
+            self.is_satisfied(configuration),
+        )
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r}, check={self.check})"
