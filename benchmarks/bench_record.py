@@ -3,11 +3,12 @@
 The solve is ``scenarios/fullbody_reach.py``'s (sample humanoid, waist 10°, both
 feet fixed, centroid x-y over the feet, left hand to the seed's (0.4, 0.1, -0.6) m
 from the pelvis, position only, ``stop=100``). It is timed without a callback and
-with a callback that records, every iteration, what
-:class:`pik_mj.scenarios.ScenarioRecorder` records plus the task frames: all body
-poses, the CoM and its target, each task's error norm, and the hand's and feet's
-current and target frames — through :class:`pik_mj.record.Recorder` into a
-temporary ``.rrd``.
+recorded exactly as ``pik-mj run`` records it: through
+:class:`pik_mj.scenarios.ScenarioRecorder`'s callback (all body poses, the CoM
+and its target, every task's error from the solve loop's own evaluation, each
+frame task's current and target frame; the blueprint) into a temporary ``.rrd``.
+The per-iteration static check and the physics hold are simulation, not
+recording, and are off here.
 
 Times are medians over ``--reps`` repetitions (alternating order, after one
 warm-up each):
@@ -21,8 +22,7 @@ warm-up each):
 
     \\text{overhead} = t_{recorded} / t_{plain} - 1
 
-Also printed: the time spent inside the callback (every task's error is
-recomputed there, as ScenarioRecorder does) and in the final flush/close.
+Also printed: the time spent inside the callback and in the final flush/close.
 
 Run: ``python benchmarks/bench_record.py [--reps 20]``
 """
@@ -32,16 +32,13 @@ from __future__ import annotations
 import argparse
 import tempfile
 import time
-from collections.abc import Callable
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
-from pik_mj.frames import Frame
 from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.record import Recorder
 from pik_mj.robot import Robot
+from pik_mj.scenarios import ScenarioRecorder
 from pik_mj.solve import IterationInfo, SolveResult
 
 MODEL = "sample_humanoid"
@@ -73,47 +70,6 @@ def solve(robot: Robot, target: np.ndarray, p_mid: np.ndarray, callback=None) ->
     )
 
 
-def recording_callback(
-    rec: Recorder, robot: Robot, hand_target: np.ndarray, com_target: np.ndarray
-) -> tuple[Callable[[IterationInfo], None], list[float]]:
-    """Per-iteration logging as ScenarioRecorder does, plus end frames and targets.
-
-    Returns the callback and a list that collects the time spent in it [s].
-    """
-    limbs = [robot.limb(x) for x in (HAND, *FEET)]
-    frames = [Frame.find(robot.model, x.end_frame, x.end_frame_type) for x in limbs]
-    data = robot.data
-    rec.log_frame(rec.paths.task_target(frames[0].name), hand_target, IDENTITY)
-    for f in frames[1:]:
-        rec.log_frame(rec.paths.task_target(f.name), f.position(data), _quat(f.rotation(data)))
-    current = [rec.paths.task_current(f.name) for f in frames]
-    spent: list[float] = []
-
-    def on_iteration(info: IterationInfo) -> None:
-        t0 = time.perf_counter()
-        rec.log_body_poses(data, time=info.iteration)
-        rec.log_com(robot.com(), target=com_target)
-        errors = {}
-        for k, level in enumerate(info.levels):
-            for task in level:
-                errors[(k, task.name)] = float(
-                    np.linalg.norm(task.compute_error(info.configuration))
-                )
-        rec.log_task_errors(errors)
-        for f, path in zip(frames, current, strict=True):
-            rec.log_frame(path, f.position(data), _quat(f.rotation(data)))
-        spent.append(time.perf_counter() - t0)
-
-    return on_iteration, spent
-
-
-def _quat(R_WF: np.ndarray) -> np.ndarray:
-    """Rotation matrix -> quaternion (w, x, y, z) (MuJoCo's ``mju_mat2Quat``)."""
-    q = np.empty(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(R_WF).reshape(9))
-    return q
-
-
 def time_plain(robot: Robot) -> tuple[float, SolveResult]:
     target, p_mid = start(robot)
     t0 = time.perf_counter()
@@ -125,12 +81,17 @@ def time_recorded(robot: Robot, path: Path) -> tuple[float, float, float, float,
     """Returns (setup, solve + flush/close, in the callback, flush/close) times [s], result."""
     target, p_mid = start(robot)
     t0 = time.perf_counter()
-    rec = Recorder.to_file(path, application_id="bench_record")
-    rec.log_model_geometry(robot.model, robot.data, robot_root_body=robot.root_body)
-    rec.set_time("iteration", 0)
-    callback, spent = recording_callback(rec, robot, target, p_mid)
+    rec = ScenarioRecorder(path, robot, name="bench_record", simulate=False, hold=0.0)
+    callback = rec.callback("reach")
+    spent: list[float] = []
+
+    def timed(info: IterationInfo) -> None:
+        t = time.perf_counter()
+        callback(info)
+        spent.append(time.perf_counter() - t)
+
     t1 = time.perf_counter()
-    result = solve(robot, target, p_mid, callback)
+    result = solve(robot, target, p_mid, timed)
     t2 = time.perf_counter()
     rec.close()
     t3 = time.perf_counter()

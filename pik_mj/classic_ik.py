@@ -286,10 +286,13 @@ def classic_inverse_kinematics(
             qnew[qadr[clamp]] = np.clip(qnew[qadr[clamp]], lower[clamp], upper[clamp])
             configuration.update(qnew)
             iteration += 1
-            converged = iteration >= min_loop and all(t.is_satisfied(configuration) for t in tasks)
+            reports = task_reports(configuration, [[], tasks])
+            converged = iteration >= min_loop and all(r.satisfied for r in reports if r.checked)
             times.append(time.perf_counter() - t0)
             if callback is not None:
-                callback(IterationInfo(iteration, configuration, [[], tasks], None, times[-1]))
+                callback(
+                    IterationInfo(iteration, configuration, [[], tasks], None, times[-1], reports)
+                )
             if converged:
                 break
     except BaseException:

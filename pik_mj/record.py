@@ -330,16 +330,41 @@ def _translation_quat(v: np.ndarray) -> dict[str, np.ndarray]:
     return {"translation": v[..., :3], "quaternion": _xyzw(v[..., 3:])}
 
 
+# Columns are built from the component batches directly: the same components
+# as ``<Archetype>.columns(...)``, at half its cost (which builds and checks
+# every field of the archetype per call).
+
+
+def _transform_columns(translation: np.ndarray, quat_xyzw: np.ndarray) -> list[Any]:
+    """Transform3D translation and quaternion columns, one row per entry."""
+    return [
+        rr.components.Translation3DBatch(translation)
+        .described(rr.Transform3D.descriptor_translation())
+        .partition(),
+        rr.components.RotationQuatBatch(quat_xyzw)
+        .described(rr.Transform3D.descriptor_quaternion())
+        .partition(),
+    ]
+
+
 _SCALAR = _RowKind(
-    columns=lambda v: rr.Scalars.columns(scalars=v.astype(float)),
+    columns=lambda v: [
+        rr.components.ScalarBatch(v.astype(float))
+        .described(rr.Scalars.descriptor_scalars())
+        .partition()
+    ],
     row=lambda v: rr.Scalars(v),
 )
 _POINT = _RowKind(
-    columns=lambda v: rr.Points3D.columns(positions=v.reshape(-1, 3)),
+    columns=lambda v: [
+        rr.components.Position3DBatch(v.reshape(-1, 3))
+        .described(rr.Points3D.descriptor_positions())
+        .partition([1] * len(v))
+    ],
     row=lambda v: rr.Points3D.from_fields(positions=[v]),
 )
 _TRANSFORM = _RowKind(
-    columns=lambda v: rr.Transform3D.columns(**_translation_quat(v)),
+    columns=lambda v: _transform_columns(v[:, :3], _xyzw(v[:, 3:])),
     row=lambda v: rr.Transform3D(**_translation_quat(v)),
 )
 
@@ -393,11 +418,7 @@ class _PoseBuffer:
         quat_xyzw = _xyzw(self.quat[:n])
         for i, path in enumerate(paths):
             stream.send_columns(
-                path,
-                indexes=indexes,
-                columns=rr.Transform3D.columns(
-                    translation=self.pos[:n, i], quaternion=quat_xyzw[:, i]
-                ),
+                path, indexes=indexes, columns=_transform_columns(self.pos[:n, i], quat_xyzw[:, i])
             )
         self.times.clear()
 
@@ -508,12 +529,14 @@ class Recorder:
         self.stream.flush()
 
     def close(self) -> None:
-        """Flush; disconnect the stream if this Recorder owns it. Idempotent."""
+        """Send the buffered rows; disconnect the stream if this Recorder owns it
+        (which flushes it and finalizes its file), else flush it. Idempotent."""
         if self.closed:
             return
         try:
             self._send_buffers()
-            self.stream.flush()
+            if not self.owns_stream:
+                self.stream.flush()
         finally:
             self.closed = True
             if self.owns_stream:
@@ -611,10 +634,11 @@ class Recorder:
         if len(rows.times) >= self.flush_every:
             rows.send(self.stream)
 
-    def _static_once(self, path: str, style: tuple[Any, ...], archetype: Any) -> None:
-        """Log static style data of ``path`` unless it was logged with ``style``."""
+    def _static_once(self, path: str, style: tuple[Any, ...], make: Callable[[], Any]) -> None:
+        """Log ``make()`` as static style data of ``path`` unless it was logged
+        with ``style`` (the archetype is only built when it is logged)."""
         if self._static_style.get(path) != style:
-            self._log(path, archetype, static=True)
+            self._log(path, make(), static=True)
             self._static_style[path] = style
 
     # -- geometry -------------------------------------------------------------
@@ -867,7 +891,8 @@ class Recorder:
         n = float(np.linalg.norm(q))
         if n < 1e-9:
             raise InvalidInput(f"frame quaternion of {path!r} is zero")
-        self._static_once(path, (float(axis_length),), rr.TransformAxes3D(float(axis_length)))
+        length = float(axis_length)
+        self._static_once(path, (length,), lambda: rr.TransformAxes3D(length))
         self._append(path, np.concatenate([p, q / n]), _TRANSFORM)
 
     def log_scalar(self, path: str, value: float) -> None:

@@ -696,6 +696,8 @@ class ScenarioRecorder:
                 self.recorder.log_text(note, level="WARN")
         self._label = ""
         self._levels: tuple[int, ...] = ()
+        self._task_frame_paths: dict[str, tuple[str, str]] = {}
+        self._logged_targets: dict[str, object] = {}
         self._feasible: bool | None = None
         self._closed = False
 
@@ -765,7 +767,23 @@ class ScenarioRecorder:
         if self.recorder is None:
             return
         self.recorder.log_body_poses(self.robot.data, time=self.iteration)
+        if com_target is not None:  # logged when it changes, like fixed frame targets
+            com_target = np.asarray(com_target, dtype=float)
+            last = self._logged_targets.get(self.recorder.paths.com_target)
+            if isinstance(last, np.ndarray) and np.array_equal(last, com_target):
+                com_target = None
+            else:
+                self._logged_targets[self.recorder.paths.com_target] = com_target.copy()
         self.recorder.log_com(self.robot.com(), target=com_target)
+
+    def _frame_paths(self, task: str) -> tuple[str, str]:
+        """Entity paths of a frame task's target and current frame (cached)."""
+        paths = self._task_frame_paths.get(task)
+        if paths is None:
+            assert self.recorder is not None
+            p = self.recorder.paths
+            paths = self._task_frame_paths[task] = (p.task_target(task), p.task_current(task))
+        return paths
 
     def _log_tasks(self, info: IterationInfo) -> None:
         """CoM (+ target), task frames, task errors and SCFR regions."""
@@ -773,18 +791,24 @@ class ScenarioRecorder:
         assert rec is not None
         cfg, data = info.configuration, info.configuration.data
         com_target = None
-        errors = {}
-        for k, level in enumerate(info.levels):
+        # the solve loop's own evaluation at this configuration: no recomputation
+        errors = {(r.level, r.name): r.error for r in info.tasks}
+        for level in info.levels:
             for task in level:
-                errors[(k, task.name)] = float(np.linalg.norm(task.compute_error(cfg)))
                 if isinstance(task, CentroidTask) and com_target is None:
                     com_target = task.target_now(cfg)
                 elif isinstance(task, FrameTask):
-                    p_T, R_T = task.target_pose_now(cfg)
-                    rec.log_frame(rec.paths.task_target(task.name), p_T, _quat_wxyz(R_T))
+                    target_path, current_path = self._frame_paths(task.name)
+                    # a fixed target is logged when it changes: the viewer holds
+                    # the latest value (callable and robot-frame targets move)
+                    fixed = task.target_pose
+                    if fixed is None or self._logged_targets.get(target_path) is not fixed:
+                        p_T, R_T = task.target_pose_now(cfg)
+                        rec.log_frame(target_path, p_T, _quat_wxyz(R_T))
+                        self._logged_targets[target_path] = fixed
                     p_M = task.move_target.position(data)
                     R_M = task.move_target.rotation(data)
-                    rec.log_frame(rec.paths.task_current(task.name), p_M, _quat_wxyz(R_M))
+                    rec.log_frame(current_path, p_M, _quat_wxyz(R_M))
                 elif isinstance(task, ScfrTask):
                     region = task.region(cfg)
                     if not region.empty:

@@ -50,10 +50,11 @@ def _verify(path: Path) -> subprocess.CompletedProcess:
 
 
 def _at(entity: EntityData, component: str, timeline: str, t: float) -> list:
-    """The last batch of ``component`` logged at time ``t``."""
+    """The batch of ``component`` the viewer shows at time ``t``: the last one
+    logged at or before ``t`` (fixed targets are logged only when they change)."""
     times, values = entity.series(component, timeline)
-    hits = [v for s, v in zip(times, values, strict=True) if s == t]
-    assert hits, f"nothing logged at {timeline} = {t}"
+    hits = [v for s, v in zip(times, values, strict=True) if s <= t]
+    assert hits, f"nothing logged at or before {timeline} = {t}"
     return hits[-1]
 
 

@@ -18,7 +18,7 @@ import mink
 import numpy as np
 
 from ..exceptions import InvalidInput
-from .task import Task, TaskRows
+from .task import Task, TaskRows, TaskState
 
 RowsFn = Callable[[mink.Configuration], TaskRows]
 
@@ -94,5 +94,12 @@ class LinearTask(Task):
         return TaskRows.stack(parts, nv)
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        error = self.compute_error(configuration)
-        return bool(np.max(np.abs(error), initial=0.0) <= self.threshold)
+        return self.evaluate(configuration).satisfied
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """The rows once (their callables run once); the error is their
+        violation at ``x = 0``, satisfied when ``max |error| <= threshold``."""
+        rows = self.compute_rows(configuration)
+        error = rows.violation()
+        worst = float(np.max(np.abs(error), initial=0.0))
+        return TaskState(rows, float(np.linalg.norm(error)), worst <= self.threshold)
