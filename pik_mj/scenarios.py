@@ -634,7 +634,8 @@ class ScenarioRecorder:
     ``balance/feasible`` (1/0) and ``balance/contacts``; an SCFR task's region at
     ``world/scfr``. :meth:`record` logs the solve's final pose one tick later (the
     start pose again when it reverted) and a text line on a level failure or a
-    revert. The blueprint opens on the 3D view beside the per-level error plots.
+    revert. The blueprint, sent once when the recording is closed, opens on the
+    3D view beside the per-level error plots.
 
     When the block ends without an exception and a hold duration is set
     (:func:`run_options`), the final pose is held in physics
@@ -695,7 +696,7 @@ class ScenarioRecorder:
             for note in self.notes:
                 self.recorder.log_text(note, level="WARN")
         self._label = ""
-        self._levels: tuple[int, ...] = ()
+        self._n_levels = 0  # most levels (level 0 included) of any solve so far
         self._task_frame_paths: dict[str, tuple[str, str]] = {}
         self._logged_targets: dict[str, object] = {}
         self._feasible: bool | None = None
@@ -733,8 +734,11 @@ class ScenarioRecorder:
                 self._hold(float(self.hold_duration))
         finally:
             if self.recorder is not None:
-                self.recorder.close()
-                self.recorder = None
+                try:
+                    self._send_blueprint()
+                finally:
+                    self.recorder.close()
+                    self.recorder = None
 
     def hold_external(self, wrenches: Sequence[tuple[str, Any, Any]]) -> None:
         """Wrenches ``(frame, force, moment)`` the final pose is balanced against:
@@ -817,15 +821,18 @@ class ScenarioRecorder:
                         rec.log_polygon(v, path=rec.paths.scfr, color=(40, 200, 120))
         self._log_pose(com_target)
         rec.log_task_errors(errors)
-        # the blueprint covers every level seen so far: a later solve with fewer
-        # levels must not hide the plots of an earlier one
-        levels = tuple(range(1, max(len(info.levels), len(self._levels) + 1)))
-        if levels != self._levels:
-            self._levels = levels
-            extra = [(rec.paths.balance, "balance (simulation)")] if self._simulate else []
-            if self.hold_duration and self.scene is not None:
-                extra.append((rec.paths.hold, "physics hold"))
-            rec.send_blueprint(levels, extra=extra)
+        self._n_levels = max(self._n_levels, len(info.levels))
+
+    def _send_blueprint(self) -> None:
+        """One blueprint, sent at the end: a plot per level of every solve
+        (a later solve with fewer levels must not hide an earlier one's), the
+        simulation's series when they were logged."""
+        rec = self.recorder
+        assert rec is not None
+        extra = [(rec.paths.balance, "balance (simulation)")] if self._simulate else []
+        if self.balance is not None:
+            extra.append((rec.paths.hold, "physics hold"))
+        rec.send_blueprint(range(1, self._n_levels), extra=extra)
 
     def _log_static(self, report: StaticReport) -> None:
         rec = self.recorder
