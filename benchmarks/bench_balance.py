@@ -9,19 +9,28 @@ targets, seeded, in a box ahead of and beside the pelvis ``p_WP``:
     z \\in [0.2, 1.3] \\ \\text{(height above the floor)} \\quad [m]
 
 Two stacks (:func:`pik_mj.ik.fullbody_inverse_kinematics`, root bounds and
-posture as its defaults, ``stop=100``, no revert: the final pose is what is held):
+posture as its defaults, ``stop=100``, no revert: the final pose is what is held),
+identical but for the CoM task:
 
 * **balanced**: level 1 = both feet fixed + CoM inside the soles' support polygon
   shrunk by 2 cm (:class:`pik_mj.tasks.support_polygon.SupportPolygonTask`,
-  ``margin=0.02``); level 2 = the hand (position only).
-* **unbalanced**: level 1 = both feet fixed only; level 2 = the hand.
+  ``margin=0.02``) + collision avoidance; level 2 = the hand (position only).
+* **unbalanced**: level 1 = both feet fixed + collision avoidance; level 2 = the hand.
+
+Collision avoidance (:class:`pik_mj.tasks.collision.CollisionAvoidanceTask`,
+yellow zone 10 cm, orange zone 1 cm, in level 1 so above the hand) watches every
+pair of the robot's bodies and every body against the floor, less adjacent bodies
+and pairs touching in ``reset_pose`` (the soles on the floor)
+(:func:`pik_mj.tasks.collision.collision_pairs`). The IK robot is the sample
+humanoid on the scene's floor plane (:func:`pik_mj.models.compose_scene`, no
+degrees of freedom added), so that the floor is a geom it can keep clear of.
 
 Every final pose is held for ``--duration`` s in :class:`pik_mj.sim.Scene` (floor
 only, default servos and contacts). A case passes with the hold's own verdict:
 base drift < 1 cm, foot slip < 2 mm, no fall, no unexpected contact (a robot geom
 other than the soles touching the floor, or a self-contact). Failures are counted
-per cause; "balance pass" ignores unexpected contacts (the stacks have no
-collision avoidance). Timings are wall-clock per case (IK solve, hold).
+per cause; "balance pass" ignores unexpected contacts. Timings are wall-clock per
+case (IK solve, hold).
 
 Run: ``python benchmarks/bench_balance.py [--n 100] [--seed 0]``
 """
@@ -35,9 +44,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from pik_mj.ik import fullbody_inverse_kinematics, sole_polygons
+from pik_mj.models import compose_scene
 from pik_mj.robot import Robot
 from pik_mj.scenarios import com_margin
 from pik_mj.sim import HoldReport, Scene
+from pik_mj.tasks.collision import CollisionAvoidanceTask, GeomPair, collision_pairs
 from pik_mj.tasks.support_polygon import SupportPolygonTask
 
 MODEL = "sample_humanoid"
@@ -47,6 +58,8 @@ X_RANGE = (0.2, 0.7)  # [m] ahead of the pelvis
 Y_RANGE = (-0.5, 0.2)  # [m] beside the pelvis (right hand: mostly to the right)
 Z_RANGE = (0.2, 1.3)  # [m] above the floor
 MAX_DRIFT, MAX_SLIP = 0.01, 0.002  # [m] the hold's pass thresholds
+YELLOW, ORANGE = 0.1, 0.01  # [m] collision avoidance: watched below, kept above
+FLOOR = "floor"  # the floor plane of compose_scene(MODEL, None) and of the Scene
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 VARIANTS = ("balanced", "unbalanced")
 
@@ -62,6 +75,8 @@ class Case:
     margin: float  # [m] static CoM margin to the soles' polygon at the final pose
     ik_time: float  # [s]
     hold: HoldReport
+
+    clearance: float  # [m] smallest distance of a watched collision pair at the final pose
 
     @property
     def unexpected(self) -> bool:
@@ -81,9 +96,33 @@ def sample_targets(p_WP: np.ndarray, n: int, seed: int) -> np.ndarray:
     return rng.uniform(lo, hi, size=(n, 3))
 
 
-def solve_case(robot: Robot, target: np.ndarray, balanced: bool, margin: float = MARGIN) -> tuple:
-    """Reach ``target`` from ``reset_pose``; returns (result, IK wall time [s])."""
+def load_robot() -> Robot:
+    """The sample humanoid on a floor plane named ``floor`` (robot ``q`` unchanged)."""
+    return Robot(compose_scene(MODEL, None).compile())
+
+
+def avoidance_pairs(robot: Robot) -> list[GeomPair]:
+    """Every pair of robot bodies and every body against the floor, less adjacent
+    bodies and pairs touching in ``reset_pose``."""
     robot.reset_pose()
+    m = robot.model
+    bodies = [m.body(b).name for b in range(1, m.nbody) if m.body_geomnum[b] > 0]
+    return collision_pairs(m, robot.data, bodies, [FLOOR])
+
+
+def solve_case(
+    robot: Robot,
+    target: np.ndarray,
+    balanced: bool,
+    margin: float = MARGIN,
+    pairs: list[GeomPair] | None = None,
+) -> tuple:
+    """Reach ``target`` from ``reset_pose``; returns (result, IK wall time [s],
+    the collision task)."""
+    if pairs is None:
+        pairs = avoidance_pairs(robot)
+    robot.reset_pose()
+    avoid = CollisionAvoidanceTask(robot.configuration, pairs, yellow=YELLOW, orange=ORANGE)
     balance = []
     if balanced:
         balance = [
@@ -101,10 +140,11 @@ def solve_case(robot: Robot, target: np.ndarray, balanced: bool, margin: float =
         limbs=[HAND],
         rotation_axis=[None],  # position only
         balance=balance,
+        collision_avoidance=[avoid],
         stop=100,
         revert_if_fail=False,
     )
-    return result, time.perf_counter() - t0
+    return result, time.perf_counter() - t0, avoid
 
 
 def run_case(
@@ -114,8 +154,9 @@ def run_case(
     balanced: bool,
     duration: float,
     margin: float = MARGIN,
+    pairs: list[GeomPair] | None = None,
 ) -> Case:
-    result, ik_time = solve_case(robot, target, balanced, margin)
+    result, ik_time, avoid = solve_case(robot, target, balanced, margin, pairs)
     limb = robot.limb(HAND)
     p_hand = robot.frame_pose(limb.end_frame, limb.end_frame_type).translation()
     hold = scene.hold(robot.configuration.q.copy(), duration)
@@ -127,6 +168,7 @@ def run_case(
         margin=com_margin(robot),
         ik_time=ik_time,
         hold=hold,
+        clearance=float(avoid.distances(robot.configuration, YELLOW).min()),
     )
 
 
@@ -134,6 +176,8 @@ def summarize(cases: list[Case]) -> dict:
     n = len(cases)
     ik_t = np.array([c.ik_time for c in cases])
     hold_t = np.array([c.hold.wall_time for c in cases])
+    passed = [c for c in cases if c.hold.passed]
+    nan = float("nan")
     return {
         "pass": sum(c.hold.passed for c in cases) / n,
         "balance_pass": sum(c.balance_ok for c in cases) / n,
@@ -150,7 +194,10 @@ def summarize(cases: list[Case]) -> dict:
         "unexpected_contact": sum(c.unexpected for c in cases) / n,
         "ik_converged": sum(c.converged for c in cases) / n,
         "min_static_margin_m": float(min(c.margin for c in cases)),
+        "min_hold_margin_pass_m": float(min((c.hold.min_margin for c in passed), default=nan)),
+        "min_clearance_m": float(min(c.clearance for c in cases)),
         "median_drift_m": float(np.median([c.hold.drift for c in cases])),
+        "max_drift_pass_m": float(max((c.hold.drift for c in passed), default=nan)),
         "median_ik_s": float(np.median(ik_t)),
         "max_ik_s": float(np.max(ik_t)),
         "median_hold_s": float(np.median(hold_t)),
@@ -169,7 +216,10 @@ ROWS = (
     ("  unexpected contact", "unexpected_contact", "%"),
     ("IK converged (1 mm)", "ik_converged", "%"),
     ("min static CoM margin [m]", "min_static_margin_m", "f"),
+    ("min CoM margin in passing holds [m]", "min_hold_margin_pass_m", "f"),
+    ("min collision-pair clearance [m]", "min_clearance_m", "f"),
     ("median base drift [m]", "median_drift_m", "f"),
+    ("max base drift in passing holds [m]", "max_drift_pass_m", "f"),
     ("median IK time [s]", "median_ik_s", "f"),
     ("max IK time [s]", "max_ik_s", "f"),
     ("median hold time [s]", "median_hold_s", "f"),
@@ -188,7 +238,7 @@ def print_failures(label: str, cases: list[Case]) -> None:
     print(f"\nfailed cases, {label}:")
     print(
         f"{'#':>4} {'target [m]':>22} {'conv':>5} {'hand err':>9} {'margin':>8} "
-        f"{'drift':>8} {'slip':>8} {'min marg':>9}  why"
+        f"{'drift':>8} {'slip':>8} {'min marg':>9} {'clear':>7}  why"
     )
     for i, c in failed:
         h = c.hold
@@ -196,7 +246,7 @@ def print_failures(label: str, cases: list[Case]) -> None:
         print(
             f"{i:>4} {np.array2string(c.target, precision=2):>22} {c.converged!s:>5} "
             f"{c.hand_error:>9.4f} {c.margin:>8.4f} {h.drift:>8.4f} {h.slip:>8.4f} "
-            f"{h.min_margin:>9.4f}  {why}"
+            f"{h.min_margin:>9.4f} {c.clearance:>7.4f}  {why}"
         )
 
 
@@ -215,14 +265,17 @@ def main(argv=None) -> dict:
     if args.n < 1:
         parser.error("--n must be >= 1")
 
-    robot = Robot.load(MODEL)
-    robot.reset_pose()
+    robot = load_robot()
+    pairs = avoidance_pairs(robot)
     p_WP, _ = robot.root_pose()
     targets = sample_targets(p_WP, args.n, args.seed)
     gains = {k: v for k, v in (("kp", args.kp), ("kv", args.kv)) if v is not None}
     scene = Scene(MODEL, **gains)
     cases = {
-        v: [run_case(robot, scene, t, v == "balanced", args.duration, args.margin) for t in targets]
+        v: [
+            run_case(robot, scene, t, v == "balanced", args.duration, args.margin, pairs)
+            for t in targets
+        ]
         for v in VARIANTS
     }
     figures = {v: summarize(cases[v]) for v in VARIANTS}

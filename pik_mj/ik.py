@@ -9,9 +9,10 @@ Both functions build a stack of levels for :func:`pik_mj.solve.solve` and run it
   caller's ``extra_levels``; last: posture towards the start (not checked).
 * :func:`fullbody_inverse_kinematics` — level 0: joint limits, frozen dofs and the
   root's displacement box (irteus ``:min``/``:max`` of the root-link virtual joint);
-  level 1: feet fixed where they are and the centroid over the feet on the
-  selected axes; level 2: the targets; then look-at, ``extra_levels``; last:
-  posture and a root-motion cost (irteus ``root-link-virtual-joint-weight``).
+  level 1: feet fixed where they are, the centroid over the feet on the
+  selected axes and the ``collision_avoidance`` tasks; level 2: the targets;
+  then look-at, ``extra_levels``; last: posture and a root-motion cost (irteus
+  ``root-link-virtual-joint-weight``).
 
 Names follow irteus: ``targets`` (``target-coords``), ``move_targets``
 (``:move-target``), ``limbs`` (``:link-list`` of a limb), ``translation_axis`` /
@@ -398,6 +399,17 @@ def _extra(extra_levels: Any) -> list[list[Any]]:
     return [list(level) for level in extra_levels]
 
 
+def _tasks(value: Any, what: str) -> list[Any]:
+    """A task (pik_mj or mink) or a list/tuple of tasks, as a list."""
+    if isinstance(value, (Task, mink.Task)):
+        return [value]
+    if not isinstance(value, (list, tuple)) or not all(
+        isinstance(t, (Task, mink.Task)) for t in value
+    ):
+        raise InvalidInput(f"{what} must be a task or a list of tasks, got {value!r}")
+    return list(value)
+
+
 def _limits(robot: Robot) -> Task:
     """Seed ``minmax-angle-task`` on every limited joint, hard at level 0."""
     return JointLimitTask.all_limited(robot.configuration)
@@ -613,6 +625,7 @@ def fullbody_inverse_kinematics(
     external_forces: Sequence[tuple[str, Any, Any]] | None = None,
     centroid_thre: float = 1e-3,
     balance: str | Sequence[Task] = "centroid",
+    collision_avoidance: Task | Sequence[Task] = (),
     stop: int = 50,
     revert_if_fail: bool = True,
     joints: str | Sequence[str] | None = None,
@@ -651,6 +664,10 @@ def fullbody_inverse_kinematics(
             matched axes), ``"support_polygon"`` (the centroid inside the hull of
             the fixed feet's soles, seed ``centroid-support-polygon-task``), or a
             list of tasks (e.g. a :class:`pik_mj.tasks.scfr.ScfrTask`).
+        collision_avoidance: Tasks added to level 1 with the feet and the balance
+            task, e.g. a :class:`pik_mj.tasks.collision.CollisionAvoidanceTask`
+            (irteus ``:collision-avoidance-link-pair``). Above the targets: a
+            target that would need a collision is given up, not the clearance.
 
     Raises:
         InvalidInput: No floating base, bad shapes, both ``centroid_offset`` and
@@ -747,6 +764,7 @@ def fullbody_inverse_kinematics(
                 robot, target_centroid_pos, centroid_axes, centroid_offset, centroid_thre
             )
         )
+    level1 += _tasks(collision_avoidance, "collision_avoidance")
     levels: list[list[Any]] = [level0]
     if level1:
         levels.append(level1)

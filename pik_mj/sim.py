@@ -18,8 +18,9 @@ hinge/slide joint. It answers two questions about a robot configuration ``q``
 Modelling choices (documented here once):
 
 * **Servos**: MuJoCo position actuators ``τ = kp (q_ref - q) - kv q̇`` on every
-  robot hinge/slide joint, no gravity compensation (the static deflection
-  ``τ_gravity / kp`` is part of what the hold measures). The robot's own
+  robot hinge/slide joint; :meth:`Scene.hold` adds the static feed-forward of
+  :meth:`Scene.holding_torques` (``feedforward=True``), so the pose starts in
+  equilibrium instead of sagging by ``τ_gravity / kp``. The robot's own
   actuators are kept with zero control. The integrator is ``implicitfast``,
   which treats ``kv`` implicitly.
 * **Friction**: elliptic cones with ``impratio = 10`` (MuJoCo's advice against
@@ -29,6 +30,18 @@ Modelling choices (documented here once):
 * **Contact parameters** (:class:`ContactParams`) are written on the robot's
   geoms and on the environment's static geoms: MuJoCo combines friction by
   taking the maximum, so both sides must carry ``μ``.
+* **Contact stiffness** (:data:`DEFAULT_CONTACT`): ``solref = (0.005, 1)``, a
+  hard sole on a hard floor, instead of MuJoCo's soft default ``(0.02, 1)``. A
+  hold starts from rest with no contact force: the robot first sinks into the
+  floor until the contacts carry it, and while they build up the centre of
+  pressure is where the soles sink, not under the CoM. MuJoCo's contact spring
+  scales as ``1 / timeconst²``: at ``reset_pose`` a sole corner sinks 0.6 mm
+  with 0.02 s and 0.06 mm with 0.005 s (measured). Tipping over an edge at
+  distance ``r`` from the CoM at height ``h`` only needs the energy of raising
+  the CoM by ``r² / 2h`` (0.35 mm for r = 2 cm, h = 0.57 m), which the soft
+  settling transient supplied in crouched reaches with a 2 cm margin (the robot
+  rolled over the sole edge); the hard contact settles ten times shallower.
+  0.005 s is 2.5 time steps, above MuJoCo's floor of two (checked).
 * **Touching geoms**: MuJoCo reports a contact only for ``dist < margin``; feet
   placed exactly on the floor have ``dist = 0``. :meth:`Scene.static_check`
   therefore runs collision detection on a copy of the model whose robot geoms
@@ -59,6 +72,7 @@ from pik_mj.models import compose_scene, load_spec
 from pik_mj.tasks.frame import skew
 
 __all__ = [
+    "DEFAULT_CONTACT",
     "ContactInfo",
     "ContactParams",
     "HoldReport",
@@ -226,7 +240,8 @@ class ContactParams:
         torsional: Torsional friction [m] (used with condim >= 4).
         rolling: Rolling friction [m] (used with condim 6).
         condim: Contact dimension (1, 3, 4 or 6). 3: point contact with friction.
-        solref: ``(timeconst [s], dampratio)``; MuJoCo's default (0.02, 1).
+        solref: ``(timeconst [s], dampratio)``; MuJoCo's default (0.02, 1) here,
+            :data:`DEFAULT_CONTACT` (the :class:`Scene` default) uses 0.005 s.
         solimp: MuJoCo's default impedance ``(0.9, 0.95, 0.001, 0.5, 2)``.
     """
 
@@ -249,6 +264,11 @@ class ContactParams:
                 raise InvalidInput(f"{label} must be finite and >= 0, got {v}")
         if len(self.solref) != 2 or len(self.solimp) != 5:
             raise InvalidInput("solref needs 2 numbers and solimp 5")
+
+
+DEFAULT_CONTACT = ContactParams(solref=(0.005, 1.0))
+"""Contacts of :class:`Scene`: friction 1, a hard contact (``timeconst`` 5 ms; see
+the module docstring), MuJoCo's impedance."""
 
 
 @dataclass(frozen=True)
@@ -371,8 +391,12 @@ class HoldReport:
         slip: Largest horizontal displacement of an allowed contact geom while it
             stayed in contact with the environment [m].
         slip_per_geom: ``slip`` for each allowed geom that touched the environment.
-        min_margin: Smallest CoM margin to the support polygon of the actual
-            ground contacts over the hold [m] (``-inf`` if contact was lost).
+        min_margin: Smallest CoM margin to the support polygon over the hold [m],
+            the polygon of the ground contacts within ``contact_tolerance`` as in
+            :meth:`Scene.static_check` (``-inf`` if contact was lost). At the start
+            it is the static margin: the physics alone reports a contact only once
+            a geom penetrates, so a pose placed on the floor would start with an
+            arbitrary subset of its sole corners (often one foot's).
         fell: The root body dropped below ``fall_ratio`` times its initial height.
         unexpected_contacts: ``(robot_geom, other_geom, first_time [s])`` for
             contacts of robot geoms that are not allowed, and robot self-contacts.
@@ -544,7 +568,8 @@ class Scene:
             mapping joint name -> kp (missing joints get ``default_kp``).
         kv: Servo damping [N·m·s/rad]; float or mapping as ``kp``.
         contact: Contact parameters for the robot and the static environment, or
-            None to keep the models' own.
+            None to keep the models' own. A positive ``solref`` time constant
+            must be at least two time steps (MuJoCo's stability floor).
         contact_tolerance: Distance [m] within which :meth:`static_check` counts
             two geoms as touching.
         allowed_contacts: Robot geoms allowed to touch the environment in
@@ -577,7 +602,7 @@ class Scene:
         timestep: float = 0.002,
         kp: float | Mapping[str, float] = 3000.0,
         kv: float | Mapping[str, float] = 60.0,
-        contact: ContactParams | None = ContactParams(),
+        contact: ContactParams | None = DEFAULT_CONTACT,
         contact_tolerance: float = 2e-3,
         allowed_contacts: Sequence[str] | None = None,
         default_kp: float = 3000.0,
@@ -591,6 +616,12 @@ class Scene:
             raise InvalidInput(f"timestep must be > 0 [s], got {timestep}")
         if not (math.isfinite(contact_tolerance) and contact_tolerance >= 0):
             raise InvalidInput(f"contact_tolerance must be >= 0 [m], got {contact_tolerance}")
+        if contact is not None and 0 < contact.solref[0] < 2 * timestep:
+            raise InvalidInput(
+                f"contact solref time constant {contact.solref[0]} s is below two time "
+                f"steps ({2 * timestep} s): MuJoCo's contacts become unstable; raise it "
+                f"or lower the time step"
+            )
         robot_spec = robot.copy() if isinstance(robot, mujoco.MjSpec) else load_spec(robot)
         self.robot_model = robot_spec.compile()
         self.robot_pos = _vec(robot_pos, 3, "robot_pos")
@@ -825,6 +856,15 @@ class Scene:
                 )
             )
         return out
+
+    def _touching(self, qpos: np.ndarray) -> list[ContactInfo]:
+        """Robot contacts within ``contact_tolerance`` at the scene state ``qpos``
+        (collision detection on the probe model, as :meth:`static_check`)."""
+        m, d = self._probe_model, self._probe_data
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        return self._contacts(m, d, self.contact_tolerance)
 
     def _up(self) -> np.ndarray:
         g = np.asarray(self.model.opt.gravity, dtype=float)
@@ -1242,7 +1282,8 @@ class Scene:
                 com = self.com()
                 log = recorder is not None and k % record_every == 0
                 if k % margin_every == 0 or log:
-                    ground = self._ground_points(contacts, max_ground_slope)
+                    touching = self._touching(d.qpos)
+                    ground = self._ground_points(touching, max_ground_slope)
                     polygon, margin = _support(ground, R_up, com)
                     min_margin = min(min_margin, margin)
                 if log:

@@ -67,6 +67,29 @@ def test_bench_balance_small(capsys):
         assert f["median_drift_m"] >= 0.0
     # the balanced stack keeps the CoM 2 cm inside the soles (level 1, 1 mm tolerance)
     assert figures["balanced"]["min_static_margin_m"] >= bench.MARGIN - 1e-3
+    # both stacks keep every watched pair out of contact (orange zone 1 cm, level 1)
+    for variant in ("balanced", "unbalanced"):
+        assert figures[variant]["min_clearance_m"] > 0.5 * bench.ORANGE
+
+
+def test_bench_balance_avoidance_pairs_cover_arm_body_and_floor():
+    bench = _load("bench_balance")
+    robot = bench.load_robot()
+    pairs = {frozenset((p.name1, p.name2)) for p in bench.avoidance_pairs(robot)}
+    # the contacts seen in holds before avoidance: forearm on the belly, hand on a
+    # thigh, a hand on the floor
+    for a, b in (
+        ("rarm_lower", "torso_abdomen"),
+        ("rarm_lower", "pelvis"),
+        ("rarm_hand", "rleg_thigh"),
+        ("larm_hand", "floor"),
+    ):
+        assert frozenset((a, b)) in pairs
+    # soles stand on the floor in reset_pose: not watched; adjacent bodies neither
+    assert frozenset(("rleg_sole", "floor")) not in pairs
+    assert frozenset(("rarm_upper", "torso_chest")) not in pairs
+    # the floor adds no degree of freedom: the same q as the robot-only model
+    assert robot.model.nq == bench.Robot.load(bench.MODEL).model.nq
 
 
 def test_bench_balance_targets_in_the_box():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import mink
+import mujoco
 import numpy as np
 import pytest
 
@@ -15,6 +16,7 @@ from pik_mj.ik import (
     static_balance_point,
 )
 from pik_mj.robot import Robot
+from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs
 
 TIP_DOWN = np.array([0.0, 0.0, 1.0, 0.0])  # rotation by pi about y (w, x, y, z)
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
@@ -214,6 +216,53 @@ def test_support_polygon_balance_option_keeps_com_inside():
     assert support_polygon(sole_polygons(robot)).signed_distance(robot.com()) >= -1e-3
 
 
+def _arm_torso_contacts(robot: Robot, arm: list[str], body: list[str]) -> set[tuple[str, str]]:
+    """Arm-body geom pairs MuJoCo's collision detection reports (dist <= 0)."""
+    m = robot.model
+    d = mujoco.MjData(m)
+    d.qpos[:] = robot.configuration.q
+    mujoco.mj_forward(m, d)
+    out = set()
+    for c in d.contact[: d.ncon]:
+        b1, b2 = (m.body(m.geom_bodyid[g]).name for g in (c.geom1, c.geom2))
+        if c.dist <= 0 and {b1, b2} & set(arm) and {b1, b2} & set(body):
+            out.add((m.geom(c.geom1).name, m.geom(c.geom2).name))
+    return out
+
+
+def test_fullbody_collision_avoidance_keeps_the_forearm_off_the_body():
+    # Right hand to a point just ahead of the belly, slightly left: the plain
+    # solution pushes the forearm 8 cm into the pelvis; with avoidance (level 1,
+    # above the hand) the arm keeps the 1 cm orange zone and still reaches.
+    robot = Robot.load("sample_humanoid")
+    arm, body = ["rarm_upper", "rarm_lower", "rarm_hand"], ["pelvis", "torso_chest"]
+    pairs = collision_pairs(robot.model, robot.data, arm + body)
+    target = np.array([0.22, 0.01, 0.88])
+    feet = [robot.frame_pose(s).translation() for s in ("rleg_end", "lleg_end")]
+    clearance, contacts = {}, {}
+    for avoid in (False, True):
+        robot.reset_pose()
+        task = CollisionAvoidanceTask(robot.configuration, pairs, yellow=0.1, orange=0.01)
+        res = fullbody_inverse_kinematics(
+            robot,
+            [(target, IDENTITY)],
+            limbs=["rarm"],
+            rotation_axis=[None],
+            collision_avoidance=task if avoid else (),
+            stop=100,
+        )
+        assert res.converged, res.summary()
+        hand = robot.frame_pose("rarm_end").translation()
+        assert np.linalg.norm(hand - target) <= 1e-3
+        for s, p in zip(("rleg_end", "lleg_end"), feet, strict=True):
+            assert np.linalg.norm(robot.frame_pose(s).translation() - p) <= 1e-3
+        clearance[avoid] = task.distances(robot.configuration).min()
+        contacts[avoid] = _arm_torso_contacts(robot, arm, body)
+        assert any(t.name == "collision" for t in res.tasks) == avoid
+    assert clearance[False] < -0.05 and contacts[False]
+    assert clearance[True] >= 0.01 - 1e-3 and not contacts[True]
+
+
 # ---------------------------------------------------------------- bad input
 def test_unknown_limb_lists_valid_limbs():
     robot = Robot.load("sample_humanoid")
@@ -274,3 +323,5 @@ def test_fullbody_needs_a_floating_base_and_model_paths_must_exist(arm, tmp_path
         )
     with pytest.raises(InvalidInput, match="balance"):
         fullbody_inverse_kinematics(robot, [], balance="zmp")
+    with pytest.raises(InvalidInput, match="collision_avoidance"):
+        fullbody_inverse_kinematics(robot, [], collision_avoidance="rarm_hand")

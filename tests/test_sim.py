@@ -18,11 +18,13 @@ import pytest
 import pik_mj
 from pik_mj import balance
 from pik_mj.exceptions import InvalidInput, SimulationUnstable, UnknownName
+from pik_mj.ik import fullbody_inverse_kinematics, sole_polygons
 from pik_mj.record import PATHS, Recorder, read_recording
 from pik_mj.robot import Robot
-from pik_mj.sim import Scene, add_wall, floor_environment, validate_pose
+from pik_mj.sim import ContactParams, Scene, add_wall, floor_environment, validate_pose
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.linear import LinearTask
+from pik_mj.tasks.support_polygon import SupportPolygonTask
 
 SOLES = ("rleg_sole", "lleg_sole")
 WALL_X = 0.65  # wall face [m], facing -x, in front of the robot
@@ -118,6 +120,31 @@ def lean():
 
 
 @pytest.fixture(scope="module")
+def crouch(scene):
+    """Right hand to (0.6, 0.15, 0.49) m, CoM kept 2 cm inside the soles' polygon."""
+    robot = Robot.load("sample_humanoid")
+    robot.reset_pose()
+    result = fullbody_inverse_kinematics(
+        robot,
+        [(np.array([0.6, 0.15, 0.49]), np.array([1.0, 0.0, 0.0, 0.0]))],
+        limbs=["rarm"],
+        rotation_axis=[None],
+        balance=[
+            SupportPolygonTask(
+                robot.configuration,
+                sole_polygons(robot),
+                root_body=robot.root_body,
+                margin=0.02,
+            )
+        ],
+        stop=100,
+    )
+    assert result.converged, result.summary()
+    q = robot.configuration.q.copy()
+    return q, scene.static_check(q)
+
+
+@pytest.fixture(scope="module")
 def wall_pose():
     """Right hand's fingertips on a wall ahead, CoM 3 cm ahead of the toes."""
     robot = Robot.load("sample_humanoid")
@@ -185,9 +212,54 @@ def test_reset_pose_hold_passes(scene, reset_q):
     assert hold.steps == 1500 and hold.simulated == pytest.approx(3.0)
     assert hold.drift < 0.01 and hold.slip < 0.002 and not hold.fell
     assert set(hold.slip_per_geom) == set(SOLES)
-    assert hold.min_margin > 0.05
+    # Standing still, the margin over the hold is the static one (polygon of the
+    # sole corners within the contact tolerance, as static_check).
+    assert hold.min_margin == pytest.approx(scene.static_check(reset_q).margin, abs=1e-3)
     assert hold.unexpected_contacts == []
     json.dumps(hold.to_dict())
+
+
+def test_hold_margin_counts_touching_soles_from_the_start(scene, reset_q):
+    # Soles 1 um above the floor: touching for static_check (tolerance 2 mm), not
+    # yet in contact for the physics (dist > 0) until the robot has sunk. The
+    # margin at the start is the static one, not -inf (no physical contact yet)
+    # nor one foot's polygon (some corners registering first).
+    hover = reset_q.copy()
+    hover[2] += 1e-6
+    static = scene.static_check(hover)
+    assert static.touching_geoms == sorted(SOLES) and static.margin > 0.09
+    hold = scene.hold(hover, 0.5, margin_every=1)
+    assert hold.passed, hold.failures
+    assert hold.min_margin == pytest.approx(static.margin, abs=1e-3)
+
+
+def test_hard_contacts_settle_shallow_and_default_to_them(scene, reset_q):
+    # The Scene default is a 5 ms contact time constant; MuJoCo's 20 ms default
+    # lets the standing robot sink ten times deeper into the floor.
+    def depth(s: Scene) -> float:
+        assert s.hold(reset_q, 1.0).passed
+        return -min(s.data.contact[i].dist for i in range(s.data.ncon))
+
+    hard, soft = depth(scene), depth(Scene("sample_humanoid", contact=ContactParams()))
+    assert scene.model.geom("rleg_sole").solref[0] == 0.005
+    assert 0.0 < hard < 1e-4
+    assert soft > 4e-4 and soft > 5 * hard
+    with pytest.raises(InvalidInput, match="two time steps"):
+        Scene("sample_humanoid", timestep=0.004)
+
+
+def test_crouched_reach_with_2cm_margin_holds_on_hard_contacts(crouch):
+    # CoM 2 cm inside the front-left corner region of the soles at 0.58 m: tipping
+    # over the edge needs the CoM raised by only r^2 / 2h = 0.35 mm. Released from
+    # rest, the robot sinks into the floor until the contacts carry it; with the
+    # soft 20 ms contact that transient rolls it over the sole edge.
+    q, static = crouch
+    assert static.feasible and static.margin == pytest.approx(0.02, abs=1e-3)
+    hard = Scene("sample_humanoid").hold(q, 3.0)
+    assert hard.passed, hard.failures
+    assert hard.drift < 0.005 and hard.min_margin > 0.015
+    soft = Scene("sample_humanoid", contact=ContactParams()).hold(q, 3.0)
+    assert soft.fell and not soft.passed
 
 
 def test_contact_tolerance_counts_touching_not_hovering(scene, reset_q):
