@@ -695,6 +695,9 @@ class ScenarioRecorder:
             self.recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
             for note in self.notes:
                 self.recorder.log_text(note, level="WARN")
+            # the static geometry is on disk before the first solve: a run that
+            # dies later still leaves a file that shows the robot
+            self.recorder.flush()
         self._label = ""
         self._n_levels = 0  # most levels (level 0 included) of any solve so far
         self._task_frame_paths: dict[str, tuple[str, str]] = {}
