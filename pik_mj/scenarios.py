@@ -46,7 +46,7 @@ from .exceptions import InvalidInput, PikError, UnknownName
 from .frames import Frame
 from .record import Recorder
 from .robot import Robot
-from .sim import Scene, StaticReport
+from .sim import Grasp, Scene, StaticReport
 from .solve import IterationInfo, SolveResult
 from .tasks.com import CentroidTask
 from .tasks.frame import FrameTask
@@ -473,6 +473,31 @@ class ScenarioScene:
             )
         return cls(robot, model_source(m, model_hint), None)
 
+    def grasp(self, pairs: Sequence[tuple[str, str]]) -> None:
+        r"""Hold objects in the robot's frames from now on (static check and hold).
+
+        Each ``(frame, body)`` pair names a robot frame F (site or body) and a free
+        body O of the environment; O's pose relative to F is read from the
+        robot's configuration now (the scenario has carried the object with the
+        hand), and the scene is rebuilt with a :class:`pik_mj.sim.Grasp`
+        (weld equality, O's mass in the system):
+
+        .. math::
+
+            X_{FO} = X_{WF}^{-1} X_{WO}, \quad
+            p_{FO} = R_{WF}^T (p_{WO} - p_{WF}), \quad R_{FO} = R_{WF}^T R_{WO}
+
+        Raises:
+            UnknownName: A frame or body unknown to the robot's model or the scene.
+        """
+        grasps = []
+        for frame, body in pairs:
+            X_WF = self.robot.frame_pose(frame, _frame_type(self.robot.model, frame))
+            X_WO = self.robot.frame_pose(body, "body")
+            X_FO = X_WF.inverse() @ X_WO
+            grasps.append(Grasp(frame, body, X_FO.translation(), X_FO.rotation().as_matrix()))
+        self.scene = Scene(self.model, self.environment, robot_pos=self.robot_pos, grasps=grasps)
+
     def _map_joints(self) -> None:
         rm, m = self.scene.robot_model, self.robot.model
         src: list[int] = []
@@ -573,6 +598,11 @@ class ScenarioScene:
             "allowed_contacts": self.allowed_contacts,
             "q": self.q_robot(),
         }
+
+
+def _frame_type(model: mujoco.MjModel, name: str) -> str:
+    """``"site"`` or ``"body"``: the kind of frame ``name`` is in ``model``."""
+    return Frame.find(model, name, None).frame_type
 
 
 def _shrunk_polygon(vertices: np.ndarray, d: float) -> np.ndarray:

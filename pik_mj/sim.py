@@ -75,6 +75,7 @@ __all__ = [
     "DEFAULT_CONTACT",
     "ContactInfo",
     "ContactParams",
+    "Grasp",
     "HoldReport",
     "Scene",
     "StaticCheckLog",
@@ -309,6 +310,50 @@ class ContactInfo:
         }
 
 
+@dataclass(frozen=True)
+class Grasp:
+    r"""An environment object held rigidly by a robot frame (a hand).
+
+    The object O is a top-level body of the environment with a free joint (e.g.
+    the room's ``kettle``). In a :class:`Scene` with this grasp its pose follows
+    the robot: for every robot configuration ``q``
+
+    .. math::
+
+        X_{WO}(q) = X_{WF}(q)\, X_{FO}, \qquad
+        p_{WO} = p_{WF} + R_{WF}\, p_{FO}, \quad R_{WO} = R_{WF} R_{FO}
+
+    and in the physics a MuJoCo weld equality between the frame's body and O
+    keeps that relative pose (MuJoCo computes the constraint force, so the
+    object's weight loads the arm and the balance). The object belongs to the
+    system: its mass counts in the CoM and the equilibrium of
+    :meth:`Scene.static_check`, its contacts with the environment are the
+    system's, its contacts with the robot self-contacts; contacts between the
+    frame's body and O (the grip) are excluded.
+
+    Attributes:
+        frame: Robot site or body name F (e.g. ``"rarm_end"``).
+        body: Object body name O.
+        p_FO: Position of O's body frame in F (3,) [m].
+        R_FO: Orientation of O's body frame in F (3, 3) [-].
+    """
+
+    frame: str
+    body: str
+    p_FO: np.ndarray
+    R_FO: np.ndarray
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.p_FO, dtype=float).reshape(-1)
+        R = np.asarray(self.R_FO, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise InvalidInput(f"grasp of {self.body!r}: p_FO must be 3 finite numbers [m]")
+        if R.shape != (3, 3) or not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
+            raise InvalidInput(f"grasp of {self.body!r}: R_FO must be a 3x3 rotation matrix")
+        object.__setattr__(self, "p_FO", p)
+        object.__setattr__(self, "R_FO", R)
+
+
 @dataclass
 class StaticReport:
     """Result of :meth:`Scene.static_check` for one configuration.
@@ -319,7 +364,7 @@ class StaticReport:
             of the ground contacts projected along gravity, counter-clockwise),
             at the mean contact height; ``(0, 3)`` without ground contacts, 1 or 2
             rows when they span no area.
-        com: Robot centre of mass ``p_WG`` (3,) [m].
+        com: Centre of mass ``p_WG`` (3,) [m] of the robot and its grasped objects.
         margin: Signed distance [m] of the CoM's projection to the support polygon,
             positive inside; for a degenerate polygon (a point or a segment) minus
             the distance to it; ``-inf`` without ground contacts.
@@ -582,6 +627,10 @@ class Scene:
             soft-contact creep of a loaded foot below ~0.2 mm/s (1: ~3 mm/s).
         noslip_iterations: MuJoCo's no-slip solver iterations (0: off); 5 removes
             the remaining creep at ~30% more time per step.
+        grasps: Objects held by robot frames (:class:`Grasp`, or tuples
+            ``(frame, body, p_FO, R_FO)``): each object's pose follows the robot
+            and a weld equality (``solref`` of ``contact``, else MuJoCo's) holds
+            it in the physics.
 
     Attributes:
         spec: The composed scene spec.
@@ -590,6 +639,8 @@ class Scene:
         robot_model: The robot-only model (defines the layout of ``q_robot``).
         root_body: Name of the robot's top-level body.
         mass: Robot mass [kg].
+        grasps: The :class:`Grasp` list.
+        carried_mass: Mass of the grasped objects [kg].
     """
 
     def __init__(
@@ -609,6 +660,7 @@ class Scene:
         default_kv: float = 60.0,
         impratio: float = 10.0,
         noslip_iterations: int = 0,
+        grasps: Sequence[Grasp | tuple[str, str, ArrayLike, ArrayLike]] = (),
     ):
         if not (math.isfinite(impratio) and impratio >= 1):
             raise InvalidInput(f"impratio must be >= 1, got {impratio}")
@@ -668,11 +720,29 @@ class Scene:
         self._robot_geom = self._robot_body[model.geom_bodyid]
         if contact is not None:
             self._apply_contact(spec, model, contact)
-            model = spec.compile()
+        self.grasps = [g if isinstance(g, Grasp) else Grasp(*g) for g in grasps]
+        self._add_grasps(spec, model, contact)
+        if contact is not None or self.grasps:
+            try:
+                model = spec.compile()
+            except ValueError as err:
+                raise InvalidInput(f"the scene does not compile: {err}") from err
         self.model = model
         self.data = mujoco.MjData(model)
         self._root_id = root_id
         self.mass = float(model.body_subtreemass[root_id])
+        # Grasped objects are part of the system: CoM, contacts, equilibrium.
+        self._grasp_frames = [Frame.find(model, g.frame) for g in self.grasps]
+        self._grasp_bodies = np.array([model.body(g.body).id for g in self.grasps], dtype=int)
+        self._grasp_qadr = [
+            int(model.jnt_qposadr[model.body_jntadr[b]]) for b in self._grasp_bodies
+        ]
+        self.carried_mass = float(model.body_subtreemass[self._grasp_bodies].sum())
+        self._system_body = self._robot_body.copy()
+        for b in self._grasp_bodies:
+            self._system_body |= np.asarray(model.body_rootid) == b
+        self._robot_geom = self._system_body[model.geom_bodyid]
+        self._kin_data = mujoco.MjData(model)
         self._servo_ids = np.arange(n_old_actuators, model.nu)
         self._build_pose_map()
         # Collision-only copy whose robot geoms carry the contact tolerance.
@@ -732,6 +802,66 @@ class Scene:
             geom.solref = list(contact.solref)
             geom.solimp = list(contact.solimp)
 
+    def _add_grasps(
+        self, spec: mujoco.MjSpec, model: mujoco.MjModel, contact: ContactParams | None
+    ) -> None:
+        """A weld ``(frame's body B, object O)`` with ``relpose = X_BO = X_BF X_FO``
+        and a contact exclusion of ``(B, O)`` per grasp (names checked)."""
+        frames = [
+            n
+            for kind in ("site", "body")
+            for n in _names(
+                model,
+                getattr(mujoco.mjtObj, f"mjOBJ_{kind.upper()}"),
+                model.nsite if kind == "site" else model.nbody,
+            )
+            if n
+            and self._robot_body[
+                model.site_bodyid[model.site(n).id] if kind == "site" else model.body(n).id
+            ]
+        ]
+        objects = [
+            model.body(b).name
+            for b in range(1, model.nbody)
+            if model.body_parentid[b] == 0
+            and not self._robot_body[b]
+            and model.body_jntnum[b] == 1
+            and model.jnt_type[model.body_jntadr[b]] == mujoco.mjtJoint.mjJNT_FREE
+        ]
+        seen: set[str] = set()
+        for g in self.grasps:
+            if g.frame not in frames:
+                raise UnknownName("robot frame (site or body)", g.frame, frames)
+            if g.body not in objects:
+                raise UnknownName("free environment body", g.body, objects)
+            if g.body in seen:
+                raise InvalidInput(f"body {g.body!r} is grasped twice")
+            seen.add(g.body)
+            frame = Frame.find(model, g.frame)
+            body = frame.body_id
+            if frame.frame_type == "site":
+                p_BF = np.array(model.site_pos[frame.id])
+                R_BF = np.zeros(9)
+                mujoco.mju_quat2Mat(R_BF, model.site_quat[frame.id])
+                R_BF = R_BF.reshape(3, 3)
+            else:
+                p_BF, R_BF = np.zeros(3), np.eye(3)
+            p_BO = p_BF + R_BF @ g.p_FO
+            quat_BO = np.empty(4)
+            mujoco.mju_mat2Quat(quat_BO, np.ascontiguousarray(R_BF @ g.R_FO).ravel())
+            weld = spec.add_equality(
+                name=f"grasp_{g.body}",
+                type=mujoco.mjtEq.mjEQ_WELD,
+                objtype=mujoco.mjtObj.mjOBJ_BODY,
+                name1=model.body(body).name,
+                name2=g.body,
+            )
+            # data: anchor (3) in O, relpose X_BO (3 + 4), torque scale.
+            weld.data = np.r_[np.zeros(3), p_BO, quat_BO, 1.0, np.zeros(len(weld.data) - 11)]
+            if contact is not None:
+                weld.solref = list(contact.solref)
+            spec.add_exclude(bodyname1=model.body(body).name, bodyname2=g.body)
+
     def _build_pose_map(self) -> None:
         rm, m = self.robot_model, self.model
         src, dst = [], []
@@ -786,7 +916,8 @@ class Scene:
 
         Joints are mapped by name; a free joint's pose ``(p, quat)`` in the robot
         model's world becomes ``(p_WR + R_WR p, quat_WR ⊗ quat)`` in the scene.
-        Environment entries come from ``base`` (default: the model's ``qpos0``).
+        Environment entries come from ``base`` (default: the model's ``qpos0``),
+        except grasped objects, placed at ``X_WF(q) X_FO`` (:class:`Grasp`).
 
         Raises:
             InvalidInput: Wrong length or non-finite values.
@@ -808,6 +939,18 @@ class Scene:
                 quat, self._quat_WR, q[a + 3 : a + 7] / np.linalg.norm(q[a + 3 : a + 7])
             )
             out[b + 3 : b + 7] = quat
+        if self.grasps:
+            d = self._kin_data
+            d.qpos[:] = out
+            mujoco.mj_kinematics(self.model, d)
+            for g, frame, adr in zip(
+                self.grasps, self._grasp_frames, self._grasp_qadr, strict=True
+            ):
+                R_WF = frame.rotation(d)
+                out[adr : adr + 3] = frame.position(d) + R_WF @ g.p_FO
+                quat = np.empty(4)
+                mujoco.mju_mat2Quat(quat, np.ascontiguousarray(R_WF @ g.R_FO).ravel())
+                out[adr + 3 : adr + 7] = quat
         return out
 
     def set_pose(self, q_robot: ArrayLike) -> None:
@@ -820,9 +963,20 @@ class Scene:
         mujoco.mj_forward(self.model, self.data)
 
     def com(self, data: mujoco.MjData | None = None) -> np.ndarray:
-        """Robot centre of mass ``p_WG`` (3,) [m] of ``data`` (default: physics)."""
+        r"""Centre of mass ``p_WG`` (3,) [m] of the robot and its grasped objects
+        in ``data`` (default: physics):
+
+        .. math::
+
+            p_{WG} = \frac{m_r c_r + \sum_o m_o c_o}{m_r + \sum_o m_o}
+        """
         d = self.data if data is None else data
-        return d.subtree_com[self._root_id].copy()
+        if not self.grasps:
+            return d.subtree_com[self._root_id].copy()
+        c = self.mass * d.subtree_com[self._root_id]
+        for b in self._grasp_bodies:
+            c = c + self.model.body_subtreemass[b] * d.subtree_com[b]
+        return c / (self.mass + self.carried_mass)
 
     # ---------------------------------------------------------------- contacts
     def _contacts(
@@ -944,7 +1098,9 @@ class Scene:
                 )
                 for c in env
             ]
-            result = balance.static_equilibrium(cons, self.mass, com, external, gravity)
+            result = balance.static_equilibrium(
+                cons, self.mass + self.carried_mass, com, external, gravity
+            )
             feasible, message = result.feasible, result.message
             if result.wrenches is not None:
                 forces = result.wrenches[:, :3].copy()
@@ -975,7 +1131,7 @@ class Scene:
         try:
             region = balance.scfr(
                 cons,
-                self.mass,
+                self.mass + self.carried_mass,
                 external,
                 gravity,
                 com_z=float(com[2]),
@@ -1076,13 +1232,17 @@ class Scene:
         .. math::
 
             \tau = g(q) - \sum_i J_{p}(p_i)^T f_i - \sum_e J_e^T w_e
+               - \sum_o J_{p,F_o}(c_o)^T m_o g
 
         ``g`` comes from ``qfrc_bias`` at zero velocity; ``f_i`` are the
         least-norm forces inside the friction pyramids that balance the robot at
         the actual contacts ``p_i`` (the equilibrium LP's own forces are any
         feasible point, often on a cone's edge, which would push the feet to
         slip). The rows on the servo joints are the static feed-forward of a PD
-        hold with gravity compensation; the free-joint rows are ~0.
+        hold with gravity compensation; the free-joint rows are ~0. A grasped
+        object's weight ``m_o g`` acts at its CoM ``c_o`` on the grasping frame's
+        body (the weld carries it in the physics); the contact forces balance the
+        robot and its objects.
 
         Returns:
             ``(nv,)`` [N, N·m], or None when the pose has no static equilibrium.
@@ -1095,7 +1255,7 @@ class Scene:
         report = self.static_check(q_robot, external=wrenches)
         if not report.feasible or report.forces is None:
             return None
-        forces = _least_norm_forces(report, self.mass, m.opt.gravity, wrenches)
+        forces = _least_norm_forces(report, self.mass + self.carried_mass, m.opt.gravity, wrenches)
         if forces is None:
             return None
         self.set_pose(q_robot)
@@ -1106,6 +1266,10 @@ class Scene:
                 m, d, jacp, None, c.position, int(m.geom_bodyid[self._geom_id[c.robot_geom]])
             )
             tau -= jacp.T @ f
+        for frame, b in zip(self._grasp_frames, self._grasp_bodies, strict=True):
+            # the weight of a grasped object hangs on the frame's body at its CoM
+            mujoco.mj_jac(m, d, jacp, None, d.subtree_com[b], frame.body_id)
+            tau -= jacp.T @ (m.body_subtreemass[b] * np.asarray(m.opt.gravity))
         qfrc = np.zeros(m.nv)
         for (frame, F, M), w in zip(external, wrenches, strict=True):
             body = Frame.find(m, frame).body_id
@@ -1352,7 +1516,9 @@ class Scene:
         return (
             f"Scene(root_body={self.root_body!r}, nq={self.model.nq}, "
             f"servos={len(self.servo_joints)}, timestep={self.model.opt.timestep}, "
-            f"mass={self.mass:.2f} kg, allowed_contacts={self.allowed_contacts})"
+            f"mass={self.mass:.2f} kg, allowed_contacts={self.allowed_contacts}"
+            + (f", grasps={[(g.frame, g.body) for g in self.grasps]}" if self.grasps else "")
+            + ")"
         )
 
 

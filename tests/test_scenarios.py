@@ -159,3 +159,24 @@ def test_failed_check_fails_the_scenario():
     assert not r.check("broken", False, "detail")
     assert not r.passed and r.messages[-1] == "[FAILED] broken: detail"
     assert r.to_dict()["passed"] is False
+
+
+def test_kettle_is_held_in_the_hand_during_the_hold():
+    result = run_scenario("kettle", hold=1.5)
+    assert result.passed, result.summary()
+    hold = result.balance["hold"]
+    assert hold["drift"] < 0.01 and hold["slip"] < 0.002 and hold["unexpected_contacts"] == []
+    lift = result.figures["kettle_lift_m"]
+    assert abs(lift[2] - 0.1) < 2e-3 and np.linalg.norm(lift[:2]) < 2e-3
+    # The static check's system is the robot and the 1 kg kettle: the LP's
+    # contact forces carry both weights.
+    forces = np.array(result.balance["static"]["forces"])
+    m_kettle = 1.0  # room.xml: kettle geoms 0.74 + 0.05 + 0.05 + 0.03 + 0.03 + 0.1 kg
+    assert forces[:, 2].sum() == pytest.approx((result.robot.mass + m_kettle) * 9.81, rel=1e-6)
+    # and the system's CoM is the mass-weighted mean of the robot's and the kettle's
+    m = result.robot.model
+    kettle_com = result.robot.data.xipos[m.body("kettle").id]
+    expected = (result.robot.mass * result.robot.com() + m_kettle * kettle_com) / (
+        result.robot.mass + m_kettle
+    )
+    np.testing.assert_allclose(result.balance["static"]["com"], expected, atol=1e-6)

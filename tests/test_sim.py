@@ -454,3 +454,66 @@ def test_robot_actuators_and_keyframe_ctrl_are_kept():
     for j in ("rleg_knee_p", "larm_elbow_p", "rleg_hip_p"):
         a = m.actuator(f"{j}_servo").id
         assert m.key_ctrl[k, a] == m.key_qpos[k, m.joint(j).qposadr[0]]
+
+
+# ------------------------------------------------------------------ grasp
+def box_environment(mass: float = 2.0) -> mujoco.MjSpec:
+    """A floor and a free 8 cm box ``box`` (``mass`` [kg]) far from the robot."""
+    env = floor_environment()
+    body = env.worldbody.add_body(name="box", pos=[2.0, 0.0, 0.5])
+    body.add_freejoint(name="box_free")
+    body.add_geom(name="box_geom", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.04] * 3, mass=mass)
+    return env
+
+
+def test_grasped_object_follows_the_hand_and_loads_the_balance(reset_q):
+    m_box, g = 2.0, 9.81
+    # Box 12 cm beside the right hand (away from the thigh), turned 90° about z.
+    p_FO, R_FO = np.array([0.0, -0.12, 0.02]), np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    scene = Scene(
+        "sample_humanoid", box_environment(m_box), grasps=[("rarm_end", "box", p_FO, R_FO)]
+    )
+    assert scene.carried_mass == pytest.approx(m_box)
+    # Independent: the hand pose in the robot-only model, X_WO = X_WF X_FO.
+    robot = Robot.load("sample_humanoid")
+    X_WF = robot.frame_pose("rarm_end")
+    p_WO = X_WF.translation() + X_WF.rotation().as_matrix() @ p_FO
+    qpos = scene.scene_qpos(reset_q)
+    adr = scene.model.jnt_qposadr[scene.model.joint("box_free").id]
+    np.testing.assert_allclose(qpos[adr : adr + 3], p_WO, atol=1e-9)
+    R_WO = np.zeros(9)
+    mujoco.mju_quat2Mat(R_WO, qpos[adr + 3 : adr + 7])
+    np.testing.assert_allclose(R_WO.reshape(3, 3), X_WF.rotation().as_matrix() @ R_FO, atol=1e-9)
+
+    # Static check: the box is part of the system (CoM and weight).
+    report = scene.static_check(reset_q)
+    assert report.feasible and report.touching_geoms == sorted(SOLES)
+    m_all = robot.mass + m_box
+    np.testing.assert_allclose(report.com, (robot.mass * robot.com() + m_box * p_WO) / m_all)
+    check_force_balance(report, m_all)
+
+    # Physics: the weld carries the box's weight, the feet carry robot + box.
+    hold = scene.hold(reset_q, 1.5)
+    assert hold.passed, hold.failures
+    assert hold.drift < 2e-3 and hold.slip < 1e-3
+    d, m = scene.data, scene.model
+    rows = (d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (
+        d.efc_id == m.equality("grasp_box").id
+    )
+    f_weld = d.efc_force[rows][:3]  # on the hand, world frame [N]
+    np.testing.assert_allclose(f_weld, [0.0, 0.0, -m_box * g], atol=0.01 * m_box * g)
+    from pik_mj.scenarios import robot_contact_forces
+
+    _, f_feet = robot_contact_forces(m, d, scene._robot_geom)
+    assert f_feet[:, 2].sum() == pytest.approx(m_all * g, rel=0.01)
+    # The box stayed in the hand: X_WF(t) X_FO vs the box's pose, 1 mm.
+    site = m.site("rarm_end").id
+    expected = d.site_xpos[site] + d.site_xmat[site].reshape(3, 3) @ p_FO
+    assert np.linalg.norm(d.xpos[m.body("box").id] - expected) < 1e-3
+
+    with pytest.raises(UnknownName, match="rarm_end"):
+        Scene("sample_humanoid", box_environment(), grasps=[("rarm_hnd", "box", p_FO, R_FO)])
+    with pytest.raises(UnknownName, match="box"):
+        Scene("sample_humanoid", box_environment(), grasps=[("rarm_end", "floor", p_FO, R_FO)])
+    with pytest.raises(InvalidInput, match="rotation"):
+        Scene("sample_humanoid", box_environment(), grasps=[("rarm_end", "box", p_FO, 2 * R_FO)])
