@@ -49,7 +49,7 @@ import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput, UnknownName
-from .solve import IterationInfo, SolveResult, task_reports
+from .solve import IterationInfo, SolveResult, evaluate_levels
 from .tasks.frame import ONE_DEGREE, FrameTask
 
 METHODS = ("sr-inverse", "pseudo-inverse")
@@ -257,15 +257,14 @@ def classic_inverse_kinematics(
     previous_grad: np.ndarray | None = None
     converged = False
     iteration = 0
+    levels = [[], tasks]
     try:
+        rows, reports = evaluate_levels(configuration, levels)
         while iteration < stop:
             t0 = time.perf_counter()
-            rows = [t.compute_rows(configuration) for t in tasks]
             q_all = configuration.q
-            J = np.vstack([r.A for r in rows] + [J_lock])[:, dofs]
-            dx = np.concatenate(
-                [r.b for r in rows] + [q_all[lock_qadr[:, 1]] - q_all[lock_qadr[:, 0]]]
-            )
+            J = np.vstack([rows[1].A, J_lock])[:, dofs]
+            dx = np.concatenate([rows[1].b, q_all[lock_qadr[:, 1]] - q_all[lock_qadr[:, 0]]])
             history.append([float(dx @ dx)])
             q = configuration.q[np.where(clamp, qadr, 0)]
             grad = joint_limit_gradient(q, lower, upper)
@@ -286,20 +285,18 @@ def classic_inverse_kinematics(
             qnew[qadr[clamp]] = np.clip(qnew[qadr[clamp]], lower[clamp], upper[clamp])
             configuration.update(qnew)
             iteration += 1
-            reports = task_reports(configuration, [[], tasks])
+            # the stop test's evaluation is also the next iteration's linearization
+            rows, reports = evaluate_levels(configuration, levels)
             converged = iteration >= min_loop and all(r.satisfied for r in reports if r.checked)
             times.append(time.perf_counter() - t0)
             if callback is not None:
-                callback(
-                    IterationInfo(iteration, configuration, [[], tasks], None, times[-1], reports)
-                )
+                callback(IterationInfo(iteration, configuration, levels, None, times[-1], reports))
             if converged:
                 break
     except BaseException:
         configuration.update(q0)
         raise
-    reports = task_reports(configuration, [[], tasks])
-    level_errors = [float(sum(np.sum(t.compute_error(configuration) ** 2) for t in tasks))]
+    level_errors = [float(sum(r.error**2 for r in reports))]
     reverted = not converged and revert_if_fail
     if reverted:
         configuration.update(q0)

@@ -145,13 +145,8 @@ def normalize_levels(levels: Sequence[Sequence[object]], dt: float) -> list[list
     return out
 
 
-def task_reports(configuration: mink.Configuration, levels: list[list[Task]]) -> list[TaskReport]:
-    """Error and satisfaction of every task at the current configuration."""
-    return evaluate_levels(configuration, levels, validate=False)[1]
-
-
 def evaluate_levels(
-    configuration: mink.Configuration, levels: list[list[Task]], validate: bool = True
+    configuration: mink.Configuration, levels: list[list[Task]]
 ) -> tuple[list[TaskRows], list[TaskReport]]:
     """Every task's rows (stacked per level) and report at ``configuration``.
 
@@ -165,8 +160,7 @@ def evaluate_levels(
         rows = []
         for task in level:
             state = task.evaluate(configuration)
-            if validate:
-                state.rows.validate(nv, task.name)
+            state.rows.validate(nv, task.name)
             rows.append(state.rows)
             reports.append(TaskReport(task.name, k, state.error, state.satisfied, task.check))
         stacked.append(TaskRows.stack(rows, nv))
