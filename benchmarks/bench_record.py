@@ -22,7 +22,10 @@ warm-up each):
 
     \\text{overhead} = t_{recorded} / t_{plain} - 1
 
-Also printed: the time spent inside the callback and in the final flush/close.
+Also printed: the median of the paired ratios ``t_recorded,i / t_plain,i - 1`` of
+the two runs of each repetition (they run back to back, so it is less sensitive
+to the machine's load drifting during the benchmark), and the time spent inside
+the callback and in the final flush/close.
 
 Run: ``python benchmarks/bench_record.py [--reps 20]``
 """
@@ -143,6 +146,7 @@ def main(argv=None) -> dict:
         "callback_s": t_cb,
         "close_s": t_close,
         "overhead": t_rec / t_plain - 1.0,
+        "overhead_paired": float(np.median(np.array(recorded) / np.array(plain) - 1.0)),
         "overhead_in_callback": t_cb / t_plain,
         "overhead_with_setup": (t_rec + t_setup) / t_plain - 1.0,
         "rrd_bytes": rrd_bytes,
@@ -154,6 +158,7 @@ def main(argv=None) -> dict:
     print(f"{'solve, unrecorded [ms]':40}{1e3 * t_plain:>10.2f}")
     print(f"{'solve, recorded + flush/close [ms]':40}{1e3 * t_rec:>10.2f}")
     print(f"{'recording overhead':40}{figures['overhead']:>10.1%}   (target <= 30%)")
+    print(f"{'  median of the paired ratios':40}{figures['overhead_paired']:>10.1%}")
     print(f"{'  of which in the callback [ms]':40}{1e3 * t_cb:>10.2f}")
     print(f"{'  of which flush + close [ms]':40}{1e3 * t_close:>10.2f}")
     print(f"{'overhead of the callback alone':40}{figures['overhead_in_callback']:>10.1%}")

@@ -439,6 +439,7 @@ class ScenarioScene:
         self.environment = environment
         self.robot_pos = np.zeros(3)
         self.allowed_contacts: list[str] | None = None
+        self.grasps: list[Grasp] = []  # objects held by robot frames (see grasp)
         # Wrenches the pose was solved for: (frame, force [N], moment [N·m]),
         # applied during the static check and the hold.
         self.external: list[tuple[str, Any, Any]] = []
@@ -497,6 +498,7 @@ class ScenarioScene:
             X_FO = X_WF.inverse() @ X_WO
             grasps.append(Grasp(frame, body, X_FO.translation(), X_FO.rotation().as_matrix()))
         self.scene = Scene(self.model, self.environment, robot_pos=self.robot_pos, grasps=grasps)
+        self.grasps = grasps
 
     def _map_joints(self) -> None:
         rm, m = self.scene.robot_model, self.robot.model
@@ -590,12 +592,18 @@ class ScenarioScene:
         return {**out, "hold": hold.to_dict(), "passed": bool(static.feasible and hold.passed)}
 
     def state(self) -> dict[str, Any]:
-        """What ``pik-mj validate`` needs to rebuild this scene and pose."""
+        """What ``pik-mj validate`` needs to rebuild this scene and pose: the
+        robot-only ``q``, its placement, allowed contacts and held objects
+        (``grasps``: ``{"frame", "body", "p_FO" [m], "R_FO"}`` each)."""
         return {
             "model": self.model,
             "environment": self.environment,
             "robot_pos": self.robot_pos,
             "allowed_contacts": self.allowed_contacts,
+            "grasps": [
+                {"frame": g.frame, "body": g.body, "p_FO": g.p_FO, "R_FO": g.R_FO}
+                for g in self.grasps
+            ],
             "q": self.q_robot(),
         }
 
@@ -768,6 +776,8 @@ class ScenarioRecorder:
         finally:
             if self.recorder is not None:
                 try:
+                    # rows first: the stream writes them while the blueprint is built
+                    self.recorder.send_buffered()
                     self._send_blueprint()
                 finally:
                     self.recorder.close()
