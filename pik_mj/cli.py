@@ -143,8 +143,9 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
     summary, or the file itself when it has ``model`` and ``q``.
 
     Returns:
-        ``{"model", "q", "environment", "robot_pos", "allowed_contacts"}``
-        (missing optional entries are None).
+        ``{"model", "q", "environment", "robot_pos", "allowed_contacts", "grasps"}``
+        (missing optional entries are None; ``grasps`` is a list of
+        ``(frame, body, p_FO, R_FO)``, empty when nothing is held).
 
     Raises:
         InvalidInput: Missing or unreadable file, or no pose in it.
@@ -167,12 +168,21 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
     q = src["q"]
     if not isinstance(q, list) or not all(isinstance(x, (int, float)) for x in q):
         raise InvalidInput(f'pose file {str(p)!r}: "q" must be a list of numbers')
+    grasps = src.get("grasps") or []
+    keys = ("frame", "body", "p_FO", "R_FO")
+    if not isinstance(grasps, list) or not all(
+        isinstance(g, dict) and all(k in g for k in keys) for g in grasps
+    ):
+        raise InvalidInput(
+            f'pose file {str(p)!r}: "grasps" must be a list of {{"frame", "body", "p_FO", "R_FO"}}'
+        )
     return {
         "model": src["model"],
         "q": [float(x) for x in q],
         "environment": src.get("environment"),
         "robot_pos": src.get("robot_pos"),
         "allowed_contacts": src.get("allowed_contacts"),
+        "grasps": [tuple(g[k] for k in keys) for g in grasps],
     }
 
 
@@ -199,6 +209,7 @@ def _validate(args: argparse.Namespace) -> int:
             args.duration,
             robot_pos=pose["robot_pos"] if pose["robot_pos"] is not None else (0.0, 0.0, 0.0),
             allowed=pose["allowed_contacts"],
+            grasps=pose["grasps"],
             recorder=recorder,
         )
     except SimulationUnstable as exc:
@@ -207,7 +218,8 @@ def _validate(args: argparse.Namespace) -> int:
     finally:
         if recorder is not None:
             recorder.close()
-    print(f"validate {args.file}: model {pose['model']}, environment {env}")
+    held = "".join(f", {body} held in {frame}" for frame, body, _, _ in pose["grasps"])
+    print(f"validate {args.file}: model {pose['model']}, environment {env}{held}")
     print(balance_summary(report))
     print("PASSED" if report["passed"] else "FAILED")
     if args.json:

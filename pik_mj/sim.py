@@ -1574,6 +1574,7 @@ def validate_pose(
     robot_pos: ArrayLike = (0.0, 0.0, 0.0),
     robot_yaw: float = 0.0,
     allowed: Sequence[str] | None = None,
+    grasps: Sequence[Grasp | tuple[str, str, ArrayLike, ArrayLike]] = (),
     recorder: Any = None,
 ) -> dict[str, Any]:
     """Static check and physics hold of one pose (for ``pik-mj validate``).
@@ -1588,6 +1589,7 @@ def validate_pose(
         robot_pos: See :class:`Scene`.
         robot_yaw: See :class:`Scene`.
         allowed: Robot geoms allowed to touch the environment.
+        grasps: Objects held by robot frames (see :class:`Scene`).
         recorder: Optional recorder for the hold.
 
     Returns:
@@ -1595,7 +1597,12 @@ def validate_pose(
         "hold": HoldReport.to_dict(), "passed": feasible and hold passed}``.
     """
     scene = Scene(
-        robot, environment, robot_pos=robot_pos, robot_yaw=robot_yaw, allowed_contacts=allowed
+        robot,
+        environment,
+        robot_pos=robot_pos,
+        robot_yaw=robot_yaw,
+        allowed_contacts=allowed,
+        grasps=grasps,
     )
     rm = scene.robot_model
     if q is None or isinstance(q, str):

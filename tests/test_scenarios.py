@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
+from pik_mj.cli import read_pose_file
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.robot import Robot
 from pik_mj.scenarios import (
@@ -16,9 +17,11 @@ from pik_mj.scenarios import (
     ScenarioResult,
     ScenarioScene,
     _shrunk_polygon,
+    jsonable,
     robot_at_spot,
     run_scenario,
 )
+from pik_mj.sim import validate_pose
 
 KEYS = {"name", "passed", "converged", "iterations", "tasks", "timing", "figures", "messages"}
 IK_SCENARIOS = sorted(n for n, e in REGISTRY.items() if not e.walking)
@@ -161,7 +164,7 @@ def test_failed_check_fails_the_scenario():
     assert r.to_dict()["passed"] is False
 
 
-def test_kettle_is_held_in_the_hand_during_the_hold():
+def test_kettle_is_held_in_the_hand_during_the_hold(tmp_path):
     result = run_scenario("kettle", hold=1.5)
     assert result.passed, result.summary()
     hold = result.balance["hold"]
@@ -180,3 +183,26 @@ def test_kettle_is_held_in_the_hand_during_the_hold():
         result.robot.mass + m_kettle
     )
     np.testing.assert_allclose(result.balance["static"]["com"], expected, atol=1e-6)
+
+    # `pik-mj validate` of the run's JSON rebuilds the scene with the grasp:
+    # the kettle is carried again, not left on the counter.
+    path = tmp_path / "kettle.json"
+    path.write_text(json.dumps(jsonable(result.to_dict())))
+    pose = read_pose_file(path)
+    [(frame, body, p_FO, R_FO)] = pose["grasps"]
+    assert (frame, body) == ("rarm_end", "kettle") and np.linalg.norm(p_FO) < 0.2
+    np.testing.assert_allclose(np.array(R_FO) @ np.array(R_FO).T, np.eye(3), atol=1e-9)
+    report = validate_pose(
+        pose["model"],
+        pose["q"],
+        pose["environment"],
+        1.0,
+        robot_pos=pose["robot_pos"],
+        allowed=pose["allowed_contacts"],
+        grasps=pose["grasps"],
+    )
+    assert report["passed"], report
+    # the static check's system holds the kettle's 1 kg, and the hold carries it
+    forces = np.array(report["static"]["forces"])
+    assert forces[:, 2].sum() == pytest.approx((result.robot.mass + m_kettle) * 9.81, rel=1e-6)
+    assert report["hold"]["unexpected_contacts"] == []
