@@ -7,7 +7,7 @@ rows go out together: the rows of all entities that share their time stamps form
 one Arrow record batch, which ``rerun.chunk.Chunk.from_record_batch`` splits into
 one chunk per entity, and one ``rr.send_chunks`` sends them all (static data the
 same way). That is ~20x cheaper per iteration than one ``log`` call per entity
-and ~3x cheaper than one ``send_columns`` per entity. Everything else
+and about half the cost of one ``send_columns`` per entity. Everything else
 (polygons, contacts, text) is logged directly.
 
 Every entity path is built by :class:`EntityPaths` (module constant
@@ -396,7 +396,7 @@ class _Outbox:
     :meth:`rerun.chunk.Chunk.from_record_batch` splits into one chunk per entity.
     Rows of one kind (all poses, all scalars, ...) in a batch are serialized
     together and sliced per entity (zero-copy). One ``send_columns`` per entity
-    costs ~70 us of Python and native overhead; this is ~3x cheaper.
+    costs ~70 us of Python and native overhead; this is about half that.
     """
 
     def __init__(self) -> None:

@@ -516,6 +516,40 @@ def test_recording_is_valid_after_an_exception(model, tmp_path):
         rec.log_scalar("x", 1.0)
 
 
+def test_rows_of_many_entities_sent_together_read_back_per_entity(model, tmp_path):
+    # Rows sharing their time stamps go out as one record batch split per
+    # entity; rows with other stamps, and static data, in the same send.
+    path = tmp_path / "batched.rrd"
+    with Recorder.to_file(path) as rec:
+        rec.log_model_geometry(model)
+        for k in range(5):
+            rec.log_body_poses(_posed_data(model, k), time=k)
+            rec.log_scalar(PATHS.task_error(1, "a"), float(k))
+            rec.log_scalar(PATHS.task_error(2, "b"), 10.0 + k)
+            if k % 2 == 0:
+                rec.log_com([k, 0.0, 1.0])
+        rec.send_buffered()  # sent without waiting; logging goes on
+        rec.log_body_poses(_posed_data(model, 5), time=5)
+        rec.log_scalar(PATHS.task_error(1, "a"), 5.0)
+    assert _verify(path).returncode == 0
+    out = read_recording(path)
+    times, a = out[PATHS.task_error(1, "a")].series("Scalars:scalars", "iteration")
+    assert times.tolist() == list(range(6)) and [x[0] for x in a] == [0, 1, 2, 3, 4, 5]
+    times, b = out[PATHS.task_error(2, "b")].series("Scalars:scalars", "iteration")
+    assert times.tolist() == list(range(5)) and [x[0] for x in b] == [10, 11, 12, 13, 14]
+    times, c = out[PATHS.com].series("Points3D:positions", "iteration")
+    assert times.tolist() == [0, 2, 4] and [x[0][0] for x in c] == [0, 2, 4]
+    for k in (0, 3, 5):  # each body's slice of the shared pose columns
+        data = _posed_data(model, k)
+        for name in ("arm", "base"):
+            p, R = _pose(out[PATHS.body(name)], static=False, row=k)
+            b = model.body(name).id
+            np.testing.assert_allclose(p, data.xpos[b], atol=1e-6)
+            np.testing.assert_allclose(R, data.xmat[b].reshape(3, 3), atol=1e-6)
+    # static data (geometry, the point style) went out in the same sends
+    assert "Points3D:radii" in out[PATHS.com].static
+
+
 def test_explicit_stream_is_not_the_global_one_and_stays_open(tmp_path):
     path = tmp_path / "explicit.rrd"
     stream = rr.RecordingStream("pik_mj_test", recording_id="explicit")
