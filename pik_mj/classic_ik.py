@@ -49,7 +49,7 @@ import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput, UnknownName
-from .solve import IterationInfo, SolveResult, evaluate_levels
+from .solve import IterationInfo, SolveResult, evaluate_levels, revert_unless_converged
 from .tasks.frame import ONE_DEGREE, FrameTask
 
 METHODS = ("sr-inverse", "pseudo-inverse")
@@ -297,9 +297,7 @@ def classic_inverse_kinematics(
         configuration.update(q0)
         raise
     level_errors = [float(sum(r.error**2 for r in reports))]
-    reverted = not converged and revert_if_fail
-    if reverted:
-        configuration.update(q0)
+    reverted = revert_unless_converged(configuration, q0, converged, revert_if_fail)
     return SolveResult(
         converged=converged,
         iterations=iteration,

@@ -167,6 +167,17 @@ def evaluate_levels(
     return stacked, reports
 
 
+def revert_unless_converged(
+    configuration: mink.Configuration, q0: np.ndarray, converged: bool, revert_if_fail: bool
+) -> bool:
+    """Put ``configuration`` back to ``q0`` when the solve did not converge and
+    ``revert_if_fail`` is set; returns whether it was reverted."""
+    reverted = not converged and revert_if_fail
+    if reverted:
+        configuration.update(q0)
+    return reverted
+
+
 def _satisfaction(reports: list[TaskReport], n_levels: int) -> tuple[bool, int]:
     """``(all checked tasks satisfied, number of leading solved levels satisfied)``.
 
@@ -308,10 +319,7 @@ def solve(
         configuration.update(q0)
         raise
     level_errors = [r.squared_error() for r in rows[1:]]
-    reverted = False
-    if not converged and revert_if_fail:
-        configuration.update(q0)
-        reverted = True
+    reverted = revert_unless_converged(configuration, q0, converged, revert_if_fail)
     return SolveResult(
         converged=converged,
         iterations=iteration,

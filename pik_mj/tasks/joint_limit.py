@@ -137,19 +137,22 @@ def ball_angle(quat: np.ndarray) -> tuple[float, np.ndarray]:
     return 2.0 * float(np.arctan2(s, q[0])), q[1:] / s
 
 
-def _per_joint(value, n: int, what: str) -> np.ndarray | None:
-    if value is None:
-        return None
+def per_entry(value, n: int, what: str, entry: str = "joint") -> np.ndarray:
+    """``value`` (a float, or one per ``entry``) as ``n`` floats without NaN, or raise."""
     arr = np.asarray(value, dtype=float)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     if arr.shape != (n,):
         raise InvalidInput(
-            f"{what} must be a float or one value per joint ({n}), got shape {arr.shape}"
+            f"{what} must be a float or one value per {entry} ({n}), got shape {arr.shape}"
         )
     if np.any(np.isnan(arr)):
         raise InvalidInput(f"{what} contains NaN: {arr}")
     return arr
+
+
+def _per_joint(value, n: int, what: str) -> np.ndarray | None:
+    return None if value is None else per_entry(value, n, what)
 
 
 class JointLimitTask(Task):

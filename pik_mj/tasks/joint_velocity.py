@@ -19,7 +19,7 @@ import mink
 import numpy as np
 
 from ..exceptions import InvalidInput
-from .joint_limit import joint_list
+from .joint_limit import joint_list, per_entry
 from .task import Task, TaskRows, diagonal_weights
 
 DEFAULT_PERIODIC_TIME = 0.05
@@ -27,17 +27,7 @@ DEFAULT_PERIODIC_TIME = 0.05
 
 
 def _per_dof(value, n: int, what: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(n, float(arr))
-    if arr.shape != (n,):
-        raise InvalidInput(
-            f"{what} must be a float or one value per degree of freedom ({n}), "
-            f"got shape {arr.shape}"
-        )
-    if np.any(np.isnan(arr)):
-        raise InvalidInput(f"{what} contains NaN: {arr}")
-    return arr
+    return per_entry(value, n, what, "degree of freedom")
 
 
 class JointVelocityTask(Task):
