@@ -337,10 +337,18 @@ def _time_columns(
 
 @dataclass(frozen=True)
 class _RowKind:
-    """How rows of one archetype are sent: stacked in columns, or one by one."""
+    """How rows of one archetype are sent: stacked in columns, or one by one.
 
-    columns: Callable[[np.ndarray], Any]  # stacked row values -> component columns
-    row: Callable[[Any], Any]  # one row value -> archetype for ``log``
+    A row of one entity is ``width`` floats (a scalar, a point, a pose). Its
+    style (radius and colour of a point, axis length of a frame; ``()`` for
+    none) goes with every row, in the same chunk: a static style would cost a
+    chunk of its own per entity.
+    """
+
+    width: int
+    columns: Callable[[np.ndarray], list[Any]]  # (rows, width) stacked -> data columns
+    style_columns: Callable[[tuple[Any, ...], int], list[Any]]  # (style, rows) -> columns
+    archetype: Callable[[np.ndarray, tuple[Any, ...]], Any]  # one row + style -> for ``log``
 
 
 def _translation_quat(v: np.ndarray) -> dict[str, np.ndarray]:
@@ -348,9 +356,18 @@ def _translation_quat(v: np.ndarray) -> dict[str, np.ndarray]:
     return {"translation": v[..., :3], "quaternion": _xyzw(v[..., 3:])}
 
 
+def _no_style(style: tuple[Any, ...], n: int) -> list[Any]:
+    return []
+
+
 # Columns are built from the component batches directly: the same components
 # as ``<Archetype>.columns(...)``, at half its cost (which builds and checks
 # every field of the archetype per call).
+
+
+def _one_per_row(batch: Any, descriptor: Any, n: int) -> Any:
+    """Column of ``n`` rows holding one value of ``batch`` each."""
+    return batch.described(descriptor).partition([1] * n)
 
 
 def _transform_columns(translation: np.ndarray, quat_xyzw: np.ndarray) -> list[Any]:
@@ -365,25 +382,73 @@ def _transform_columns(translation: np.ndarray, quat_xyzw: np.ndarray) -> list[A
     ]
 
 
+def _point_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
+    """Radius [m], colour and optional label of a point, ``n`` rows."""
+    radius, color, label = style
+    cols = [
+        _one_per_row(
+            rr.components.RadiusBatch(np.full(n, radius, np.float32)),
+            rr.Points3D.descriptor_radii(),
+            n,
+        ),
+        _one_per_row(rr.components.ColorBatch([color] * n), rr.Points3D.descriptor_colors(), n),
+    ]
+    if label is not None:
+        cols.append(
+            _one_per_row(rr.components.TextBatch([label] * n), rr.Points3D.descriptor_labels(), n)
+        )
+    return cols
+
+
+def _axes_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
+    """Axis length [m] of a frame, ``n`` rows (no style: a body pose, no axes)."""
+    if not style:
+        return []
+    return [
+        _one_per_row(
+            rr.components.AxisLengthBatch(np.full(n, style[0], np.float32)),
+            rr.TransformAxes3D.descriptor_axis_length(),
+            n,
+        )
+    ]
+
+
+def _point_archetype(v: np.ndarray, style: tuple[Any, ...]) -> Any:
+    radius, color, label = style
+    return rr.Points3D.from_fields(
+        positions=[v],
+        radii=[radius],
+        colors=[color],
+        labels=None if label is None else [label],
+    )
+
+
+def _transform_archetype(v: np.ndarray, style: tuple[Any, ...]) -> Any:
+    pose = rr.Transform3D(**_translation_quat(v))
+    return [pose, rr.TransformAxes3D(style[0])] if style else pose
+
+
 _SCALAR = _RowKind(
+    width=1,
     columns=lambda v: [
-        rr.components.ScalarBatch(v.astype(float))
-        .described(rr.Scalars.descriptor_scalars())
-        .partition()
+        rr.components.ScalarBatch(v[:, 0]).described(rr.Scalars.descriptor_scalars()).partition()
     ],
-    row=lambda v: rr.Scalars(v),
+    style_columns=_no_style,
+    archetype=lambda v, style: rr.Scalars(float(v[0])),
 )
 _POINT = _RowKind(
+    width=3,
     columns=lambda v: [
-        rr.components.Position3DBatch(v.reshape(-1, 3))
-        .described(rr.Points3D.descriptor_positions())
-        .partition([1] * len(v))
+        _one_per_row(rr.components.Position3DBatch(v), rr.Points3D.descriptor_positions(), len(v))
     ],
-    row=lambda v: rr.Points3D.from_fields(positions=[v]),
+    style_columns=_point_style_columns,
+    archetype=_point_archetype,
 )
 _TRANSFORM = _RowKind(
+    width=7,
     columns=lambda v: _transform_columns(v[:, :3], _xyzw(v[:, 3:])),
-    row=lambda v: rr.Transform3D(**_translation_quat(v)),
+    style_columns=_axes_style_columns,
+    archetype=_transform_archetype,
 )
 
 
@@ -400,9 +465,12 @@ class _Outbox:
     """
 
     def __init__(self) -> None:
-        # (timelines, their kinds, time stamps) -> (times, kind -> [(path, rows)])
+        # (timelines, their kinds, time stamps) ->
+        #     (times, kind -> [(paths, rows, style)]),
+        # rows: (entities x time stamps x width), entity-major
         self._groups: dict[
-            tuple[Any, ...], tuple[np.ndarray, dict[_RowKind, list[tuple[str, np.ndarray]]]]
+            tuple[Any, ...],
+            tuple[np.ndarray, dict[_RowKind, list[tuple[tuple[str, ...], np.ndarray, Any]]]],
         ] = {}
         # (path, component) -> (descriptor, one-row list array): static data,
         # a later value of the same component replaces the earlier one
@@ -418,109 +486,100 @@ class _Outbox:
 
     def add(
         self,
-        path: str,
+        paths: tuple[str, ...],
         names: tuple[str, ...],
         kinds: tuple[str, ...],
         times: np.ndarray,
         kind: _RowKind,
-        values: np.ndarray,
+        rows: np.ndarray,
+        style: tuple[Any, ...] = (),
     ) -> None:
-        """Queue rows ``values`` (stacked, one per row) of ``path`` at ``times``
-        (rows x timelines, values of the timelines ``names``)."""
+        """Queue the rows of the entities ``paths`` at ``times`` (time stamps x
+        timelines, values of the timelines ``names``); ``rows`` is (entities x
+        time stamps x ``kind.width``), ``style`` goes with each row."""
         key = (names, kinds, times.tobytes())
         group = self._groups.get(key)
         if group is None:
             group = self._groups[key] = (times, {})
-        group[1].setdefault(kind, []).append((path, values))
+        group[1].setdefault(kind, []).append((paths, rows, style))
 
     def send(self, stream: rr.RecordingStream) -> None:
         """Send every queued row (one chunk per entity and time stamps, one per
         entity of static data) and empty the box."""
-        chunks = []
-        if self._static:
-            fields, arrays = [], []
-            for (path, _), (d, array) in self._static.items():
-                fields.append(_data_field(path, d, array.type))
-                arrays.append(array)
-            batch = pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields))
-            chunks += Chunk.from_record_batch(batch, index=None)
-            self._static.clear()
+        static: dict[str, list[_ListColumn]] = {}
+        for (path, _), (d, array) in self._static.items():
+            static.setdefault(path, []).append(_ListColumn(d, array))
+        self._static.clear()
+        chunks = [Chunk.from_columns(path, [], cols) for path, cols in static.items()]
         for (names, kinds, _), (times, by_kind) in self._groups.items():
-            fields, arrays = [], []
-            for col in _time_columns(names, kinds, times):
-                array = col.as_arrow_array()
-                fields.append(pa.field(col.timeline_name(), array.type))
-                arrays.append(array)
             n = len(times)
+            columns: dict[str, list[_ListColumn]] = {}
             for kind, entries in by_kind.items():
-                for col in kind.columns(np.concatenate([v for _, v in entries])):
+                paths = [p for entry_paths, _, _ in entries for p in entry_paths]
+                stacked = np.concatenate([r.reshape(-1, kind.width) for _, r, _ in entries])
+                for col in kind.columns(stacked):
                     d, array = col.component_descriptor(), col.as_arrow_array()
-                    for i, (path, _) in enumerate(entries):
-                        fields.append(_data_field(path, d, array.type))
-                        arrays.append(array.slice(i * n, n))
-            batch = pa.RecordBatch.from_arrays(arrays, schema=pa.schema(fields))
-            chunks += Chunk.from_record_batch(batch, index=list(names))
+                    for i, path in enumerate(paths):
+                        columns.setdefault(path, []).append(_ListColumn(d, array.slice(i * n, n)))
+                for entry_paths, _, style in entries:
+                    # the same style column (n equal rows) for each entity
+                    for col in kind.style_columns(style, n):
+                        styled = _ListColumn(col.component_descriptor(), col.as_arrow_array())
+                        for path in entry_paths:
+                            columns.setdefault(path, []).append(styled)
+            index = _time_columns(names, kinds, times)
+            chunks += [Chunk.from_columns(path, index, cols) for path, cols in columns.items()]
         self._groups.clear()
         if chunks:
             rr.send_chunks(chunks, recording=stream)
 
 
-def _data_field(path: str, d: Any, type_: pa.DataType) -> pa.Field:
-    """Arrow field of component ``d`` (a ComponentDescriptor) of entity ``path``,
-    with the ``rerun:*`` metadata :meth:`rerun.chunk.Chunk.from_record_batch` reads."""
-    meta = {"rerun:kind": "data", "rerun:component": d.component, "rerun:entity_path": path}
-    if d.archetype is not None:
-        meta["rerun:archetype"] = d.archetype
-    if d.component_type is not None:
-        meta["rerun:component_type"] = d.component_type
-    return pa.field(f"{path}:{d.component}", type_, metadata=meta)
+@dataclass(frozen=True)
+class _ListColumn:
+    """A component column already in Arrow form (one list entry per row), with
+    the interface of ``rr.ComponentColumn`` that ``Chunk.from_columns`` reads."""
+
+    descriptor: Any  # rr.ComponentDescriptor
+    array: pa.Array
+
+    def component_descriptor(self) -> Any:
+        return self.descriptor
+
+    def as_arrow_array(self) -> pa.Array:
+        return self.array
 
 
 @dataclass
-class _Rows:
-    """Buffered rows of one entity on one set of timelines."""
+class _Block:
+    """Buffered rows of a fixed tuple of entities of one kind on one set of
+    timelines, stored densely: ``values[row, entity]`` is one entity's row."""
 
-    path: str
-    names: tuple[str, ...]
-    kinds: tuple[str, ...]
+    paths: tuple[str, ...]
     kind: _RowKind
-    times: list[tuple[float, ...]] = field(default_factory=list)
-    values: list[Any] = field(default_factory=list)
-
-    def drain(self, outbox: _Outbox) -> None:
-        """Move the buffered rows to ``outbox``."""
-        if not self.times:
-            return
-        times = np.asarray(self.times, dtype=float).reshape(len(self.times), -1)
-        outbox.add(self.path, self.names, self.kinds, times, self.kind, np.asarray(self.values))
-        self.times.clear()
-        self.values.clear()
-
-
-@dataclass
-class _PoseBuffer:
-    """Dense buffer of body poses ``[p, q_wxyz]`` (rows x bodies x 7) on one set
-    of timelines."""
-
+    style: tuple[Any, ...]
     names: tuple[str, ...]
     kinds: tuple[str, ...]
     capacity: int
-    n_bodies: int
     times: list[tuple[float, ...]] = field(default_factory=list)
-    poses: np.ndarray = field(init=False)
+    values: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
-        self.poses = np.empty((self.capacity, self.n_bodies, 7))
+        self.values = np.empty((self.capacity, len(self.paths), self.kind.width))
 
-    def drain(self, outbox: _Outbox, paths: Sequence[str]) -> None:
-        """Move the buffered poses of the bodies at ``paths`` to ``outbox``."""
+    def append(self, time: tuple[float, ...], rows: np.ndarray) -> bool:
+        """Buffer ``rows`` (entities x width) at ``time``; True when full."""
+        self.values[len(self.times)] = rows
+        self.times.append(time)
+        return len(self.times) >= self.capacity
+
+    def drain(self, outbox: _Outbox) -> None:
+        """Move the buffered rows to ``outbox``."""
         n = len(self.times)
         if n == 0:
             return
         times = np.asarray(self.times, dtype=float).reshape(n, -1)
-        poses = self.poses[:n].transpose(1, 0, 2)  # body-major
-        for i, path in enumerate(paths):
-            outbox.add(path, self.names, self.kinds, times, _TRANSFORM, poses[i])
+        rows = self.values[:n].transpose(1, 0, 2)
+        outbox.add(self.paths, self.names, self.kinds, times, self.kind, rows, self.style)
         self.times.clear()
 
 
@@ -580,14 +639,13 @@ class Recorder:
         self._time_key: tuple[tuple[str, ...], tuple[str, ...]] = ((), ())
         self._time_vals: tuple[float, ...] = ()
         self._stream_time_dirty = False
-        self._rows: dict[tuple[str, tuple[str, ...]], _Rows] = {}
+        # (entity paths, timelines, style) -> their buffered rows
+        self._blocks: dict[tuple[Any, ...], _Block] = {}
         self._outbox = _Outbox()
-        self._pose_buffers: dict[tuple[str, ...], _PoseBuffer] = {}
-        self._static_style: dict[str, tuple[Any, ...]] = {}
-        self._error_paths: dict[tuple[int, str], str] = {}
+        self._error_paths: dict[tuple[tuple[int, str], ...], tuple[str, ...]] = {}
         # Filled by log_model_geometry.
         self._dyn_ids: np.ndarray | None = None
-        self._dyn_paths: list[str] = []
+        self._dyn_paths: tuple[str, ...] = ()
         self._nbody = -1
         self.skipped_geoms: list[str] = []
 
@@ -656,10 +714,8 @@ class Recorder:
     def _send_buffers(self) -> None:
         """Send every buffered row of every entity, and pending static data, in
         one call."""
-        for rows in self._rows.values():
-            rows.drain(self._outbox)
-        for buf in self._pose_buffers.values():
-            buf.drain(self._outbox, self._dyn_paths)
+        for block in self._blocks.values():
+            block.drain(self._outbox)
         self._outbox.send(self.stream)
 
     def _check_open(self) -> None:
@@ -737,32 +793,33 @@ class Recorder:
         else:
             self._outbox.add_static(path, *archetypes)
 
-    def _append(self, path: str, value: Any, kind: _RowKind) -> None:
-        """Buffer one row of ``path`` at the current time (log it if unbuffered)."""
+    def _append(
+        self,
+        paths: tuple[str, ...],
+        rows: np.ndarray,
+        kind: _RowKind,
+        style: tuple[Any, ...] = (),
+    ) -> None:
+        """Buffer one row of each entity of ``paths`` (``rows``: entities x
+        ``kind.width``, checked by the caller) with ``style`` at the current time;
+        log them at once if unbuffered."""
         self._check_open()
         if self.flush_every == 1:
-            self._log(path, kind.row(value))
+            for path, row in zip(paths, rows, strict=True):
+                self._log(path, kind.archetype(row, style))
             return
         names, kinds = self._time_key
         if not names:
             raise PikError(
-                f"no time is set for {path!r}; call set_time (e.g. "
+                f"no time is set for {paths[0]!r}; call set_time (e.g. "
                 "set_time('iteration', k)) before logging per-iteration data"
             )
-        rows = self._rows.get((path, names))
-        if rows is None:
-            rows = self._rows[(path, names)] = _Rows(path, names, kinds, kind)
-        rows.times.append(self._time_vals)
-        rows.values.append(value)
-        if len(rows.times) >= self.flush_every:
+        key = (paths, names, style)
+        block = self._blocks.get(key)
+        if block is None:
+            block = self._blocks[key] = _Block(paths, kind, style, names, kinds, self.flush_every)
+        if block.append(self._time_vals, rows):
             self._send_buffers()
-
-    def _static_once(self, path: str, style: tuple[Any, ...], make: Callable[[], Any]) -> None:
-        """Log ``make()`` as static style data of ``path`` unless it was logged
-        with ``style`` (the archetype is only built when it is logged)."""
-        if self._static_style.get(path) != style:
-            self._log_static(path, make())
-            self._static_style[path] = style
 
     # -- geometry -------------------------------------------------------------
 
@@ -825,7 +882,6 @@ class Recorder:
 
         # Send rows buffered for a previous model before replacing the table.
         self._send_buffers()
-        self._pose_buffers.clear()
 
         self._log_static(self.paths.world, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         body_paths = [
@@ -863,7 +919,7 @@ class Recorder:
                 ),
             )
         self._dyn_ids = np.flatnonzero(dynamic)
-        self._dyn_paths = [body_paths[b] for b in self._dyn_ids]
+        self._dyn_paths = tuple(body_paths[b] for b in self._dyn_ids)
         self._nbody = model.nbody
 
     def log_body_poses(
@@ -883,28 +939,12 @@ class Recorder:
                 f"data has {data.xpos.shape[0]} bodies, the logged model {self._nbody}"
             )
         self.set_time(timeline, time)
-        pos = data.xpos[self._dyn_ids]
-        quat = data.xquat[self._dyn_ids]
-        if not (np.isfinite(pos).all() and np.isfinite(quat).all()):
+        poses = np.empty((len(self._dyn_ids), 7))
+        poses[:, :3] = data.xpos[self._dyn_ids]
+        poses[:, 3:] = data.xquat[self._dyn_ids]
+        if not np.isfinite(poses).all():
             raise InvalidInput(f"body poses at {timeline}={time} are not finite")
-        if self.flush_every == 1:
-            self._sync_stream_time()
-            q_xyzw = _xyzw(quat)
-            for i, path in enumerate(self._dyn_paths):
-                self.stream.log(path, rr.Transform3D(translation=pos[i], quaternion=q_xyzw[i]))
-            return
-        names, kinds = self._time_key
-        buf = self._pose_buffers.get(names)
-        if buf is None:
-            buf = self._pose_buffers[names] = _PoseBuffer(
-                names, kinds, self.flush_every, len(self._dyn_ids)
-            )
-        k = len(buf.times)
-        buf.poses[k, :, :3] = pos
-        buf.poses[k, :, 3:] = quat
-        buf.times.append(self._time_vals)
-        if k + 1 >= buf.capacity:
-            self._send_buffers()
+        self._append(self._dyn_paths, poses, _TRANSFORM)
 
     # -- per-iteration primitives ---------------------------------------------
 
@@ -917,23 +957,14 @@ class Recorder:
         color: Sequence[int] = (255, 200, 0),
         label: str | None = None,
     ) -> None:
-        """Log one point ``p`` [m] at ``path`` (buffered; style logged static once)."""
+        """Log one point ``p`` [m] at ``path`` with its ``radius`` [m], RGB(A)
+        ``color`` and optional ``label`` (buffered)."""
         p = _vec(p, (3,), "point", path)
-        self._static_style_points(path, radius, color, label)
-        self._append(path, p, _POINT)
-
-    def _static_style_points(
-        self, path: str, radius: float, color: Sequence[int], label: str | None
-    ) -> None:
-        self._static_once(
-            path,
-            (float(radius), tuple(color), label),
-            lambda: rr.Points3D.from_fields(
-                radii=[float(radius)],
-                colors=[tuple(color)],
-                labels=None if label is None else [label],
-            ),
-        )
+        r = float(radius)
+        if not (math.isfinite(r) and r > 0):
+            raise InvalidInput(f"radius of point {path!r} must be > 0 [m], got {radius}")
+        style = (r, tuple(int(c) for c in color), None if label is None else str(label))
+        self._append((path,), p.reshape(1, 3), _POINT, style)
 
     def log_com(self, p_WC: npt.ArrayLike, target: npt.ArrayLike | None = None) -> None:
         """Log the centre of mass ``p_WC`` [m] and, if given, its target [m]."""
@@ -1000,40 +1031,66 @@ class Recorder:
     ) -> None:
         """Log a frame ``X_WF`` (position [m], MuJoCo quaternion (w, x, y, z)).
 
-        The pose is buffered; the axes (``axis_length`` [m]) are static.
+        The pose is buffered with the axes' ``axis_length`` [m].
         """
         p = _vec(p, (3,), "frame position", path)
         q = _vec(quat_wxyz, (4,), "frame quaternion (w, x, y, z)", path)
-        n = math.sqrt(q @ q)
-        if n < 1e-9:
-            raise InvalidInput(f"frame quaternion of {path!r} is zero")
+        self.log_frames((path,), p.reshape(1, 3), q.reshape(1, 4), axis_length)
+
+    def log_frames(
+        self,
+        paths: Sequence[str],
+        positions: npt.ArrayLike,
+        quats_wxyz: npt.ArrayLike,
+        axis_length: float = 0.1,
+    ) -> None:
+        """Log frames ``X_WF_i`` at ``paths[i]``: positions (n, 3) [m], MuJoCo
+        quaternions (n, 4) (w, x, y, z), normalized here.
+
+        The poses are buffered, each with the axes' ``axis_length`` [m]. Passing
+        the same ``paths`` every iteration keeps them in one buffer.
+        """
+        paths = tuple(paths)
+        n = len(paths)
+        p = _vec(positions, (n, 3), "frame positions")
+        q = _vec(quats_wxyz, (n, 4), "frame quaternions (w, x, y, z)")
+        norms = np.sqrt(np.einsum("ij,ij->i", q, q))
+        if (norms < 1e-9).any():
+            raise InvalidInput(f"frame quaternion of {paths[int(np.argmin(norms))]!r} is zero")
         length = float(axis_length)
-        self._static_once(path, (length,), lambda: rr.TransformAxes3D(length))
-        pose = np.empty(7)
-        pose[:3] = p
-        pose[3:] = q / n
-        self._append(path, pose, _TRANSFORM)
+        if not (math.isfinite(length) and length > 0):
+            raise InvalidInput(f"axis_length must be > 0 [m], got {axis_length}")
+        poses = np.empty((n, 7))
+        poses[:, :3] = p
+        poses[:, 3:] = q / norms[:, None]
+        self._append(paths, poses, _TRANSFORM, (length,))
 
     def log_scalar(self, path: str, value: float) -> None:
         """Log one value of the scalar series at ``path`` (buffered)."""
         v = float(value)
         if not math.isfinite(v):
             raise InvalidInput(f"scalar {path!r} must be finite, got {value}")
-        self._append(path, v, _SCALAR)
+        self._append((path,), np.array([[v]]), _SCALAR)
 
     def log_task_errors(self, errors: Mapping[tuple[int, str], float]) -> None:
         """Log each task's error at ``errors/level_<k>/<task>``.
 
         Args:
             errors: ``{(level, task_name): error}``; the error is whatever scalar
-                the caller tracks (e.g. the squared error ``‖e‖²``).
+                the caller tracks (e.g. the squared error ``‖e‖²``). The same
+                keys every iteration keep the series in one buffer.
         """
-        for key, value in errors.items():
-            path = self._error_paths.get(key)
-            if path is None:
-                level, name = key
-                path = self._error_paths[key] = self.paths.task_error(level, name)
-            self.log_scalar(path, value)
+        keys = tuple(errors)
+        paths = self._error_paths.get(keys)
+        if paths is None:
+            paths = self._error_paths[keys] = tuple(
+                self.paths.task_error(level, name) for level, name in keys
+            )
+        values = np.fromiter(errors.values(), dtype=float, count=len(keys))
+        if not np.isfinite(values).all():
+            bad = int(np.flatnonzero(~np.isfinite(values))[0])
+            raise InvalidInput(f"scalar {paths[bad]!r} must be finite, got {values[bad]}")
+        self._append(paths, values.reshape(-1, 1), _SCALAR)
 
     def log_text(self, message: str, level: str = "INFO") -> None:
         """Log ``message`` to the run's text log at the current time."""

@@ -648,6 +648,17 @@ def _quat_wxyz(R: np.ndarray) -> np.ndarray:
 # Recording and progress
 
 
+@dataclass
+class _LogPlan:
+    """The tasks of one solve's stack that :class:`ScenarioRecorder` logs."""
+
+    levels: list[list[Any]]  # the stack it was made for (compared by identity)
+    centroid: CentroidTask | None  # the first one: its target is the CoM target
+    frames: list[tuple[FrameTask, str, str]]  # (task, target path, current path)
+    current_paths: tuple[str, ...]
+    scfr: list[ScfrTask]
+
+
 class ScenarioRecorder:
     """Records a scenario's solves: a rerun file (if ``out``), progress on stderr,
     and, for a floating-base robot, a static check in simulation every iteration.
@@ -739,6 +750,7 @@ class ScenarioRecorder:
         self._label = ""
         self._n_levels = 0  # most levels (level 0 included) of any solve so far
         self._task_frame_paths: dict[str, tuple[str, str]] = {}
+        self._log_plan: _LogPlan | None = None
         self._logged_targets: dict[str, object] = {}
         self._feasible: bool | None = None
         self._closed = False
@@ -832,38 +844,54 @@ class ScenarioRecorder:
             paths = self._task_frame_paths[task] = (p.task_target(task), p.task_current(task))
         return paths
 
+    def _plan(self, levels: list[list[Any]]) -> _LogPlan:
+        """What ``levels`` log each iteration (made once per solve: the solve
+        loop passes the same stack every iteration)."""
+        plan = self._log_plan
+        if plan is not None and plan.levels is levels:
+            return plan
+        tasks = [task for level in levels for task in level]
+        centroids = [t for t in tasks if isinstance(t, CentroidTask)]
+        frames = [(t, *self._frame_paths(t.name)) for t in tasks if isinstance(t, FrameTask)]
+        plan = self._log_plan = _LogPlan(
+            levels=levels,
+            centroid=centroids[0] if centroids else None,
+            frames=frames,
+            current_paths=tuple(current for _, _, current in frames),
+            scfr=[t for t in tasks if isinstance(t, ScfrTask)],
+        )
+        return plan
+
     def _log_tasks(self, info: IterationInfo) -> None:
         """CoM (+ target), task frames, task errors and SCFR regions."""
         rec = self.recorder
         assert rec is not None
         cfg, data = info.configuration, info.configuration.data
-        com_target = None
-        # the solve loop's own evaluation at this configuration: no recomputation
-        errors = {(r.level, r.name): r.error for r in info.tasks}
-        for level in info.levels:
-            for task in level:
-                if isinstance(task, CentroidTask) and com_target is None:
-                    com_target = task.target_now(cfg)
-                elif isinstance(task, FrameTask):
-                    target_path, current_path = self._frame_paths(task.name)
-                    # a fixed target is logged when it changes: the viewer holds
-                    # the latest value (callable and robot-frame targets move)
-                    fixed = task.target_pose
-                    if fixed is None or self._logged_targets.get(target_path) is not fixed:
-                        p_T, R_T = task.target_pose_now(cfg)
-                        rec.log_frame(target_path, p_T, _quat_wxyz(R_T))
-                        self._logged_targets[target_path] = fixed
-                    p_M = task.move_target.position(data)
-                    R_M = task.move_target.rotation(data)
-                    rec.log_frame(current_path, p_M, _quat_wxyz(R_M))
-                elif isinstance(task, ScfrTask):
-                    region = task.region(cfg)
-                    if not region.empty:
-                        z = float(np.mean([c.p_WC[2] for c in task.contacts_now(cfg)]))
-                        v = np.column_stack([region.vertices, np.full(len(region.vertices), z)])
-                        rec.log_polygon(v, path=rec.paths.scfr, color=(40, 200, 120))
+        plan = self._plan(info.levels)
+        com_target = None if plan.centroid is None else plan.centroid.target_now(cfg)
+        for task, target_path, _ in plan.frames:
+            # a fixed target is logged when it changes: the viewer holds the
+            # latest value (callable and robot-frame targets move)
+            fixed = task.target_pose
+            if fixed is None or self._logged_targets.get(target_path) is not fixed:
+                p_T, R_T = task.target_pose_now(cfg)
+                rec.log_frame(target_path, p_T, _quat_wxyz(R_T))
+                self._logged_targets[target_path] = fixed
+        if plan.frames:  # all current frames in one call (one buffer)
+            rec.log_frames(
+                plan.current_paths,
+                [task.move_target.position(data) for task, _, _ in plan.frames],
+                [_quat_wxyz(task.move_target.rotation(data)) for task, _, _ in plan.frames],
+            )
+        for task in plan.scfr:
+            region = task.region(cfg)
+            if not region.empty:
+                z = float(np.mean([c.p_WC[2] for c in task.contacts_now(cfg)]))
+                v = np.column_stack([region.vertices, np.full(len(region.vertices), z)])
+                rec.log_polygon(v, path=rec.paths.scfr, color=(40, 200, 120))
         self._log_pose(com_target)
-        rec.log_task_errors(errors)
+        # the solve loop's own evaluation at this configuration: no recomputation
+        rec.log_task_errors({(r.level, r.name): r.error for r in info.tasks})
         self._n_levels = max(self._n_levels, len(info.levels))
 
     def _send_blueprint(self) -> None:

@@ -367,6 +367,8 @@ def test_buffering_does_not_change_the_data(model, tmp_path):
         (PATHS.body("arm"), "Transform3D:quaternion"),
         ("errors/level_1/x", "Scalars:scalars"),
         (PATHS.com, "Points3D:positions"),
+        (PATHS.com, "Points3D:radii"),
+        (PATHS.com, "Points3D:colors"),
     ]:
         ta, va = a[entity].series(component, "iteration")
         tb, vb = b[entity].series(component, "iteration")
@@ -396,8 +398,15 @@ def test_com_scalars_frames_and_text(model, tmp_path):
     np.testing.assert_allclose([x[0] for x in e], [0.0, 0.1, 0.2, 0.3, 0.4])
     _, e = out[PATHS.task_error(2, "posture")].series("Scalars:scalars", "iteration")
     np.testing.assert_allclose([x[0] for x in e], [0, 1, 4, 9, 16])
+    # the style goes with every row, in the chunk of the data (no static chunk)
+    _, radii = out[PATHS.com].series("Points3D:radii", "iteration")
+    _, colors = out[PATHS.com].series("Points3D:colors", "iteration")
+    assert [x[0] for x in radii] == pytest.approx([0.03] * 5)
+    assert {x[0] for x in colors} == {0xE62828FF}  # (230, 40, 40), opaque
     hand = out[PATHS.task_target("hand")]
-    assert hand.static["TransformAxes3D:axis_length"][0] == pytest.approx(0.2)
+    assert not hand.static
+    _, lengths = hand.series("TransformAxes3D:axis_length", "iteration")
+    assert [x[0] for x in lengths] == pytest.approx([0.2] * 5)
     _, quats = hand.series("Transform3D:quaternion", "iteration")
     R = Rotation.from_quat(quats[-1][0]).as_matrix()  # xyzw
     R_mj = np.zeros(9)
@@ -546,8 +555,10 @@ def test_rows_of_many_entities_sent_together_read_back_per_entity(model, tmp_pat
             b = model.body(name).id
             np.testing.assert_allclose(p, data.xpos[b], atol=1e-6)
             np.testing.assert_allclose(R, data.xmat[b].reshape(3, 3), atol=1e-6)
-    # static data (geometry, the point style) went out in the same sends
-    assert "Points3D:radii" in out[PATHS.com].static
+    # the point style went with its rows, the static geometry in the same sends
+    times, radii = out[PATHS.com].series("Points3D:radii", "iteration")
+    assert times.tolist() == [0, 2, 4] and not out[PATHS.com].static
+    assert "Transform3D:translation" in out["world/robot/table/top"].static
 
 
 def test_explicit_stream_is_not_the_global_one_and_stays_open(tmp_path):
