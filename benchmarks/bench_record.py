@@ -4,9 +4,10 @@ The solve is ``scenarios/fullbody_reach.py``'s (sample humanoid, waist 10°, bot
 feet fixed, centroid x-y over the feet, left hand to the seed's (0.4, 0.1, -0.6) m
 from the pelvis, position only, ``stop=100``). It is timed without a callback and
 recorded exactly as ``pik-mj run`` records it: through
-:class:`pik_mj.scenarios.ScenarioRecorder`'s callback (all body poses, the CoM
-and its target, every task's error from the solve loop's own evaluation, each
-frame task's current and target frame; the blueprint) into a temporary ``.rrd``.
+:class:`pik_mj.scenarios.ScenarioRecorder`'s callback (every body's pose and,
+from them, every geom's; the CoM and its target; every task's error from the
+solve loop's own evaluation; each frame task's current and target frame; the
+blueprint) into a temporary ``.rrd``.
 The per-iteration static check and the physics hold are simulation, not
 recording, and are off here.
 

@@ -1,14 +1,19 @@
 """Rerun recording of solves and simulations: one place for entity paths and logging.
 
 A :class:`Recorder` wraps an explicit :class:`rerun.RecordingStream` (never the
-global one). Model geometry is logged once as static data; per-iteration data
-(body poses, frames, points, scalars) is buffered, and at a flush every entity's
-rows go out together: the rows of all entities that share their time stamps form
-one Arrow record batch, which ``rerun.chunk.Chunk.from_record_batch`` splits into
-one chunk per entity, and one ``rr.send_chunks`` sends them all (static data the
-same way). That is ~20x cheaper per iteration than one ``log`` call per entity
-and about half the cost of one ``send_columns`` per entity. Everything else
-(polygons, contacts, text) is logged directly.
+global one). What it writes, and why it is shaped so:
+
+* Model geometry is logged once, static, one entity per primitive kind with one
+  instance per geom (:mod:`pik_mj.record_geometry`); the bodies' frames are one
+  entity with one instance per body. rerun's cost per file (building chunks,
+  the RRD footer) grows with the number of entities, not with their size.
+* Per-iteration data (body poses, frames, points, scalars) is buffered densely,
+  one buffer per set of entities logged together. At a flush, each entity's
+  rows become one chunk (``rerun.chunk.Chunk.from_columns``) and one
+  ``rr.send_chunks`` sends them all. The geoms' poses are computed then, for all
+  rows at once, from the buffered body poses. A style (a point's radius and
+  colour, a frame's axis length) goes with each row, in the chunk of its data.
+* Everything else (polygons, contacts, text) is logged directly.
 
 Every entity path is built by :class:`EntityPaths` (module constant
 :data:`PATHS`); quaternions are MuJoCo's (w, x, y, z) everywhere in pik_mj and are
@@ -43,7 +48,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.chunk import Chunk
 
+from pik_mj import record_geometry
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
+from pik_mj.record_geometry import GeomGroup, InstancePoses
 
 __all__ = [
     "PATHS",
@@ -73,8 +80,11 @@ class EntityPaths:
 
     Attributes:
         world: Root of the 3D scene (z up).
-        robot: Parent of the robot's bodies: ``world/robot/<body>``.
-        scene: Parent of environment bodies: ``world/scene/<body>``.
+        robot: Parent of the robot's geometry (``world/robot/<kind>``) and body
+            frames (``world/robot/bodies``).
+        scene: Parent of the environment's geometry: ``world/scene/<kind>``
+            (welded to the world), ``world/scene/moving/<kind>`` and
+            ``world/scene/moving/bodies`` (free or mocap bodies).
         com: Centre of mass ``p_WC`` [m].
         com_target: Target of the centre of mass [m].
         support_polygon: Support polygon outline (child ``margin``: shrunk outline).
@@ -106,13 +116,18 @@ class EntityPaths:
     hold: str = "hold"
     balance: str = "balance"
 
-    def body(self, name: str, *, robot: bool = True) -> str:
-        """Path of a body's frame ``X_WB`` (its geoms are children)."""
-        return f"{self.robot if robot else self.scene}/{_part(name)}"
+    def geoms(self, kind: str, *, robot: bool = True, moving: bool = True) -> str:
+        """Path of the geoms of one primitive ``kind`` (``boxes``, ``capsules``,
+        ``cylinders``, ``ellipsoids``, ``meshes/<mesh>``, ``hfields/<hfield>``)
+        of the robot, of the scene welded to the world, or of moving scene bodies."""
+        if robot:
+            return f"{self.robot}/{kind}"
+        return f"{self.scene}/moving/{kind}" if moving else f"{self.scene}/{kind}"
 
-    def geom(self, body_path: str, name: str) -> str:
-        """Path of a geom, a child of its body's path."""
-        return f"{body_path}/{_part(name)}"
+    def bodies(self, *, robot: bool = True) -> str:
+        """Path of the body frames ``X_WB`` of the robot or of the moving scene
+        bodies (one instance per body, labelled with its MJCF name)."""
+        return f"{self.robot}/bodies" if robot else f"{self.scene}/moving/bodies"
 
     def task_target(self, task: str) -> str:
         """Path of a task's target frame."""
@@ -171,129 +186,8 @@ def _what(what: str, path: str | None) -> str:
     return what if path is None else f"{what} {path!r}"
 
 
-def _rgba8(rgba: npt.ArrayLike) -> np.ndarray:
-    """RGBA in [0, 1] -> uint8 RGBA."""
-    return np.clip(np.round(np.asarray(rgba, dtype=float) * 255.0), 0, 255).astype(np.uint8)
-
-
 # ---------------------------------------------------------------------------
 # Model geometry
-
-
-_DEFAULT_GEOM_RGBA = np.array([0.5, 0.5, 0.5, 1.0])
-
-
-def _geom_rgba(model: mujoco.MjModel, g: int) -> np.ndarray:
-    """Colour MuJoCo renders geom ``g`` with.
-
-    The geom's own ``rgba`` wins when it differs from MuJoCo's default
-    (0.5, 0.5, 0.5, 1); otherwise the material's ``rgba`` is used, if any.
-    """
-    rgba = np.asarray(model.geom_rgba[g], dtype=float)
-    mat = int(model.geom_matid[g])
-    if mat >= 0 and np.allclose(rgba, _DEFAULT_GEOM_RGBA, atol=1e-6):
-        return np.asarray(model.mat_rgba[mat], dtype=float)
-    return rgba
-
-
-def _vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals of a triangle mesh (unit length, or zero)."""
-    v0, v1, v2 = (vertices[faces[:, i]] for i in range(3))
-    n_face = np.cross(v1 - v0, v2 - v0)
-    normals = np.zeros_like(vertices)
-    for i in range(3):
-        np.add.at(normals, faces[:, i], n_face)
-    norm = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.divide(normals, norm, out=np.zeros_like(normals), where=norm > 0)
-
-
-def _hfield_mesh(model: mujoco.MjModel, h: int) -> tuple[np.ndarray, np.ndarray]:
-    """Top surface of height field ``h`` as (vertices (n, 3), triangles (m, 3)).
-
-    .. math::
-        x_c = -s_x + 2 s_x c / (n_{col} - 1),\\quad
-        y_r = -s_y + 2 s_y r / (n_{row} - 1),\\quad
-        z_{rc} = s_z \\, d_{r n_{col} + c}
-    """
-    nrow, ncol = int(model.hfield_nrow[h]), int(model.hfield_ncol[h])
-    sx, sy, sz, _ = (float(s) for s in model.hfield_size[h])
-    adr = int(model.hfield_adr[h])
-    z = np.asarray(model.hfield_data[adr : adr + nrow * ncol]).reshape(nrow, ncol)
-    yy, xx = np.meshgrid(np.linspace(-sy, sy, nrow), np.linspace(-sx, sx, ncol), indexing="ij")
-    vertices = np.column_stack([xx.ravel(), yy.ravel(), sz * z.ravel()])
-    r, c = np.meshgrid(np.arange(nrow - 1), np.arange(ncol - 1), indexing="ij")
-    i00 = (r * ncol + c).ravel()
-    i01, i10 = i00 + 1, i00 + ncol
-    i11 = i10 + 1
-    faces = np.concatenate([np.column_stack([i00, i01, i11]), np.column_stack([i00, i11, i10])])
-    return vertices, faces.astype(np.uint32)
-
-
-def _geom_archetype(
-    model: mujoco.MjModel, g: int, plane_half_size: float
-) -> rr.AsComponents | None:
-    """Rerun primitive of geom ``g`` in the geom's own frame, or None (unsupported).
-
-    MuJoCo geoms are centred on their frame; a rerun capsule runs from (0, 0, 0)
-    to (0, 0, length) along +z, so it is shifted by ``-h`` along z; rerun
-    cylinders are centred and along +z like MuJoCo's.
-    """
-    t = int(model.geom_type[g])
-    size = np.asarray(model.geom_size[g], dtype=float)
-    color = _rgba8(_geom_rgba(model, g))
-    G = mujoco.mjtGeom
-    if t == G.mjGEOM_BOX:
-        return rr.Boxes3D(half_sizes=[size], colors=[color], fill_mode="solid")
-    if t == G.mjGEOM_SPHERE:
-        return rr.Ellipsoids3D(half_sizes=[[size[0]] * 3], colors=[color], fill_mode="solid")
-    if t == G.mjGEOM_ELLIPSOID:
-        return rr.Ellipsoids3D(half_sizes=[size], colors=[color], fill_mode="solid")
-    if t == G.mjGEOM_CAPSULE:
-        radius, half_length = size[0], size[1]
-        return rr.Capsules3D(
-            lengths=[2.0 * half_length],
-            radii=[radius],
-            translations=[[0.0, 0.0, -half_length]],
-            colors=[color],
-            fill_mode="solid",
-        )
-    if t == G.mjGEOM_CYLINDER:
-        return rr.Cylinders3D(
-            lengths=[2.0 * size[1]], radii=[size[0]], colors=[color], fill_mode="solid"
-        )
-    if t == G.mjGEOM_PLANE:
-        # MuJoCo planes are infinite when a size is 0; draw a thin slab whose top
-        # face is the plane z = 0 of the geom frame.
-        hx = size[0] if size[0] > 0 else plane_half_size
-        hy = size[1] if size[1] > 0 else plane_half_size
-        thickness = 1e-3
-        return rr.Boxes3D(
-            half_sizes=[[hx, hy, thickness]],
-            centers=[[0.0, 0.0, -thickness]],
-            colors=[color],
-            fill_mode="solid",
-        )
-    if t == G.mjGEOM_MESH:
-        m = int(model.geom_dataid[g])
-        va, vn = int(model.mesh_vertadr[m]), int(model.mesh_vertnum[m])
-        fa, fn = int(model.mesh_faceadr[m]), int(model.mesh_facenum[m])
-        vertices = np.asarray(model.mesh_vert[va : va + vn], dtype=np.float32)
-        faces = np.asarray(model.mesh_face[fa : fa + fn], dtype=np.uint32)
-        return rr.Mesh3D(
-            vertex_positions=vertices,
-            triangle_indices=faces,
-            vertex_normals=_vertex_normals(vertices, faces),
-            albedo_factor=color,
-        )
-    if t == G.mjGEOM_HFIELD:
-        vertices, faces = _hfield_mesh(model, int(model.geom_dataid[g]))
-        return rr.Mesh3D(
-            vertex_positions=vertices,
-            triangle_indices=faces,
-            vertex_normals=_vertex_normals(vertices, faces),
-            albedo_factor=color,
-        )
-    return None
 
 
 def _subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
@@ -318,6 +212,40 @@ def _unique_names(kind: str, names: Sequence[str]) -> list[str]:
     return out
 
 
+#: Per-instance pose components of each primitive: (translation, rotation).
+_INSTANCE_POSE_FIELDS: dict[Any, tuple[Any, Any]] = {
+    rr.Boxes3D: (rr.Boxes3D.descriptor_centers(), rr.Boxes3D.descriptor_quaternions()),
+    rr.Capsules3D: (
+        rr.Capsules3D.descriptor_translations(),
+        rr.Capsules3D.descriptor_quaternions(),
+    ),
+    rr.Cylinders3D: (rr.Cylinders3D.descriptor_centers(), rr.Cylinders3D.descriptor_quaternions()),
+    rr.Ellipsoids3D: (
+        rr.Ellipsoids3D.descriptor_centers(),
+        rr.Ellipsoids3D.descriptor_quaternions(),
+    ),
+    # a mesh is drawn once per instance pose
+    rr.Mesh3D: (
+        rr.InstancePoses3D.descriptor_translations(),
+        rr.InstancePoses3D.descriptor_quaternions(),
+    ),
+}
+
+#: Radius [m] of the marker drawn at each body frame.
+BODY_MARKER_RADIUS = 0.01
+
+
+def _body_markers(names: Sequence[str]) -> Any:
+    """Small wireframe spheres labelled with the body names (their poses are
+    logged per row)."""
+    return rr.Ellipsoids3D(
+        half_sizes=np.full((len(names), 3), BODY_MARKER_RADIUS),
+        colors=[(230, 230, 230)],
+        labels=list(names),
+        show_labels=False,
+    )
+
+
 # ---------------------------------------------------------------------------
 # Buffered rows
 
@@ -339,21 +267,18 @@ def _time_columns(
 class _RowKind:
     """How rows of one archetype are sent: stacked in columns, or one by one.
 
-    A row of one entity is ``width`` floats (a scalar, a point, a pose). Its
+    A row of one entity is one or more instances of ``width`` floats (a scalar,
+    a point, a pose; the instances of a multi-instance primitive). Its
     style (radius and colour of a point, axis length of a frame; ``()`` for
     none) goes with every row, in the same chunk: a static style would cost a
     chunk of its own per entity.
     """
 
     width: int
-    columns: Callable[[np.ndarray], list[Any]]  # (rows, width) stacked -> data columns
+    # (instances, width) stacked, instances per row -> data columns
+    columns: Callable[[np.ndarray, np.ndarray], list[Any]]
     style_columns: Callable[[tuple[Any, ...], int], list[Any]]  # (style, rows) -> columns
-    archetype: Callable[[np.ndarray, tuple[Any, ...]], Any]  # one row + style -> for ``log``
-
-
-def _translation_quat(v: np.ndarray) -> dict[str, np.ndarray]:
-    """(..., 7) [p, q_wxyz] -> Transform3D fields (rerun quaternion order)."""
-    return {"translation": v[..., :3], "quaternion": _xyzw(v[..., 3:])}
+    archetype: Callable[[np.ndarray, tuple[Any, ...]], Any]  # (instances, width) row -> ``log``
 
 
 def _no_style(style: tuple[Any, ...], n: int) -> list[Any]:
@@ -370,16 +295,30 @@ def _one_per_row(batch: Any, descriptor: Any, n: int) -> Any:
     return batch.described(descriptor).partition([1] * n)
 
 
-def _transform_columns(translation: np.ndarray, quat_xyzw: np.ndarray) -> list[Any]:
-    """Transform3D translation and quaternion columns, one row per entry."""
+def _pose_batches(v: np.ndarray, translation: Any, quaternion: Any) -> list[Any]:
+    """Translation and rotation batches of poses ``v`` (n, 7) [p, q_wxyz],
+    described as ``translation`` / ``quaternion`` (ComponentDescriptors)."""
     return [
-        rr.components.Translation3DBatch(translation)
-        .described(rr.Transform3D.descriptor_translation())
-        .partition(),
-        rr.components.RotationQuatBatch(quat_xyzw)
-        .described(rr.Transform3D.descriptor_quaternion())
-        .partition(),
+        rr.components.Translation3DBatch(v[:, :3]).described(translation),
+        rr.components.RotationQuatBatch(_xyzw(v[:, 3:])).described(quaternion),
     ]
+
+
+def _pose_kind(translation: Any, quaternion: Any, *, axes: bool = False) -> _RowKind:
+    """Rows of poses [p, q_wxyz] sent as the components ``translation`` and
+    ``quaternion`` (a Transform3D, or the per-instance poses of a primitive);
+    with ``axes``, a style ``(axis_length,)`` draws the frame's axes."""
+    return _RowKind(
+        width=7,
+        columns=lambda v, lengths: [
+            b.partition(lengths) for b in _pose_batches(v, translation, quaternion)
+        ],
+        style_columns=_axes_style_columns if axes else _no_style,
+        archetype=lambda v, style: (
+            _pose_batches(v, translation, quaternion)
+            + [c.component_batch for c in _axes_style_columns(style, 1)]
+        ),
+    )
 
 
 def _point_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
@@ -416,58 +355,64 @@ def _axes_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
 def _point_archetype(v: np.ndarray, style: tuple[Any, ...]) -> Any:
     radius, color, label = style
     return rr.Points3D.from_fields(
-        positions=[v],
+        positions=v,
         radii=[radius],
         colors=[color],
         labels=None if label is None else [label],
     )
 
 
-def _transform_archetype(v: np.ndarray, style: tuple[Any, ...]) -> Any:
-    pose = rr.Transform3D(**_translation_quat(v))
-    return [pose, rr.TransformAxes3D(style[0])] if style else pose
-
-
 _SCALAR = _RowKind(
     width=1,
-    columns=lambda v: [
-        rr.components.ScalarBatch(v[:, 0]).described(rr.Scalars.descriptor_scalars()).partition()
+    columns=lambda v, lengths: [
+        rr.components.ScalarBatch(v[:, 0])
+        .described(rr.Scalars.descriptor_scalars())
+        .partition(lengths)
     ],
     style_columns=_no_style,
-    archetype=lambda v, style: rr.Scalars(float(v[0])),
+    archetype=lambda v, style: rr.Scalars(v[:, 0]),
 )
 _POINT = _RowKind(
     width=3,
-    columns=lambda v: [
-        _one_per_row(rr.components.Position3DBatch(v), rr.Points3D.descriptor_positions(), len(v))
+    columns=lambda v, lengths: [
+        rr.components.Position3DBatch(v)
+        .described(rr.Points3D.descriptor_positions())
+        .partition(lengths)
     ],
     style_columns=_point_style_columns,
     archetype=_point_archetype,
 )
-_TRANSFORM = _RowKind(
-    width=7,
-    columns=lambda v: _transform_columns(v[:, :3], _xyzw(v[:, 3:])),
-    style_columns=_axes_style_columns,
-    archetype=_transform_archetype,
+#: A frame: Transform3D, with its axes' length as style (none for no axes).
+_TRANSFORM = _pose_kind(
+    rr.Transform3D.descriptor_translation(), rr.Transform3D.descriptor_quaternion(), axes=True
 )
+#: The per-instance poses of each primitive.
+_INSTANCE_POSES = {a: _pose_kind(*fields) for a, fields in _INSTANCE_POSE_FIELDS.items()}
+#: Body frames: the poses of their markers.
+_BODY_FRAME = _INSTANCE_POSES[rr.Ellipsoids3D]
+
+
+def _pose_batches_of(group: GeomGroup, poses: np.ndarray) -> list[Any]:
+    """The per-instance poses (n, 7) [p, q_wxyz] of ``group``'s primitive, as
+    component batches."""
+    return _pose_batches(poses, *_INSTANCE_POSE_FIELDS[group.archetype])
 
 
 class _Outbox:
     """Buffered rows of many entities, sent with one ``rr.send_chunks``.
 
-    Entities whose rows share their time stamps go into one Arrow record batch:
-    one column per entity and component, the entity path in the column's
-    ``rerun:entity_path`` metadata, which
-    :meth:`rerun.chunk.Chunk.from_record_batch` splits into one chunk per entity.
-    Rows of one kind (all poses, all scalars, ...) in a batch are serialized
-    together and sliced per entity (zero-copy). One ``send_columns`` per entity
-    costs ~70 us of Python and native overhead; this is about half that.
+    Rows of one kind (all poses, all scalars, ...) that share their time stamps
+    are serialized together by rerun's component batches and sliced per entity
+    (zero-copy); each entity's slices become one chunk
+    (:meth:`rerun.chunk.Chunk.from_columns`, ~20 us an entity, about half of
+    ``Chunk.from_record_batch`` on one batch of all entities and a third of one
+    ``send_columns`` per entity).
     """
 
     def __init__(self) -> None:
         # (timelines, their kinds, time stamps) ->
         #     (times, kind -> [(paths, rows, style)]),
-        # rows: (entities x time stamps x width), entity-major
+        # rows: (entities x time stamps x instances x width), entity-major
         self._groups: dict[
             tuple[Any, ...],
             tuple[np.ndarray, dict[_RowKind, list[tuple[tuple[str, ...], np.ndarray, Any]]]],
@@ -477,9 +422,15 @@ class _Outbox:
         self._static: dict[tuple[str, str], tuple[Any, pa.Array]] = {}
 
     def add_static(self, path: str, *archetypes: Any) -> None:
-        """Queue ``archetypes`` as static data of ``path``."""
+        """Queue ``archetypes`` (or lists of described component batches) as
+        static data of ``path``."""
         for archetype in archetypes:
-            for batch in archetype.as_component_batches():
+            batches = (
+                archetype.as_component_batches()
+                if hasattr(archetype, "as_component_batches")
+                else archetype
+            )
+            for batch in batches:
                 d, values = batch.component_descriptor(), batch.as_arrow_array()
                 offsets = pa.array([0, len(values)], pa.int32())
                 self._static[(path, d.component)] = (d, pa.ListArray.from_arrays(offsets, values))
@@ -496,7 +447,7 @@ class _Outbox:
     ) -> None:
         """Queue the rows of the entities ``paths`` at ``times`` (time stamps x
         timelines, values of the timelines ``names``); ``rows`` is (entities x
-        time stamps x ``kind.width``), ``style`` goes with each row."""
+        time stamps x instances x ``kind.width``), ``style`` goes with each row."""
         key = (names, kinds, times.tobytes())
         group = self._groups.get(key)
         if group is None:
@@ -517,7 +468,10 @@ class _Outbox:
             for kind, entries in by_kind.items():
                 paths = [p for entry_paths, _, _ in entries for p in entry_paths]
                 stacked = np.concatenate([r.reshape(-1, kind.width) for _, r, _ in entries])
-                for col in kind.columns(stacked):
+                lengths = np.concatenate(
+                    [np.full(r.shape[0] * r.shape[1], r.shape[2]) for _, r, _ in entries]
+                )
+                for col in kind.columns(stacked, lengths):
                     d, array = col.component_descriptor(), col.as_arrow_array()
                     for i, path in enumerate(paths):
                         columns.setdefault(path, []).append(_ListColumn(d, array.slice(i * n, n)))
@@ -552,7 +506,8 @@ class _ListColumn:
 @dataclass
 class _Block:
     """Buffered rows of a fixed tuple of entities of one kind on one set of
-    timelines, stored densely: ``values[row, entity]`` is one entity's row."""
+    timelines, stored densely: ``values[row, entity]`` is one entity's row
+    (instances x width)."""
 
     paths: tuple[str, ...]
     kind: _RowKind
@@ -560,27 +515,60 @@ class _Block:
     names: tuple[str, ...]
     kinds: tuple[str, ...]
     capacity: int
+    instances: int
     times: list[tuple[float, ...]] = field(default_factory=list)
     values: np.ndarray = field(init=False)
 
     def __post_init__(self) -> None:
-        self.values = np.empty((self.capacity, len(self.paths), self.kind.width))
+        shape = (self.capacity, len(self.paths), self.instances, self.kind.width)
+        self.values = np.empty(shape)
 
     def append(self, time: tuple[float, ...], rows: np.ndarray) -> bool:
-        """Buffer ``rows`` (entities x width) at ``time``; True when full."""
+        """Buffer ``rows`` (entities x instances x width) at ``time``; True when full."""
         self.values[len(self.times)] = rows
         self.times.append(time)
         return len(self.times) >= self.capacity
 
-    def drain(self, outbox: _Outbox) -> None:
-        """Move the buffered rows to ``outbox``."""
+    def buffered(self) -> tuple[np.ndarray, np.ndarray]:
+        """(times (rows x timelines), values (rows x entities x instances x width))."""
         n = len(self.times)
-        if n == 0:
+        return np.asarray(self.times, dtype=float).reshape(n, -1), self.values[:n]
+
+    def drain(self, outbox: _Outbox, frames: _BodyFrames | None = None) -> None:
+        """Move the buffered rows to ``outbox``; if these are the body poses of
+        ``frames``, the poses of the geoms they carry too (all rows at once)."""
+        if not self.times:
             return
-        times = np.asarray(self.times, dtype=float).reshape(n, -1)
-        rows = self.values[:n].transpose(1, 0, 2)
-        outbox.add(self.paths, self.names, self.kinds, times, self.kind, rows, self.style)
+        times, values = self.buffered()
+        outbox.add(
+            self.paths,
+            self.names,
+            self.kinds,
+            times,
+            self.kind,
+            values.transpose(1, 0, 2, 3),
+            self.style,
+        )
+        if frames is not None:
+            for group, poses in frames.geometry(values[:, 0]):
+                kind = _INSTANCE_POSES[group.archetype]
+                outbox.add((group.path,), self.names, self.kinds, times, kind, poses[None])
         self.times.clear()
+
+
+@dataclass
+class _BodyFrames:
+    """The frames of the moving bodies of the robot (or of the scene), and the
+    geometry they carry: its instance poses follow from the body poses."""
+
+    path: str
+    ids: np.ndarray  # body ids, one instance each
+    groups: list[GeomGroup]  # the moving geom groups on these bodies
+    instances: InstancePoses
+
+    def geometry(self, frames: np.ndarray) -> list[tuple[GeomGroup, np.ndarray]]:
+        """Each group with its (rows, k, 7) poses, from body poses (rows, bodies, 7)."""
+        return list(zip(self.groups, self.instances(frames), strict=True))
 
 
 # ---------------------------------------------------------------------------
@@ -598,7 +586,7 @@ class Recorder:
     """Logs pik_mj data to an explicit rerun recording stream.
 
     Per-iteration data (body poses, frames, points, scalars) and static data
-    (geometry, styles) are buffered; every buffer is sent, in one call, when one
+    (geometry) are buffered; every buffer is sent, in one call, when one
     entity holds ``flush_every`` rows, and on :meth:`flush` /
     :meth:`send_buffered` / :meth:`close` / leaving the ``with`` block (also when
     the block raised). ``flush_every=1`` logs each row at once (for a live
@@ -644,9 +632,8 @@ class Recorder:
         self._outbox = _Outbox()
         self._error_paths: dict[tuple[tuple[int, str], ...], tuple[str, ...]] = {}
         # Filled by log_model_geometry.
-        self._dyn_ids: np.ndarray | None = None
-        self._dyn_paths: tuple[str, ...] = ()
-        self._nbody = -1
+        self._model: mujoco.MjModel | None = None
+        self._frames: dict[tuple[str, ...], _BodyFrames] = {}  # by (path,)
         self.skipped_geoms: list[str] = []
 
     @classmethod
@@ -715,7 +702,7 @@ class Recorder:
         """Send every buffered row of every entity, and pending static data, in
         one call."""
         for block in self._blocks.values():
-            block.drain(self._outbox)
+            block.drain(self._outbox, self._frames.get(block.paths))
         self._outbox.send(self.stream)
 
     def _check_open(self) -> None:
@@ -801,9 +788,10 @@ class Recorder:
         style: tuple[Any, ...] = (),
     ) -> None:
         """Buffer one row of each entity of ``paths`` (``rows``: entities x
-        ``kind.width``, checked by the caller) with ``style`` at the current time;
-        log them at once if unbuffered."""
+        [instances x] ``kind.width``, checked by the caller) with ``style`` at the
+        current time; log them at once if unbuffered."""
         self._check_open()
+        rows = rows.reshape(len(paths), -1, kind.width)
         if self.flush_every == 1:
             for path, row in zip(paths, rows, strict=True):
                 self._log(path, kind.archetype(row, style))
@@ -814,10 +802,12 @@ class Recorder:
                 f"no time is set for {paths[0]!r}; call set_time (e.g. "
                 "set_time('iteration', k)) before logging per-iteration data"
             )
-        key = (paths, names, style)
+        key = (paths, names, style, rows.shape[1])
         block = self._blocks.get(key)
         if block is None:
-            block = self._blocks[key] = _Block(paths, kind, style, names, kinds, self.flush_every)
+            block = self._blocks[key] = _Block(
+                paths, kind, style, names, kinds, self.flush_every, rows.shape[1]
+            )
         if block.append(self._time_vals, rows):
             self._send_buffers()
 
@@ -832,15 +822,16 @@ class Recorder:
         geom_groups: Iterable[int] = (0, 1, 2),
         plane_half_size: float = 5.0,
     ) -> None:
-        """Log every visible geom of ``model`` once, static, in its body's frame.
+        """Log every visible geom of ``model`` once, static, grouped by kind.
 
-        Bodies in the subtree of ``robot_root_body`` are the robot
-        (``world/robot/<body>``); other bodies are scene (``world/scene/<body>``):
-        those welded to the world get a static pose here, the others (free,
-        jointed or mocap) are dynamic like the robot. With no root given, every
-        body but the world body is robot. Dynamic bodies get their pose from
-        :meth:`log_body_poses`. Each geom is a child entity with a static
-        ``Transform3D`` ``X_BG`` (``geom_pos``, ``geom_quat``) and its primitive.
+        Bodies in the subtree of ``robot_root_body`` are the robot, the others
+        scene; with no root given, every body but the world body is robot. The
+        geoms of one primitive kind share an entity (:meth:`EntityPaths.geoms`),
+        one instance per geom labelled with its name: the robot's, the scene's
+        welded to the world (static poses, from ``data`` here), and the scene's on
+        free, jointed or mocap bodies. The moving ones get their poses, and the
+        body frames theirs (:meth:`EntityPaths.bodies`), from
+        :meth:`log_body_poses`. See :mod:`pik_mj.record_geometry`.
 
         Args:
             model: The MuJoCo model.
@@ -863,7 +854,7 @@ class Recorder:
         if robot_root_body is None:
             robot = np.ones(model.nbody, dtype=bool)
             robot[0] = False
-            dynamic = robot.copy()
+            moving = robot.copy()
         else:
             root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, robot_root_body)
             if root < 0:
@@ -871,46 +862,49 @@ class Recorder:
             if root == 0:
                 raise InvalidInput("robot_root_body cannot be the world body")
             robot = _subtree(model, root)
-            dynamic = (np.asarray(model.body_weldid) != 0) | (np.asarray(model.body_mocapid) >= 0)
-            dynamic |= robot
-            dynamic[0] = False
+            moving = (np.asarray(model.body_weldid) != 0) | (np.asarray(model.body_mocapid) >= 0)
+            moving |= robot
+            moving[0] = False
         if data is None:
             data = mujoco.MjData(model)
             mujoco.mj_kinematics(model, data)
         elif data.xpos.shape != (model.nbody, 3):
-            raise InvalidInput(f"data has {data.xpos.shape[0]} bodies, the model {model.nbody}")
+            raise InvalidInput(
+                f"data has {data.xpos.shape[0]} bodies, the logged model {model.nbody}"
+            )
 
         # Send rows buffered for a previous model before replacing the table.
         self._send_buffers()
 
         self._log_static(self.paths.world, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
-        body_paths = [
-            self.paths.body(body_names[b], robot=bool(robot[b])) for b in range(model.nbody)
-        ]
-        for b in range(1, model.nbody):
-            if not dynamic[b]:
-                self._log_static(
-                    body_paths[b],
-                    rr.Transform3D(
-                        translation=np.asarray(data.xpos[b], dtype=float),
-                        quaternion=_xyzw(np.asarray(data.xquat[b], dtype=float)),
-                    ),
-                )
         geom_names = _unique_names("geom", [model.geom(g).name for g in range(model.ngeom)])
-        self.skipped_geoms = []
-        for g in range(model.ngeom):
-            if int(model.geom_group[g]) not in groups:
-                continue
-            archetype = _geom_archetype(model, g, plane_half_size)
-            if archetype is None:
-                self.skipped_geoms.append(geom_names[g])
-                continue
-            path = self.paths.geom(body_paths[model.geom_bodyid[g]], geom_names[g])
-            X_BG = rr.Transform3D(
-                translation=np.asarray(model.geom_pos[g], dtype=float),
-                quaternion=_xyzw(np.asarray(model.geom_quat[g], dtype=float)),
-            )
-            self._log_static(path, X_BG, archetype)
+        found, self.skipped_geoms = record_geometry.geom_groups(
+            model,
+            geom_names,
+            robot=robot,
+            moving=moving,
+            groups=groups,
+            plane_half_size=plane_half_size,
+            entity_path=self.paths.geoms,
+        )
+        welded = [g for g in found if not g.moving]
+        bodies = (
+            np.unique(model.geom_bodyid[np.concatenate([g.ids for g in welded])]) if welded else []
+        )
+        X_WB = np.hstack([data.xpos[bodies], data.xquat[bodies]])[None]
+        for group, poses in zip(welded, InstancePoses(model, welded, bodies)(X_WB), strict=True):
+            self._log_static(group.path, group.shape, _pose_batches_of(group, poses[0]))
+        self._frames = {}
+        for is_robot in (True, False):
+            ids = np.flatnonzero(moving & (robot if is_robot else ~robot))
+            if len(ids):
+                path = self.paths.bodies(robot=is_robot)
+                self._log_static(path, _body_markers([body_names[b] for b in ids]))
+                carried = [g for g in found if g.moving and g.robot == is_robot]
+                for group in carried:
+                    self._log_static(group.path, group.shape)
+                instances = InstancePoses(model, carried, ids)
+                self._frames[(path,)] = _BodyFrames(path, ids, carried, instances)
         if self.skipped_geoms:
             self._log_static(
                 self.paths.events,
@@ -918,33 +912,41 @@ class Recorder:
                     f"geoms of unsupported type not drawn: {self.skipped_geoms}", level="WARN"
                 ),
             )
-        self._dyn_ids = np.flatnonzero(dynamic)
-        self._dyn_paths = tuple(body_paths[b] for b in self._dyn_ids)
-        self._nbody = model.nbody
+        self._model = model
 
     def log_body_poses(
         self, data: mujoco.MjData, *, timeline: str = "iteration", time: float
     ) -> None:
-        """Set ``timeline`` to ``time`` and log ``X_WB`` of every dynamic body.
+        """Set ``timeline`` to ``time`` and log the poses of every moving body:
+        the body frames ``X_WB`` and the instances of their geoms.
 
         Rows carry every timeline currently set (see :meth:`disable_timeline`).
-        The pose is ``(data.xpos[b], data.xquat[b])``: run MuJoCo's kinematics
-        first.
+        The body poses are MuJoCo's ``xpos``, ``xquat`` (run its kinematics
+        first); the geoms' follow from them (:class:`InstancePoses`).
         """
         self._check_open()
-        if self._dyn_ids is None:
+        model = self._model
+        if model is None:
             raise PikError("call log_model_geometry(model) before log_body_poses")
-        if data.xpos.shape[0] != self._nbody:
+        if data.xpos.shape[0] != model.nbody or data.geom_xpos.shape[0] != model.ngeom:
             raise InvalidInput(
-                f"data has {data.xpos.shape[0]} bodies, the logged model {self._nbody}"
+                f"data has {data.xpos.shape[0]} bodies, the logged model {model.nbody}"
             )
         self.set_time(timeline, time)
-        poses = np.empty((len(self._dyn_ids), 7))
-        poses[:, :3] = data.xpos[self._dyn_ids]
-        poses[:, 3:] = data.xquat[self._dyn_ids]
-        if not np.isfinite(poses).all():
-            raise InvalidInput(f"body poses at {timeline}={time} are not finite")
-        self._append(self._dyn_paths, poses, _TRANSFORM)
+        rows = []
+        for frames in self._frames.values():
+            poses = np.empty((len(frames.ids), 7))
+            poses[:, :3] = data.xpos[frames.ids]
+            poses[:, 3:] = data.xquat[frames.ids]
+            if not np.isfinite(poses).all():
+                raise InvalidInput(f"body poses at {timeline}={time} are not finite")
+            rows.append((frames, poses))
+        # buffered, the geoms' poses follow from these rows when they are sent
+        for frames, poses in rows:
+            self._append((frames.path,), poses, _BODY_FRAME)
+            if self.flush_every == 1:
+                for group, instances in frames.geometry(poses[None]):
+                    self._append((group.path,), instances[0], _INSTANCE_POSES[group.archetype])
 
     # -- per-iteration primitives ---------------------------------------------
 

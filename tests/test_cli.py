@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from pik_mj import cli
-from pik_mj.record import read_recording
+from pik_mj.record import PATHS, read_recording
 from pik_mj.scenarios import REGISTRY, Scenario, ScenarioResult
 
 
@@ -38,7 +38,8 @@ def test_run_writes_json_and_recording(tmp_path, capsys):
     assert {"name", "level", "error", "satisfied"} <= set(d["tasks"][0])
     rec = read_recording(rrd)
     assert any(p.startswith("world/robot/") for p in rec)
-    times, _ = rec["world/robot/l4"].series("Transform3D:translation", "iteration")
+    assert "l4" in rec[PATHS.bodies()].static["Ellipsoids3D:labels"]
+    times, _ = rec[PATHS.bodies()].series("Ellipsoids3D:centers", "iteration")
     assert len(times) >= sum(s["iterations"] for s in d["solves"].values())
     assert any(p.startswith("errors/level_1/") for p in rec)
     assert "world/com" in rec

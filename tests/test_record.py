@@ -102,22 +102,51 @@ def _posed_data(model: mujoco.MjModel, k: int) -> mujoco.MjData:
     return data
 
 
-def _pose(entity: EntityData, static: bool = True, row: int = -1):
-    """(p, R) of a recorded Transform3D (static, or temporal row ``row``)."""
-    if static:
-        t = entity.static["Transform3D:translation"][0]
-        q = entity.static["Transform3D:quaternion"][0]
+#: (translation, quaternion) components of each primitive's instance poses.
+POSE_COMPONENTS = {
+    "Boxes3D": ("Boxes3D:centers", "Boxes3D:quaternions"),
+    "Capsules3D": ("Capsules3D:translations", "Capsules3D:quaternions"),
+    "Cylinders3D": ("Cylinders3D:centers", "Cylinders3D:quaternions"),
+    "Ellipsoids3D": ("Ellipsoids3D:centers", "Ellipsoids3D:quaternions"),
+    "Mesh3D": ("InstancePoses3D:translations", "InstancePoses3D:quaternions"),
+}
+
+
+def _archetype(entity: EntityData) -> str:
+    kinds = {c.split(":")[0] for c in entity.static} & set(POSE_COMPONENTS)
+    assert len(kinds) == 1, sorted(entity.static)
+    return kinds.pop()
+
+
+def _find(rec: dict[str, EntityData], label: str, body: bool = False) -> tuple[str, int]:
+    """(entity path, instance index) of the geom (or ``body``) labelled ``label``."""
+    hits = []
+    for path, entity in rec.items():
+        if path.endswith("/bodies") != body:
+            continue
+        for component, value in entity.static.items():
+            if component.endswith(":labels") and label in value:
+                hits.append((path, value.index(label)))
+    assert len(hits) == 1, (label, hits)
+    return hits[0]
+
+
+def _instance_pose(entity: EntityData, i: int, row: int | None = -1):
+    """(p, R) of instance ``i``: temporal row ``row``, or static if ``row`` is None."""
+    t_name, q_name = POSE_COMPONENTS[_archetype(entity)]
+    if row is None:
+        t, q = entity.static[t_name][i], entity.static[q_name][i]
     else:
-        t = entity.temporal["Transform3D:translation"][row][1][0]
-        q = entity.temporal["Transform3D:quaternion"][row][1][0]
+        t, q = entity.temporal[t_name][row][1][i], entity.temporal[q_name][row][1][i]
     return np.array(t), Rotation.from_quat(q).as_matrix()  # scipy: xyzw
 
 
-def _geom_world(rec, body_path, geom_path, body_pose):
-    """World pose of a geom frame from the recorded X_WB and X_BG."""
-    p_WB, R_WB = body_pose
-    p_BG, R_BG = _pose(rec[geom_path])
-    return p_WB + R_WB @ p_BG, R_WB @ R_BG
+def _geom_pose(rec, label: str, row: int | None = -1):
+    """(p, R, entity, i) of the primitive frame of geom ``label`` (a mesh has
+    no labels: its entity is named after the mesh)."""
+    path, i = ("world/robot/meshes/tet", 0) if label == "tet" else _find(rec, label)
+    p, R = _instance_pose(rec[path], i, row)
+    return p, R, rec[path], i
 
 
 @pytest.fixture(scope="module")
@@ -136,12 +165,13 @@ def geometry_recording(model, tmp_path_factory):
 
 
 def test_paths_are_escaped_and_nested():
-    assert PATHS.body("torso") == "world/robot/torso"
-    assert PATHS.body("floor", robot=False) == "world/scene/floor"
-    assert PATHS.body("left hand") == "world/robot/left\\ hand"
-    assert PATHS.body("walker/torso") == "world/robot/walker\\/torso"
-    assert PATHS.geom("world/robot/torso", "head") == "world/robot/torso/head"
+    assert PATHS.geoms("capsules") == "world/robot/capsules"
+    assert PATHS.geoms("boxes", robot=False, moving=False) == "world/scene/boxes"
+    assert PATHS.geoms("boxes", robot=False) == "world/scene/moving/boxes"
+    assert PATHS.bodies() == "world/robot/bodies"
+    assert PATHS.bodies(robot=False) == "world/scene/moving/bodies"
     assert PATHS.task_target("rarm") == "world/tasks/rarm/target"
+    assert PATHS.task_target("left hand/x") == "world/tasks/left\\ hand\\/x/target"
     assert PATHS.task_current("rarm") == "world/tasks/rarm/current"
     assert PATHS.task_error(2, "com") == "errors/level_2/com"
     assert PATHS.hold_metric("drift") == "hold/drift"
@@ -151,85 +181,83 @@ def test_paths_are_escaped_and_nested():
 # Static geometry
 
 
-def test_every_geom_type_is_logged_static(geometry_recording, model):
+def test_geoms_are_grouped_by_kind(geometry_recording, model):
     _, _, rec = geometry_recording
     robot, scene = "world/robot", "world/scene"
+    unnamed = f"geom_{model.body('left hand').geomadr[0]}"
     expected = {
-        f"{scene}/world/floor": "Boxes3D:half_sizes",
-        f"{scene}/world/terrain": "Mesh3D:vertex_positions",
-        f"{scene}/table/top": "Boxes3D:half_sizes",
-        f"{scene}/crate/crate": "Boxes3D:half_sizes",
-        f"{robot}/base/box": "Boxes3D:half_sizes",
-        f"{robot}/base/ball": "Ellipsoids3D:half_sizes",
-        f"{robot}/arm/capsule": "Capsules3D:lengths",
-        f"{robot}/arm/cylinder": "Cylinders3D:lengths",
-        f"{robot}/arm/egg": "Ellipsoids3D:half_sizes",
-        f"{robot}/arm/tet": "Mesh3D:vertex_positions",
+        f"{scene}/boxes": ("Boxes3D:half_sizes", ["floor", "top"]),
+        f"{scene}/hfields/hf": ("Mesh3D:vertex_positions", ["terrain"]),
+        f"{scene}/moving/boxes": ("Boxes3D:half_sizes", ["crate"]),
+        f"{robot}/boxes": ("Boxes3D:half_sizes", ["box"]),
+        f"{robot}/ellipsoids": ("Ellipsoids3D:half_sizes", ["ball", "egg", unnamed]),
+        f"{robot}/capsules": ("Capsules3D:lengths", ["capsule"]),
+        f"{robot}/cylinders": ("Cylinders3D:lengths", ["cylinder"]),
+        f"{robot}/meshes/tet": ("Mesh3D:vertex_positions", ["tet"]),
     }
-    unnamed = model.body("left hand").geomadr[0]
-    expected[f"{PATHS.body('left hand')}/geom_{unnamed}"] = "Ellipsoids3D:half_sizes"
-    for path, component in expected.items():
-        assert path in rec, path
-        assert component in rec[path].static, (path, sorted(rec[path].static))
-        assert not rec[path].temporal.get(component), path
+    geometry = {p for p in rec if p.startswith("world/") and not p.endswith("/bodies")}
+    assert geometry == set(expected)
+    for path, (component, labels) in expected.items():
+        entity = rec[path]
+        assert component in entity.static, (path, sorted(entity.static))
+        assert not entity.temporal.get(component), path
+        if "Mesh3D" not in component:
+            assert entity.static[f"{component.split(':')[0]}:labels"] == labels
+    # one robot body marker per body, with its MJCF name
+    bodies = rec[PATHS.bodies()].static["Ellipsoids3D:labels"]
+    assert bodies == ["base", "arm", "left hand"]
+    assert rec[PATHS.bodies(robot=False)].static["Ellipsoids3D:labels"] == ["crate"]
     # Group 3 (collision) is hidden by default.
-    assert not any(p.endswith("/collision") for p in rec)
+    assert all("collision" not in e.static.get("Boxes3D:labels", []) for e in rec.values())
 
 
 def test_geom_sizes_and_colors(geometry_recording, model):
     _, _, rec = geometry_recording
-    box = rec["world/robot/base/box"].static
-    np.testing.assert_allclose(box["Boxes3D:half_sizes"][0], [0.1, 0.2, 0.3], rtol=1e-6)
+
+    def static(label, component):
+        path, i = _find(rec, label)
+        return rec[path].static[f"{_archetype(rec[path])}:{component}"][i]
+
+    np.testing.assert_allclose(static("box", "half_sizes"), [0.1, 0.2, 0.3], rtol=1e-6)
     # Material colour when the geom's rgba is MuJoCo's default; rgba wins otherwise.
-    assert box["Boxes3D:colors"][0] == 0xFF0000FF
-    assert rec["world/robot/base/ball"].static["Ellipsoids3D:colors"][0] == 0x00FF00FF
-    assert rec["world/scene/world/floor"].static["Boxes3D:colors"][0] == 0x336699FF
-    np.testing.assert_allclose(
-        rec["world/robot/arm/egg"].static["Ellipsoids3D:half_sizes"][0],
-        [0.05, 0.06, 0.07],
-        rtol=1e-6,
-    )
-    np.testing.assert_allclose(
-        rec["world/robot/base/ball"].static["Ellipsoids3D:half_sizes"][0],
-        [0.05] * 3,
-        rtol=1e-6,
-    )
-    floor = rec["world/scene/world/floor"].static
-    np.testing.assert_allclose(floor["Boxes3D:half_sizes"][0], [2, 3, 1e-3], rtol=1e-6)
-    # The slab's top face is the plane z = 0.
-    assert floor["Boxes3D:centers"][0][2] + 1e-3 == pytest.approx(0.0, abs=1e-9)
+    assert static("box", "colors") == 0xFF0000FF
+    assert static("ball", "colors") == 0x00FF00FF
+    assert static("floor", "colors") == 0x336699FF
+    np.testing.assert_allclose(static("egg", "half_sizes"), [0.05, 0.06, 0.07], rtol=1e-6)
+    np.testing.assert_allclose(static("ball", "half_sizes"), [0.05] * 3, rtol=1e-6)
+    np.testing.assert_allclose(static("floor", "half_sizes"), [2, 3, 1e-3], rtol=1e-6)
+    assert static("capsule", "radii") == pytest.approx(0.04)
+    assert static("cylinder", "radii") == pytest.approx(0.03)
 
 
 def test_geom_world_poses_match_mujoco(geometry_recording, model):
-    """Recorded X_WB ∘ X_BG ∘ (primitive centre) equals MuJoCo's geom pose."""
+    """Each recorded instance pose, moved to the primitive's centre, is MuJoCo's
+    geom pose; the body frames are MuJoCo's body poses."""
     _, data, rec = geometry_recording
     checked = 0
     for g in range(model.ngeom):
-        name = model.geom(g).name
-        b = model.geom_bodyid[g]
-        if b == 0 or name == "collision":
+        label = model.geom(g).name or f"geom_{g}"
+        if label in ("collision", "terrain"):  # hidden / height field: below
             continue
-        bname = model.body(b).name
-        body_path = PATHS.body(bname, robot=bname in ("base", "arm", "left hand"))
-        if bname == "table":
-            body_pose = _pose(rec[body_path])  # welded: static pose
+        welded = label in ("floor", "top")
+        p, R, entity, i = _geom_pose(rec, label, row=None if welded else -1)
+        if _archetype(entity) == "Capsules3D":
+            # rerun capsules start at their translation and run along +z
+            centre = [0, 0, entity.static["Capsules3D:lengths"][i] / 2]
+        elif label == "floor":  # the slab's top face is the plane z = 0
+            centre = [0, 0, entity.static["Boxes3D:half_sizes"][i][2]]
         else:
-            body_pose = _pose(rec[body_path], static=False)
-        path = PATHS.geom(body_path, name or f"geom_{g}")
-        p_WG, R_WG = _geom_world(rec, body_path, path, body_pose)
-        static = rec[path].static
-        if "Capsules3D:lengths" in static:
-            # rerun capsules start at their translation and run along +z.
-            t = np.array(static["Capsules3D:translations"][0])
-            centre = t + np.array([0, 0, static["Capsules3D:lengths"][0] / 2])
-        elif "Boxes3D:centers" in static:
-            centre = np.array(static["Boxes3D:centers"][0])
-        else:
-            centre = np.zeros(3)
-        np.testing.assert_allclose(p_WG + R_WG @ centre, data.geom_xpos[g], atol=1e-6)
-        np.testing.assert_allclose(R_WG, data.geom_xmat[g].reshape(3, 3), atol=1e-6)
+            centre = [0, 0, 0]
+        np.testing.assert_allclose(p + R @ centre, data.geom_xpos[g], atol=1e-6)
+        np.testing.assert_allclose(R, data.geom_xmat[g].reshape(3, 3), atol=1e-6)
         checked += 1
-    assert checked == 9
+    assert checked == 10
+    for name in ("base", "arm", "left hand", "crate"):
+        path, i = _find(rec, name, body=True)
+        p, R = _instance_pose(rec[path], i)
+        b = model.body(name).id
+        np.testing.assert_allclose(p, data.xpos[b], atol=1e-6)
+        np.testing.assert_allclose(R, data.xmat[b].reshape(3, 3), atol=1e-6)
 
 
 def _arm_pose(data, model):
@@ -240,49 +268,43 @@ def _arm_pose(data, model):
 def test_capsule_and_cylinder_end_points_match_fromto(geometry_recording, model):
     """Axis convention: rerun's capsule/cylinder ends land on the MJCF fromto."""
     _, data, rec = geometry_recording
-    arm = "world/robot/arm"
-    arm_pose = _pose(rec[arm], static=False)
     p_WA, R_WA = _arm_pose(data, model)
 
-    cap = rec[f"{arm}/capsule"].static
-    p_WG, R_WG = _geom_world(rec, arm, f"{arm}/capsule", arm_pose)
-    t = np.array(cap["Capsules3D:translations"][0])
-    length = cap["Capsules3D:lengths"][0]
-    ends = [p_WG + R_WG @ (t + np.array([0, 0, s])) for s in (0.0, length)]
+    p, R, cap, i = _geom_pose(rec, "capsule")
+    length = cap.static["Capsules3D:lengths"][i]
+    ends = [p + R @ [0, 0, s] for s in (0.0, length)]
     want = [p_WA + R_WA @ e for e in CAPSULE_FROMTO]
-    assert cap["Capsules3D:radii"][0] == pytest.approx(0.04)
     # Either direction is the same capsule.
     if np.linalg.norm(ends[0] - want[0]) > np.linalg.norm(ends[0] - want[1]):
         ends = ends[::-1]
     np.testing.assert_allclose(ends, want, atol=1e-6)
 
-    cyl = rec[f"{arm}/cylinder"].static
-    p_WG, R_WG = _geom_world(rec, arm, f"{arm}/cylinder", arm_pose)
-    half = cyl["Cylinders3D:lengths"][0] / 2
-    ends = [p_WG + R_WG @ [0, 0, s] for s in (-half, half)]
+    p, R, cyl, i = _geom_pose(rec, "cylinder")
+    half = cyl.static["Cylinders3D:lengths"][i] / 2
+    ends = [p + R @ [0, 0, s] for s in (-half, half)]
     want = [p_WA + R_WA @ e for e in CYLINDER_FROMTO]
     if np.linalg.norm(ends[0] - want[0]) > np.linalg.norm(ends[0] - want[1]):
         ends = ends[::-1]
     np.testing.assert_allclose(ends, want, atol=1e-6)
-    assert cyl["Cylinders3D:radii"][0] == pytest.approx(0.03)
 
 
 def test_mesh_vertices_reproduce_the_mjcf_mesh(geometry_recording, model):
-    """MuJoCo re-centres mesh vertices; the recorded X_BG must undo that."""
-    _, _, rec = geometry_recording
-    tet = rec["world/robot/arm/tet"].static
-    p_BG, R_BG = _pose(rec["world/robot/arm/tet"])
-    v = np.array(tet["Mesh3D:vertex_positions"])
-    in_body = v @ R_BG.T + p_BG
-    want = TET + TET_POS
+    """MuJoCo re-centres mesh vertices; the recorded instance pose must undo that."""
+    _, data, rec = geometry_recording
+    tet = rec["world/robot/meshes/tet"]
+    p, R = _instance_pose(tet, 0)
+    v = np.array(tet.static["Mesh3D:vertex_positions"])
+    in_world = v @ R.T + p
+    p_WA, R_WA = _arm_pose(data, model)
+    want = (TET + TET_POS) @ R_WA.T + p_WA
     # Same vertex set (MuJoCo may reorder): match each to its nearest.
-    d = np.linalg.norm(in_body[:, None, :] - want[None, :, :], axis=2)
+    d = np.linalg.norm(in_world[:, None, :] - want[None, :, :], axis=2)
     assert sorted(d.argmin(axis=1)) == [0, 1, 2, 3]
     np.testing.assert_allclose(d.min(axis=1), 0.0, atol=1e-6)
-    faces = np.array(tet["Mesh3D:triangle_indices"])
+    faces = np.array(tet.static["Mesh3D:triangle_indices"])
     assert faces.shape == (4, 3)
     assert set(faces.ravel()) == {0, 1, 2, 3}
-    normals = np.array(tet["Mesh3D:vertex_normals"])
+    normals = np.array(tet.static["Mesh3D:vertex_normals"])
     np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, rtol=1e-5)
     # Vertex normals point away from the centroid of a convex mesh.
     assert (np.sum((v - v.mean(axis=0)) * normals, axis=1) > 0).all()
@@ -290,29 +312,32 @@ def test_mesh_vertices_reproduce_the_mjcf_mesh(geometry_recording, model):
 
 def test_hfield_surface(geometry_recording):
     _, _, rec = geometry_recording
-    terrain = rec["world/scene/world/terrain"].static
-    v = np.array(terrain["Mesh3D:vertex_positions"])
+    terrain = rec["world/scene/hfields/hf"]
+    v = np.array(terrain.static["Mesh3D:vertex_positions"])
     assert v.shape == (9, 3)
-    assert len(terrain["Mesh3D:triangle_indices"]) == 8
+    assert len(terrain.static["Mesh3D:triangle_indices"]) == 8
     np.testing.assert_allclose(v[:, :2].min(axis=0), [-1, -1])
     np.testing.assert_allclose(v[:, :2].max(axis=0), [1, 1])
     # Only the middle sample is raised, to the full height 0.2 m.
     top = v[np.argmax(v[:, 2])]
     np.testing.assert_allclose(top, [0, 0, 0.2], atol=1e-6)
     assert np.sort(v[:, 2])[-2] == pytest.approx(0.0)
+    # welded to the world at pos="5 0 0": one static instance pose
+    p, R = _instance_pose(terrain, 0, row=None)
+    np.testing.assert_allclose(p, [5, 0, 0], atol=1e-9)
+    np.testing.assert_allclose(R, np.eye(3), atol=1e-9)
 
 
-def test_scene_bodies_static_or_dynamic(geometry_recording):
+def test_scene_geoms_static_or_moving(geometry_recording):
     _, _, rec = geometry_recording
-    table = rec["world/scene/table"]
-    assert table.temporal == {}
-    p, R = _pose(table)
+    welded = rec["world/scene/boxes"]
+    assert welded.temporal == {}
+    p, R = _instance_pose(welded, welded.static["Boxes3D:labels"].index("top"), row=None)
     np.testing.assert_allclose(p, [1, 0, 0.5], atol=1e-6)
     np.testing.assert_allclose(R, Rotation.from_euler("xyz", [0, 0, 0.4]).as_matrix(), atol=1e-6)
     # A free body outside the robot is scene, but moves.
-    assert len(rec["world/scene/crate"].temporal["Transform3D:translation"]) == 1
-    for body in ("base", "arm", "left hand"):
-        assert PATHS.body(body) in rec
+    assert len(rec["world/scene/moving/boxes"].temporal["Boxes3D:centers"]) == 1
+    assert len(rec[PATHS.bodies(robot=False)].temporal["Ellipsoids3D:centers"]) == 1
 
 
 def test_default_classification_and_geom_groups(model, tmp_path):
@@ -321,10 +346,12 @@ def test_default_classification_and_geom_groups(model, tmp_path):
         rec.log_model_geometry(model, geom_groups=(0, 3))
         rec.log_body_poses(_posed_data(model, 1), timeline="iteration", time=0)
     out = read_recording(path)
-    assert "world/robot/table/top" in out  # everything but the world body moves
-    assert "Transform3D:translation" in out["world/robot/table"].temporal
-    assert "world/robot/base/collision" in out
-    assert "world/scene/world/floor" in out
+    # everything but the world body moves, and is robot
+    boxes = out["world/robot/boxes"]
+    assert boxes.static["Boxes3D:labels"] == ["top", "crate", "box", "collision"]
+    assert len(boxes.temporal["Boxes3D:centers"][0][1]) == 4
+    assert out[PATHS.bodies()].static["Ellipsoids3D:labels"][:2] == ["table", "crate"]
+    assert out["world/scene/boxes"].static["Boxes3D:labels"] == ["floor"]
 
 
 # ---------------------------------------------------------------------------
@@ -340,16 +367,21 @@ def test_body_poses_per_iteration(model, tmp_path):
         for k, data in enumerate(datas):
             rec.log_body_poses(data, timeline="iteration", time=k)
     out = read_recording(path)
-    for name in ("base", "arm", "left hand"):
+    frames = out[PATHS.bodies()]
+    times, t = frames.series("Ellipsoids3D:centers", "iteration")
+    _, q = frames.series("Ellipsoids3D:quaternions", "iteration")
+    assert times.tolist() == list(range(n))
+    for i, name in enumerate(frames.static["Ellipsoids3D:labels"]):
         b = model.body(name).id
-        entity = out[PATHS.body(name)]
-        times, t = entity.series("Transform3D:translation", "iteration")
-        _, q = entity.series("Transform3D:quaternion", "iteration")
-        assert times.tolist() == list(range(n))
-        p = np.array([x[0] for x in t])
-        R = Rotation.from_quat(np.array([x[0] for x in q])).as_matrix()
+        p = np.array([x[i] for x in t])
+        R = Rotation.from_quat(np.array([x[i] for x in q])).as_matrix()
         np.testing.assert_allclose(p, [d.xpos[b] for d in datas], atol=1e-6)
         np.testing.assert_allclose(R, [d.xmat[b].reshape(3, 3) for d in datas], atol=1e-6)
+    # the geometry moves with the bodies, row by row
+    g = model.geom("egg").id
+    i = out["world/robot/ellipsoids"].static["Ellipsoids3D:labels"].index("egg")
+    _, centers = out["world/robot/ellipsoids"].series("Ellipsoids3D:centers", "iteration")
+    np.testing.assert_allclose([c[i] for c in centers], [d.geom_xpos[g] for d in datas], atol=1e-6)
 
 
 def test_buffering_does_not_change_the_data(model, tmp_path):
@@ -364,7 +396,9 @@ def test_buffering_does_not_change_the_data(model, tmp_path):
 
     a, b = run(tmp_path / "a.rrd", 1), run(tmp_path / "b.rrd", 4)
     for entity, component in [
-        (PATHS.body("arm"), "Transform3D:quaternion"),
+        (PATHS.bodies(), "Ellipsoids3D:quaternions"),
+        ("world/robot/capsules", "Capsules3D:translations"),  # from the body poses
+        ("world/robot/boxes", "Boxes3D:quaternions"),
         ("errors/level_1/x", "Scalars:scalars"),
         (PATHS.com, "Points3D:positions"),
         (PATHS.com, "Points3D:radii"),
@@ -453,7 +487,7 @@ def test_sim_time_is_seconds_and_timelines_can_be_dropped(model, tmp_path):
     times, drift = out["hold/drift"].series("Scalars:scalars", "sim_time")
     np.testing.assert_allclose(times, [0, 0.002, 0.004, 0.006], atol=1e-12)
     np.testing.assert_allclose([d[0] for d in drift], [0, 0.01, 0.02, 0.03])
-    rows = out[PATHS.body("arm")].temporal["Transform3D:translation"]
+    rows = out[PATHS.bodies()].temporal["Ellipsoids3D:centers"]
     # one row stamped with the iteration only, four with the physics time only
     assert sorted(sorted(t) for t, _ in rows) == [["iteration"]] + [["sim_time"]] * 4
 
@@ -517,7 +551,7 @@ def test_recording_is_valid_after_an_exception(model, tmp_path):
     assert result.returncode == 0, result.stderr
     out = read_recording(path)
     # Rows still buffered when the block raised were written on exit.
-    times, _ = out[PATHS.body("arm")].series("Transform3D:translation", "iteration")
+    times, _ = out[PATHS.bodies()].series("Ellipsoids3D:centers", "iteration")
     assert times.tolist() == list(range(10))
     _, e = out[PATHS.task_error(1, "com")].series("Scalars:scalars", "iteration")
     assert [x[0] for x in e] == [float(k) for k in range(10)]
@@ -551,14 +585,16 @@ def test_rows_of_many_entities_sent_together_read_back_per_entity(model, tmp_pat
     for k in (0, 3, 5):  # each body's slice of the shared pose columns
         data = _posed_data(model, k)
         for name in ("arm", "base"):
-            p, R = _pose(out[PATHS.body(name)], static=False, row=k)
+            path, i = _find(out, name, body=True)
+            p, R = _instance_pose(out[path], i, row=k)
             b = model.body(name).id
             np.testing.assert_allclose(p, data.xpos[b], atol=1e-6)
             np.testing.assert_allclose(R, data.xmat[b].reshape(3, 3), atol=1e-6)
     # the point style went with its rows, the static geometry in the same sends
     times, radii = out[PATHS.com].series("Points3D:radii", "iteration")
     assert times.tolist() == [0, 2, 4] and not out[PATHS.com].static
-    assert "Transform3D:translation" in out["world/robot/table/top"].static
+    assert [r[0] for r in radii] == pytest.approx([0.03] * 3)
+    assert "Boxes3D:half_sizes" in out["world/robot/boxes"].static
 
 
 def test_explicit_stream_is_not_the_global_one_and_stays_open(tmp_path):

@@ -84,7 +84,9 @@ def _check_iterations(rec: dict[str, EntityData], result: ScenarioResult) -> Non
     assert sorted(logged) == ticks  # one error row per IK iteration, no more
     robot = result.robot
     assert robot is not None
-    pose_times, _ = rec[PATHS.body(robot.root_body)].series("Transform3D:translation", "iteration")
+    frames = rec[PATHS.bodies()]
+    assert robot.root_body in frames.static["Ellipsoids3D:labels"]
+    pose_times, _ = frames.series("Ellipsoids3D:centers", "iteration")
     assert set(pose_times.tolist()) == set(range(end + 1))  # + start and final poses
     # every task's last logged error is the SolveResult's error of that task
     for label, s in result.solves.items():
@@ -147,9 +149,7 @@ def _check_simulation(rec: dict[str, EntityData], result: ScenarioResult) -> Non
     assert max(d[0] for d in drift) == pytest.approx(hold["drift"], rel=1e-6)
     # the hold does not write on the iteration timeline
     assert all("iteration" not in t for t, _ in rec[PATHS.hold_metric("drift")].temporal[SCALAR])
-    pose_t, _ = rec[PATHS.body(result.robot.root_body)].series(
-        "Transform3D:translation", "sim_time"
-    )
+    pose_t, _ = rec[PATHS.bodies()].series("Ellipsoids3D:centers", "sim_time")
     assert pose_t[0] == 0.0 and pose_t[-1] == pytest.approx(hold["simulated"])
     fz = rec[PATHS.hold_metric("contact_force_z")].series(SCALAR, "sim_time")[1]
     if result.name in HOLDS:

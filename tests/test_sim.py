@@ -403,7 +403,8 @@ def test_hold_records_on_sim_time(tmp_path, scene, reset_q):
     assert len(times) == 250 // 25 + 1
     np.testing.assert_allclose(times, np.arange(11) * 0.05, atol=1e-9)
     assert max(np.ravel(values)) == pytest.approx(hold.drift, rel=0.2)
-    assert PATHS.body("pelvis") in out
+    assert "pelvis" in out[PATHS.bodies()].static["Ellipsoids3D:labels"]
+    assert len(out[PATHS.bodies()].temporal["Ellipsoids3D:centers"]) == 250 // 25 + 1
 
 
 def test_validate_pose():

@@ -165,7 +165,8 @@ def test_playback_walks_to_the_goal(walk, tmp_path):
     assert all(ok for _, ok, _ in checks), checks
     assert figures["sim_fell"] is False
     entities = read_recording(out)
-    times, _ = entities[PATHS.body("pelvis")].series("Transform3D:translation", "sim_time")
+    assert "pelvis" in entities[PATHS.bodies()].static["Ellipsoids3D:labels"]
+    times, _ = entities[PATHS.bodies()].series("Ellipsoids3D:centers", "sim_time")
     assert times[-1] >= pattern.duration
 
 
