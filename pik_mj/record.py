@@ -888,10 +888,9 @@ class Recorder:
             entity_path=self.paths.geoms,
         )
         welded = [g for g in found if not g.moving]
-        bodies = (
-            np.unique(model.geom_bodyid[np.concatenate([g.ids for g in welded])]) if welded else []
-        )
-        X_WB = np.hstack([data.xpos[bodies], data.xquat[bodies]])[None]
+        ids = np.concatenate([g.ids for g in welded]) if welded else np.zeros(0, dtype=int)
+        bodies = np.unique(model.geom_bodyid[ids])
+        X_WB = np.hstack([data.xpos[bodies], data.xquat[bodies]])[None]  # their poses now
         for group, poses in zip(welded, InstancePoses(model, welded, bodies)(X_WB), strict=True):
             self._log_static(group.path, group.shape, _pose_batches_of(group, poses[0]))
         self._frames = {}

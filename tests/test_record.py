@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation
 
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.record import PATHS, EntityData, Recorder, blueprint, read_recording
+from pik_mj.record_geometry import right_mul_matrix
 
 TET = np.array([[0, 0, 0], [0.2, 0, 0], [0, 0.2, 0], [0, 0, 0.2]], dtype=float)
 TET_POS = np.array([0.0, 0.0, 0.1])
@@ -175,6 +176,17 @@ def test_paths_are_escaped_and_nested():
     assert PATHS.task_current("rarm") == "world/tasks/rarm/current"
     assert PATHS.task_error(2, "com") == "errors/level_2/com"
     assert PATHS.hold_metric("drift") == "hold/drift"
+
+
+def test_right_mul_matrix_is_mujocos_quaternion_product():
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(20, 4))
+    b = rng.normal(size=(20, 4))
+    M = right_mul_matrix(b)
+    for i in range(20):
+        ab = np.zeros(4)
+        mujoco.mju_mulQuat(ab, a[i], b[i])
+        np.testing.assert_allclose(M[i] @ a[i], ab, atol=1e-12)
 
 
 # ---------------------------------------------------------------------------
