@@ -663,6 +663,14 @@ def test_bad_input_is_rejected(model, tmp_path):
             rec.log_contacts(np.zeros((2, 3)), np.zeros((3, 3)))
         with pytest.raises(InvalidInput, match="zero"):
             rec.log_frame("f", [0, 0, 0], [0, 0, 0, 0])
+        with pytest.raises(InvalidInput, match="axis_length"):
+            rec.log_frame("f", [0, 0, 0], [1, 0, 0, 0], axis_length=-0.1)
+        with pytest.raises(InvalidInput, match=r"frame positions must have shape \(2, 3\)"):
+            rec.log_frames(["a", "b"], np.zeros((3, 3)), np.tile([1.0, 0, 0, 0], (2, 1)))
+        with pytest.raises(InvalidInput, match="radius of point 'p'"):
+            rec.log_point("p", [0, 0, 0], radius=0.0)
+        with pytest.raises(InvalidInput, match="errors/level_1/x"):
+            rec.log_task_errors({(1, "x"): float("nan")})
         with pytest.raises(InvalidInput, match="WARN"):
             rec.log_text("x", level="LOUD")
         rec.log_model_geometry(model)
