@@ -308,15 +308,16 @@ def _pose_kind(translation: Any, quaternion: Any, *, axes: bool = False) -> _Row
     """Rows of poses [p, q_wxyz] sent as the components ``translation`` and
     ``quaternion`` (a Transform3D, or the per-instance poses of a primitive);
     with ``axes``, a style ``(axis_length,)`` draws the frame's axes."""
+    style_columns = _axes_style_columns if axes else _no_style
     return _RowKind(
         width=7,
         columns=lambda v, lengths: [
             b.partition(lengths) for b in _pose_batches(v, translation, quaternion)
         ],
-        style_columns=_axes_style_columns if axes else _no_style,
+        style_columns=style_columns,
         archetype=lambda v, style: (
             _pose_batches(v, translation, quaternion)
-            + [c.component_batch for c in _axes_style_columns(style, 1)]
+            + [c.component_batch for c in style_columns(style, 1)]
         ),
     )
 
