@@ -49,6 +49,7 @@ from .scenarios import (
     jsonable,
     run_scenario,
 )
+from .sweep import cli as sweep_cli
 
 EXIT_PASSED, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 
@@ -81,6 +82,7 @@ def _parser() -> argparse.ArgumentParser:
     val.add_argument("--duration", type=float, default=DEFAULT_HOLD, help="hold duration [s]")
     val.add_argument("--json", help="JSON report to write")
     val.add_argument("--out", help="rerun recording of the hold (.rrd)")
+    sweep_cli.add_parser(sub)
     return parser
 
 
@@ -237,6 +239,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _list()
         if args.command == "validate":
             return _validate(args)
+        if args.command == "sweep":
+            return sweep_cli.run(args)
         return _run(args)
     except PikError as exc:
         print(f"pik-mj: error: {exc}", file=sys.stderr)

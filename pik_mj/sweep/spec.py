@@ -1,0 +1,262 @@
+"""What a sweep runs: a set of task parameters × robots × stacks, as numbered cases.
+
+A sweep's parameter space is a :class:`Grid` (every combination of the listed
+values) or a :class:`Uniform` random set (``n`` points drawn in a box). Each
+point is crossed with every robot and every stack; the case index runs over
+``(robot, stack, point)`` with the point fastest:
+
+.. math::
+
+    i = (r \\cdot n_{stacks} + s) \\cdot n_{points} + p
+
+Case ``i``'s seed derives from the sweep seed and its point index ``p``
+(``numpy.random.SeedSequence([seed, p])``), so the robots and stacks of one
+point share its seed, and a :class:`Uniform` point is drawn from that seed
+alone: any case can be rebuilt from ``(sweep, i)`` without the others.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import InvalidInput
+from .case import DEFAULT_HAND, PARAMETERS, REQUIRED, STACKS
+
+
+def _name(name: Any) -> str:
+    if name not in PARAMETERS:
+        raise InvalidInput(
+            f"unknown sweep parameter {name!r}; valid parameters: "
+            + ", ".join(f"{k} ({v})" for k, v in PARAMETERS.items())
+        )
+    return str(name)
+
+
+def _finite(value: Any, what: str) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{what} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise InvalidInput(f"{what} must be finite, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Every combination of the listed parameter values.
+
+    Args:
+        axes: Parameter name -> its values, e.g. ``{"x": np.linspace(0.1, 0.8, 8),
+            "y": [-0.2, 0.0], "z": [1.0]}`` (world frame [m]; see
+            :data:`pik_mj.sweep.case.PARAMETERS`). The last axis varies fastest.
+    """
+
+    axes: Mapping[str, Sequence[float]]
+
+    def __post_init__(self) -> None:
+        if not self.axes:
+            raise InvalidInput("a Grid needs at least one parameter axis")
+        axes = {}
+        for name, values in self.axes.items():
+            vals = tuple(_finite(v, f"grid value of {name!r}") for v in np.atleast_1d(values))
+            if not vals:
+                raise InvalidInput(f"grid axis {name!r} has no values")
+            if len(set(vals)) != len(vals):
+                raise InvalidInput(f"grid axis {name!r} repeats a value: {vals}")
+            axes[_name(name)] = vals
+        object.__setattr__(self, "axes", axes)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.axes)
+
+    def __len__(self) -> int:
+        return math.prod(len(v) for v in self.axes.values())
+
+    def point(self, p: int, seed: int) -> dict[str, float]:
+        """Point ``p`` (row-major over the axes; ``seed`` unused)."""
+        out = {}
+        for name, values in reversed(self.axes.items()):
+            p, k = divmod(p, len(values))
+            out[name] = values[k]
+        return {name: out[name] for name in self.axes}
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"grid": {k: list(v) for k, v in self.axes.items()}}
+
+
+@dataclass(frozen=True)
+class Uniform:
+    """``n`` points drawn uniformly in a box, point ``p`` from its own seed.
+
+    Args:
+        bounds: Parameter name -> ``(low, high)``; ``low == high`` fixes it.
+        n: Number of points.
+    """
+
+    bounds: Mapping[str, tuple[float, float]]
+    n: int
+
+    def __post_init__(self) -> None:
+        if not self.bounds:
+            raise InvalidInput("a Uniform set needs at least one parameter range")
+        if not isinstance(self.n, (int, np.integer)) or self.n < 1:
+            raise InvalidInput(f"n must be an integer >= 1, got {self.n!r}")
+        bounds = {}
+        for name, pair in self.bounds.items():
+            if len(pair) != 2:
+                raise InvalidInput(f"range of {name!r} must be (low, high), got {pair!r}")
+            lo, hi = (_finite(v, f"range of {name!r}") for v in pair)
+            if lo > hi:
+                raise InvalidInput(f"range of {name!r} is inverted: low {lo} > high {hi}")
+            bounds[_name(name)] = (lo, hi)
+        object.__setattr__(self, "bounds", bounds)
+        object.__setattr__(self, "n", int(self.n))
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.bounds)
+
+    def __len__(self) -> int:
+        return self.n
+
+    def point(self, p: int, seed: int) -> dict[str, float]:
+        """Point ``p``: one uniform draw per parameter from ``default_rng(seed)``."""
+        rng = np.random.default_rng(seed)
+        return {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in self.bounds.items()}
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"uniform": {k: list(v) for k, v in self.bounds.items()}, "n": self.n}
+
+
+Space = Grid | Uniform
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case of a sweep: solve, static check and hold of one point.
+
+    Attributes:
+        index: Case index (see the module docstring).
+        robot: Robot model name or MJCF path.
+        stack: Stack name (:data:`pik_mj.sweep.case.STACKS`).
+        params: Parameter name -> value (world frame, SI units).
+        seed: The case's seed (from the sweep seed and the point index).
+        point: Point index in the parameter space.
+    """
+
+    index: int
+    robot: str
+    stack: str
+    params: dict[str, float]
+    seed: int
+    point: int
+
+
+def point_seed(seed: int, point: int) -> int:
+    """Seed of point ``point`` of a sweep seeded ``seed`` (a 63-bit integer)."""
+    state = np.random.SeedSequence([int(seed), int(point)]).generate_state(1, np.uint64)[0]
+    return int(state >> np.uint64(1))  # fits Parquet's int64
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A sweep: ``space`` × ``robots`` × ``stacks``, each case solved, checked, held.
+
+    Args:
+        space: The parameter points (:class:`Grid` or :class:`Uniform`); must set
+            the hand target ``x``, ``y``, ``z``.
+        robots: Robot model names (or MJCF paths) of :func:`pik_mj.models.load_spec`.
+        stacks: Stack names, see :data:`pik_mj.sweep.case.STACKS`.
+        seed: Sweep seed.
+        hold: Duration of each physics hold [s].
+        hand: Limb whose end frame is sent to the target.
+    """
+
+    space: Space
+    robots: tuple[str, ...] = ("sample_humanoid",)
+    stacks: tuple[str, ...] = ("balanced", "unbalanced")
+    seed: int = 0
+    hold: float = 3.0
+    hand: str = DEFAULT_HAND
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.space, (Grid, Uniform)):
+            raise InvalidInput(f"space must be a Grid or a Uniform set, got {self.space!r}")
+        missing = [k for k in REQUIRED if k not in self.space.names]
+        if missing:
+            raise InvalidInput(f"the sweep's space must set {missing} (hand target [m])")
+        for what, names in (("robots", self.robots), ("stacks", self.stacks)):
+            if isinstance(names, str) or not names:
+                raise InvalidInput(f"{what} must be a non-empty sequence of names, got {names!r}")
+            if len(set(names)) != len(names):
+                raise InvalidInput(f"{what} repeat a name: {list(names)}")
+        object.__setattr__(self, "robots", tuple(str(r) for r in self.robots))
+        object.__setattr__(self, "stacks", tuple(str(s) for s in self.stacks))
+        for s in self.stacks:
+            if s not in STACKS:
+                raise InvalidInput(f"unknown stack {s!r}; valid stacks: {list(STACKS)}")
+        if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise InvalidInput(f"seed must be an integer >= 0, got {self.seed!r}")
+        object.__setattr__(self, "seed", int(self.seed))
+        hold = _finite(self.hold, "hold")
+        if hold <= 0:
+            raise InvalidInput(f"hold must be a duration > 0 [s], got {self.hold}")
+        object.__setattr__(self, "hold", hold)
+
+    def __len__(self) -> int:
+        return len(self.robots) * len(self.stacks) * len(self.space)
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        """Parameter names, in the space's order."""
+        return self.space.names
+
+    def cases(self) -> list[Case]:
+        """Every case, by index."""
+        n = len(self.space)
+        seeds = [point_seed(self.seed, p) for p in range(n)]
+        points = [self.space.point(p, seeds[p]) for p in range(n)]
+        combos = [(r, s, p) for r in self.robots for s in self.stacks for p in range(n)]
+        return [
+            Case(i, robot, stack, dict(points[p]), seeds[p], p)
+            for i, (robot, stack, p) in enumerate(combos)
+        ]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready definition; :meth:`from_dict` rebuilds it."""
+        return {
+            "space": self.space.to_dict(),
+            "robots": list(self.robots),
+            "stacks": list(self.stacks),
+            "seed": self.seed,
+            "hold": self.hold,
+            "hand": self.hand,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Sweep:
+        """The sweep of :meth:`to_dict`."""
+        try:
+            sp = data["space"]
+            space: Space
+            if "grid" in sp:
+                space = Grid(sp["grid"])
+            else:
+                space = Uniform({k: tuple(v) for k, v in sp["uniform"].items()}, sp["n"])
+            return cls(
+                space,
+                robots=tuple(data["robots"]),
+                stacks=tuple(data["stacks"]),
+                seed=data["seed"],
+                hold=data["hold"],
+                hand=data["hand"],
+            )
+        except (KeyError, TypeError) as exc:
+            raise InvalidInput(f"not a sweep definition ({exc!r}): {dict(data)!r}") from None
