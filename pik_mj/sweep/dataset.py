@@ -12,8 +12,10 @@ pandas, polars, DuckDB read it). A batch file is written under a hidden name
 atomic), so a killed sweep leaves whole batch files only. Each row is
 one case: its identity (``case``, ``robot``, ``stack``, ``point``, ``seed``, one
 column per parameter), its :data:`RESULT_FIELDS` (null when the case raised),
-``verdict``, ``error``, ``traceback`` and ``worker``. :data:`UNREPEATABLE` lists
-the columns that differ between two runs of one case.
+``verdict``, ``error``, ``traceback``, ``worker`` (``host:pid``) and ``cpu_time``
+(CPU time [s] of the worker process on the case: with the wall times, how much of
+a core it had). :data:`UNREPEATABLE` lists the columns that differ between two
+runs of one case.
 """
 
 from __future__ import annotations
@@ -69,8 +71,8 @@ VERDICTS = {
 }
 """The ``verdict`` column's values, in the order the views list them."""
 
-UNREPEATABLE = ("solve_time", "static_time", "hold_time", "worker")
-"""Columns that differ between two runs of the same case (wall times, process)."""
+UNREPEATABLE = ("solve_time", "static_time", "hold_time", "worker", "cpu_time")
+"""Columns that differ between two runs of the same case (times, process)."""
 
 
 def schema(parameters: Sequence[str]) -> pa.Schema:
@@ -88,6 +90,7 @@ def schema(parameters: Sequence[str]) -> pa.Schema:
         pa.field("error", pa.string()),
         pa.field("traceback", pa.string()),
         pa.field("worker", pa.string()),
+        pa.field("cpu_time", _F64),
     ]
     return pa.schema([*ident, *RESULT_FIELDS, *tail])
 
@@ -107,6 +110,7 @@ def make_row(
     worker: str,
     error: str | None = None,
     traceback: str | None = None,
+    cpu_time: float | None = None,
 ) -> dict[str, Any]:
     """One row: the case's identity, its result (None: every result column null)."""
     row: dict[str, Any] = {
@@ -123,7 +127,9 @@ def make_row(
             raise InvalidInput(f"the worker's result lacks the columns {missing}")
     for f in RESULT_FIELDS:
         row[f.name] = None if result is None else result[f.name]
-    row.update(verdict=verdict(result), error=error, traceback=traceback, worker=worker)
+    row.update(
+        verdict=verdict(result), error=error, traceback=traceback, worker=worker, cpu_time=cpu_time
+    )
     return row
 
 

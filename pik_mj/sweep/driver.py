@@ -78,12 +78,13 @@ class SweepActor:
         """One row per case; a case that raises gets its error, the others go on."""
         rows = []
         for case in cases:
+            cpu = time.process_time()
             try:
                 result = self._worker(case.robot).run(case)
             except Exception as exc:
                 rows.append(make_row(case, None, self.name, _describe(exc), traceback.format_exc()))
             else:
-                rows.append(make_row(case, result, self.name))
+                rows.append(make_row(case, result, self.name, cpu_time=time.process_time() - cpu))
         return rows
 
 
