@@ -15,6 +15,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -191,6 +192,17 @@ def test_sweep_rows_are_the_cases_solved_checked_and_held(reference):
                 assert v == rows[i][k], k
 
 
+def test_margin_is_a_task_parameter_of_the_balanced_stack(reference):
+    """The CoM margin of the balanced stack, swept as a parameter, reaches the scene."""
+    worker = Worker("sample_humanoid", hold=SWEEP.hold)
+    case = SWEEP.cases()[2]  # balanced, x = 0.6 m, z = 0.6 m: the CoM at the 2 cm margin
+    default = reference.table.to_pylist()[2]
+    assert default["static_margin"] == pytest.approx(0.02, abs=1e-3)
+    wide = worker.run(replace(case, params={**case.params, "margin": 0.05}))
+    assert wide["static_margin"] == pytest.approx(0.05, abs=1e-3)
+    assert wide["converged"] and wide["hold_passed"]
+
+
 def test_a_case_that_raises_is_a_row_and_the_others_complete(ray_session, tmp_path, reference):
     report = run_sweep(
         SWEEP, tmp_path / "s", workers=2, batch_size=1, worker_class=RaisingWorker, progress=False
@@ -288,6 +300,9 @@ def test_usage_errors(ray_session, tmp_path, reference, capsys):
         run_sweep(other, reference.path, resume=True, progress=False)
     with pytest.raises(InvalidInput, match="workers=3 but the Ray cluster has 2 CPUs"):
         run_sweep(SWEEP, tmp_path / "w", workers=3, progress=False)
+    # a robot that cannot be built stops the sweep with the reason
+    with pytest.raises(InvalidInput, match=r"limb 'rhand' does not exist.*'rarm'"):
+        run_sweep(replace(SWEEP, hand="rhand"), tmp_path / "h", workers=1, progress=False)
     # a finished sweep resumed runs nothing (and needs no Ray)
     again = run_sweep(None, reference.path, resume=True, progress=False)
     assert again.ran == 0 and again.resumed == N and len(again.table) == N

@@ -6,12 +6,14 @@ shuts it down when the sweep ends, also on an error or Ctrl-C; with ``address``
 it joins that cluster (whose nodes must have pik_mj installed). If the calling
 process already has Ray initialised, the sweep uses it and leaves it running.
 
-Each actor (one CPU) builds a :class:`pik_mj.sweep.case.Worker` per robot on
-first use and reuses it for every later case of that robot. The driver hands an
-idle actor the next batch of cases (``batch_size``, smaller as the queue runs
-dry so that the workers finish together), and writes each finished batch as one
-file (:meth:`pik_mj.sweep.dataset.Dataset.write`): a killed sweep loses the
-batches in flight only, and ``resume=True`` runs the cases without a row.
+Each actor (one CPU) builds a :class:`pik_mj.sweep.case.Worker` per robot of
+the sweep once, before its first case (a robot that cannot be built, e.g. an
+unknown model or limb, stops the sweep with that error), and reuses it for
+every case. The driver hands an idle actor the next batch of cases
+(``batch_size``, smaller as the queue runs dry so that the workers finish
+together), and writes each finished batch as one file
+(:meth:`pik_mj.sweep.dataset.Dataset.write`): a killed sweep loses the batches
+in flight only, and ``resume=True`` runs the cases without a row.
 
 A case that raises becomes a row with ``verdict = "error"``, the exception in
 ``error`` and ``traceback``; a worker process that dies gives its batch such rows
@@ -35,7 +37,7 @@ from typing import Any
 
 import pyarrow as pa
 
-from ..exceptions import InvalidInput
+from ..exceptions import InvalidInput, PikError
 from .case import Worker
 from .dataset import Dataset, make_row
 from .spec import Case, Sweep
@@ -56,23 +58,18 @@ class SweepActor:
     def __init__(self, worker_class: type, hand: str, hold: float):
         self.worker_class = worker_class
         self.options = {"hand": hand, "hold": hold}
-        self.workers: dict[str, Any] = {}  # robot -> its worker, or the error building it
+        self.workers: dict[str, Any] = {}  # robot -> its worker
         self.name = f"{socket.gethostname()}:{os.getpid()}"
 
-    def ready(self) -> str:
-        """This process's name (``host:pid``), once the actor is built."""
+    def setup(self, robots: list[str]) -> str:
+        """Build the worker of each robot (once per process); this process's name."""
+        for robot in robots:
+            if robot not in self.workers:
+                try:
+                    self.workers[robot] = self.worker_class(robot, **self.options)
+                except PikError as exc:  # as an InvalidInput: UnknownName does not unpickle
+                    raise InvalidInput(f"robot {robot!r}: {exc}") from None
         return self.name
-
-    def _worker(self, robot: str) -> Any:
-        if robot not in self.workers:
-            try:
-                self.workers[robot] = self.worker_class(robot, **self.options)
-            except Exception as exc:
-                self.workers[robot] = exc
-        worker = self.workers[robot]
-        if isinstance(worker, Exception):
-            raise worker
-        return worker
 
     def run(self, cases: list[Case]) -> list[dict[str, Any]]:
         """One row per case; a case that raises gets its error, the others go on."""
@@ -80,7 +77,7 @@ class SweepActor:
         for case in cases:
             cpu = time.process_time()
             try:
-                result = self._worker(case.robot).run(case)
+                result = self.workers[case.robot].run(case)
             except Exception as exc:
                 rows.append(make_row(case, None, self.name, _describe(exc), traceback.format_exc()))
             else:
@@ -122,14 +119,18 @@ class SweepReport:
         return len(self.table) - self.table.column("error").null_count
 
     def summary(self) -> str:
+        """What ran, and :func:`pik_mj.sweep.views.summary_table` of every row."""
         from .views import summary_table
 
-        rate = self.ran / self.wall_time if self.wall_time > 0 else float("nan")
-        head = (
-            f"sweep {self.path}: {len(self.table)}/{len(self.sweep)} cases; this run "
-            f"{self.ran} cases on {self.workers} workers in {self.wall_time:.1f} s "
-            f"({rate:.2f} cases/s; Ray start-up {self.startup_time:.1f} s)"
-        )
+        head = f"sweep {self.path}: {len(self.table)}/{len(self.sweep)} cases; "
+        if self.ran:
+            head += (
+                f"this run {self.ran} cases on {self.workers} workers in "
+                f"{self.wall_time:.1f} s ({self.ran / self.wall_time:.2f} cases/s; "
+                f"Ray start-up {self.startup_time:.1f} s)"
+            )
+        else:
+            head += "nothing left to run"
         if self.resumed:
             head += f", {self.resumed} resumed from earlier runs"
         return head + "\n" + summary_table(self.table)
@@ -220,12 +221,21 @@ def run_sweep(
                     f"workers={workers} but the Ray cluster has {cpus} CPUs (each worker takes one)"
                 )
             remote = ray.remote(num_cpus=1)(SweepActor)
+            setups = []
 
             def new_actor() -> Any:
                 actors.append(remote.remote(worker_class, sweep.hand, sweep.hold))
+                setups.append(actors[-1].setup.remote(list(sweep.robots)))
                 return actors[-1]
 
-            ray.get([new_actor().ready.remote() for _ in range(n)])  # raises if one cannot start
+            for _ in range(n):
+                new_actor()
+            try:
+                ray.get(setups)
+            except ray.exceptions.RayTaskError as exc:  # a robot that cannot be built
+                if isinstance(exc.cause, PikError):
+                    raise exc.cause from None
+                raise
             report.workers = n
             report.startup_time = time.perf_counter() - t0
             report.ran, report.wall_time = _dispatch(

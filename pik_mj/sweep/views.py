@@ -5,7 +5,7 @@ Each case is drawn at its hand target, coloured by its ``verdict``
 and hold passed), red reached but failing the static check or the hold, grey
 not reached, purple raised. The PNG (matplotlib, the ``sweep`` extra) cuts the
 targets into slices across one axis (default ``y``: side views, x forward and z
-up), one row of panels per stack, with the robot's start pose as a stick figure.
+up), one row of panels per stack, with the robot's start pose in grey.
 The recording holds the robot's geometry at its start pose and one point cloud
 per stack and verdict (``world/sweep/<stack>/<verdict>``), with a blueprint of
 one 3D view per stack.
@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 import pyarrow as pa
 
@@ -81,14 +82,45 @@ def _robot_rows(table: pa.Table, sweep: Sweep, robot: str | None) -> tuple[str, 
     return robot, [r for r in table.to_pylist() if r["robot"] == robot]
 
 
-def _skeleton(robot: str) -> np.ndarray:
-    """Segments (n, 2, 3) [m] from each robot body to its parent, start pose."""
+# unit directions sampling a round geom's surface: the axes and the cube diagonals
+_DIRS = np.vstack([np.eye(3), -np.eye(3), np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T])
+_DIRS /= np.linalg.norm(_DIRS, axis=1, keepdims=True)
+
+
+def _geom_points(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray:
+    """Points (n, 3) [m] on (or around) geom ``g``'s surface, world frame."""
+    kind, size = model.geom_type[g], model.geom_size[g]
+    t = mujoco.mjtGeom
+    if kind == t.mjGEOM_SPHERE:
+        local = size[0] * _DIRS
+    elif kind == t.mjGEOM_ELLIPSOID:
+        local = size * _DIRS
+    elif kind in (t.mjGEOM_CAPSULE, t.mjGEOM_CYLINDER):
+        ends = np.array([[0.0, 0.0, -size[1]], [0.0, 0.0, size[1]]])
+        local = (ends[:, None, :] + size[0] * _DIRS[None]).reshape(-1, 3)
+    else:  # boxes, meshes, ...: the corners of the geom's bounding box
+        center, half = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+        local = center + half * np.array(np.meshgrid(*[[-1, 1]] * 3)).reshape(3, -1).T
+    return data.geom_xpos[g] + local @ data.geom_xmat[g].reshape(3, 3).T
+
+
+def _silhouette(robot: str, axes: tuple[int, int]) -> list[np.ndarray]:
+    """The robot's start pose projected on the plane of ``axes``: one polygon (n, 2)
+    [m] per visible robot geom (the convex hull of its projected surface points)."""
+    from scipy.spatial import ConvexHull, QhullError
+
     model, data, root = start_pose(robot)
     root_id = model.body(root).id
-    bodies = [b for b in range(1, model.nbody) if model.body_rootid[b] == root_id]
-    return np.array(
-        [[data.xpos[b], data.xpos[model.body_parentid[b]]] for b in bodies if b != root_id]
-    )
+    polygons = []
+    for g in range(model.ngeom):
+        if model.body_rootid[model.geom_bodyid[g]] != root_id or model.geom_group[g] > 2:
+            continue
+        pts = _geom_points(model, data, g)[:, list(axes)]
+        try:
+            polygons.append(pts[ConvexHull(pts).vertices])
+        except QhullError:  # seen edge-on (no area): nothing to fill
+            continue
+    return polygons
 
 
 def _slices(values: np.ndarray, grid: bool, count: int) -> list[tuple[float, float, str]]:
@@ -124,7 +156,7 @@ def plot_map(
         InvalidInput: Bad axis, or two cases of one stack at one target (a
             sweep varying more than the target: plot a subset of the rows).
     """
-    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.collections import PatchCollection, PolyCollection
     from matplotlib.figure import Figure
     from matplotlib.patches import Patch, Rectangle
 
@@ -145,11 +177,10 @@ def plot_map(
     for a in (u, v):
         vals = np.unique([r[a] for r in rows])
         step[a] = float(np.min(np.diff(vals))) if grid and len(vals) > 1 else 0.05
-    bones = _skeleton(robot)
     stacks = [s for s in sweep.stacks if any(r["stack"] == s for r in rows)]
     fig = Figure(figsize=(max(2.9 * len(slices) + 0.6, 7.0), 3.3 * len(stacks) + 1.0), dpi=110)
     axes = fig.subplots(len(stacks), len(slices), squeeze=False, sharex=True, sharey=True)
-    iu, iv = REQUIRED.index(u), REQUIRED.index(v)
+    robot_shape = _silhouette(robot, (REQUIRED.index(u), REQUIRED.index(v)))
     for i, stack in enumerate(stacks):
         for j, (lo, hi, title) in enumerate(slices):
             ax = axes[i][j]
@@ -172,7 +203,7 @@ def plot_map(
             else:
                 ax.scatter([r[u] for r in inside], [r[v] for r in inside], s=16, c=colors)
             ax.add_collection(
-                LineCollection(bones[:, :, [iu, iv]], colors="0.25", linewidths=1.5, zorder=3)
+                PolyCollection(robot_shape, facecolors="0.6", edgecolors="0.35", linewidths=0.4)
             )
             if "z" in (u, v):
                 ax.axhline(0.0, color="0.5", linewidth=0.8)  # the floor
@@ -183,7 +214,7 @@ def plot_map(
             if j == 0:
                 ax.set_ylabel(AXIS_LABEL[v], fontsize=8)
             ax.tick_params(labelsize=7)
-    pts = np.array([[r[u], r[v]] for r in rows] + [b for s in bones[:, :, [iu, iv]] for b in s])
+    pts = np.vstack([[[r[u], r[v]] for r in rows], *robot_shape])
     pad = max(step.values())
     axes[0][0].set_xlim(pts[:, 0].min() - pad, pts[:, 0].max() + pad)
     axes[0][0].set_ylim(min(pts[:, 1].min(), 0.0) - pad, pts[:, 1].max() + pad)
