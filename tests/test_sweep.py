@@ -88,7 +88,7 @@ def reference(tmp_path_factory):
         mp.setenv("RAY_TMPDIR", ray_tmp)
         report = run_sweep(SWEEP, out, workers=2, num_cpus=2, batch_size=1, progress=False)
     assert not ray.is_initialized()
-    assert ray_processes(ray_tmp) == []  # shut down before run_sweep returned
+    assert wait_gone(ray_tmp) == []  # run_sweep shut its instance down
     return report
 
 

@@ -43,7 +43,9 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "sweep",
         help="solve, check and hold many hand targets on Ray (balanced-reachability map)",
-        description=__doc__.split("\n\n")[0],
+        description="Solve, check statically and hold in physics every case (hand targets x "
+        "robots x stacks) on Ray; one row per case in the Parquet dataset OUT/rows; "
+        "a map in OUT/map.png and OUT/map.rrd.",
     )
     p.add_argument("out", help="sweep directory (Parquet dataset)")
     space = p.add_mutually_exclusive_group()
@@ -53,12 +55,16 @@ def add_parser(sub: argparse._SubParsersAction) -> argparse.ArgumentParser:
         metavar="NAME=SPEC",
         help="grid axes: NAME=A:B:N (N values from A to B), NAME=V1,V2,... or NAME=V",
     )
-    space.add_argument("--random", type=int, metavar="N", help="N random points")
+    space.add_argument(
+        "--random", type=int, metavar="N", help=f"N random points (default {DEFAULT_RANDOM})"
+    )
     p.add_argument(
         "--range",
         nargs="+",
         metavar="NAME=LO:HI",
-        help="ranges of --random (default: the box above)",
+        help="ranges of --random (default "
+        + " ".join(f"{k}={lo:g}:{hi:g}" for k, (lo, hi) in DEFAULT_BOX.items())
+        + ")",
     )
     p.add_argument("--robot", action="append", help="robot model (repeat for more)")
     p.add_argument("--stack", action="append", choices=list(STACKS), help="stack (repeatable)")
