@@ -13,7 +13,12 @@ Per run: wall time of the cases (Ray start-up and actor creation apart), cases
 per second, speedup over the 1-worker run of the same round, the CPU share
 each worker had (its processes' CPU time over the wall time,
 ``Σ t_cpu / (k T_wall)``: 1 on an idle machine; on a shared one the speedup
-cannot exceed ``2 s_2 / s_1``), and the load average before and after. Per case,
+cannot exceed ``2 s_2 / s_1``), the share of the wall time each worker spent in
+cases (``busy``: the rest is dispatch, Parquet writes and Ray), and the load
+average before and after. On Linux with ``sched_autogroup_enabled`` (printed)
+the CPU is shared between sessions, not processes: the sweep's workers, all in
+the caller's session, then share one session's part of a busy machine, however
+many they are. Per case,
 from the rows: the mean wall time of the solve, the static check and the hold,
 their shares, and the Ray overhead per case,
 
@@ -67,11 +72,21 @@ def run(sweep: Sweep, workers: int, out: Path) -> dict:
         "mean_cpu_s": cpu / report.ran,
         "share": {k: float(v.sum() / total) for k, v in busy.items()},
         "overhead_s": (workers * report.wall_time - total) / report.ran,
+        "busy": total / (workers * report.wall_time),
         "errors": report.errors,
         "load": (load_before[0], load_after[0]),
         "rows": rows,
         "table": report.table,
     }
+
+
+def _autogroup() -> str:
+    """Whether Linux shares the CPU between sessions (autogroup) rather than processes."""
+    try:
+        on = Path("/proc/sys/kernel/sched_autogroup_enabled").read_text().strip() == "1"
+    except OSError:
+        return "scheduler autogroup: unknown"
+    return f"scheduler autogroup: {'on' if on else 'off'}"
 
 
 def main(argv=None) -> dict:
@@ -116,18 +131,18 @@ def main(argv=None) -> dict:
         f"hold {args.hold:g} s, sample_humanoid; Ray {ray.__version__}, local instance of "
         f"{args.num_cpus} CPUs (ray.init {ray_start:.1f} s); machine: {os.cpu_count()} cores"
     )
-    print(f"datasets under {base}")
+    print(f"datasets under {base}; {_autogroup()}")
     print(
         f"{'round':>5} {'workers':>7} {'wall [s]':>9} {'cases/s':>8} {'speedup':>8} "
-        f"{'CPU share':>10} {'actors up [s]':>14} {'overhead/case [ms]':>19} "
+        f"{'CPU share':>10} {'busy':>5} {'actors up [s]':>14} {'overhead/case [ms]':>19} "
         f"{'load avg (1 min) before -> after':>33}"
     )
     for r in runs:
         load = f"{r['load'][0]:.2f} -> {r['load'][1]:.2f}"
         print(
             f"{r['round']:>5} {r['workers']:>7} {r['wall_s']:>9.1f} {r['cases_per_s']:>8.2f} "
-            f"{r['speedup']:>7.2f}x {r['cpu_share']:>10.0%} {r['startup_s']:>14.1f} "
-            f"{1e3 * r['overhead_s']:>19.1f} {load:>33}"
+            f"{r['speedup']:>7.2f}x {r['cpu_share']:>10.0%} {r['busy']:>5.0%} "
+            f"{r['startup_s']:>14.1f} {1e3 * r['overhead_s']:>19.1f} {load:>33}"
         )
     for k in args.workers[1:]:
         ups = [r["speedup"] for r in runs if r["workers"] == k]
