@@ -10,17 +10,19 @@ counts alike. Ray's workers run at niceness 0 here (Ray's default, 15, makes
 them yield to every other process of a shared machine).
 
 Per run: wall time of the cases (Ray start-up and actor creation apart), cases
-per second, speedup over the 1-worker run of the same round, the CPU share
-each worker had (its processes' CPU time over the wall time,
-``Σ t_cpu / (k T_wall)``: 1 on an idle machine; on a shared one the speedup
-cannot exceed ``2 s_2 / s_1``), the share of the wall time each worker spent in
-cases (``busy``: the rest is dispatch, Parquet writes and Ray), and the load
-average before and after. On Linux with ``sched_autogroup_enabled`` (printed)
-the CPU is shared between sessions, not processes: the sweep's workers, all in
-the caller's session, then share one session's part of a busy machine, however
-many they are. Per case,
-from the rows: the mean wall time of the solve, the static check and the hold,
-their shares, and the Ray overhead per case,
+per second, speedup over the 1-worker run of the same round, the CPU share each
+worker had (its processes' CPU time over the wall time, ``s = Σ t_cpu / (k
+T_wall)``: 1 on an idle machine), the share of the wall time the workers spent
+in cases (``busy``; the rest is dispatch, Parquet writes and Ray) and the load
+average before and after. On a shared machine the speedup cannot exceed
+``2 s_2 / s_1``; on Linux with ``sched_autogroup_enabled`` (printed) the kernel
+shares the CPU between sessions, not processes, so the sweep's workers, all in
+the caller's session, share one session's part of a busy machine however many
+they are. The speedup "with a free core per worker" is ``k`` times the run's
+cases per CPU-second over the 1-worker run's (a projection from the measured
+CPU times, not a measurement). Per case, from the rows: the mean wall time of
+the solve, the static check and the hold, their shares, the mean CPU time, and
+the Ray overhead per case,
 
 .. math::
 
@@ -68,6 +70,7 @@ def run(sweep: Sweep, workers: int, out: Path) -> dict:
         "startup_s": report.startup_time,
         "cases_per_s": report.ran / report.wall_time,
         "cpu_share": cpu / (workers * report.wall_time),
+        "cases_per_cpu_s": report.ran / cpu,
         "mean_s": {k: float(v.mean()) for k, v in busy.items()},
         "mean_cpu_s": cpu / report.ran,
         "share": {k: float(v.sum() / total) for k, v in busy.items()},
@@ -147,6 +150,15 @@ def main(argv=None) -> dict:
     for k in args.workers[1:]:
         ups = [r["speedup"] for r in runs if r["workers"] == k]
         print(f"speedup of {k} workers: median {np.median(ups):.2f}x over {len(ups)} rounds")
+        free = [
+            k * r["cases_per_cpu_s"] / first[(r["round"], args.workers[0])]["cases_per_cpu_s"]
+            for r in runs
+            if r["workers"] == k
+        ]
+        print(
+            f"  with a free core per worker (k x cases per CPU-second over the "
+            f"{args.workers[0]}-worker run's): median {np.median(free):.2f}x"
+        )
     print("\ncost of a case (mean wall time [s], share of the case's wall time; CPU time [s]):")
     print(
         f"{'round':>5} {'workers':>7} "
