@@ -1,9 +1,10 @@
 """Sweeps on Ray: cases and seeds, rows, a raising worker, kill and resume, views.
 
-One local Ray instance (2 CPUs, its own temporary directory) serves the
-in-process sweeps of this module; the kill test runs the sweep command in a
-subprocess with its own instance. Every test that starts Ray checks afterwards
-that no process of that instance is left.
+The reference sweep runs on the local Ray instance run_sweep starts and stops;
+a second instance (2 CPUs) then serves the module's other in-process sweeps; the
+kill test runs the sweep command in a subprocess with its own instance. Each
+instance lives in its own temporary directory, and the tests check that none of
+its processes is left once it is shut down (or its driver killed).
 """
 
 from __future__ import annotations
@@ -20,16 +21,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import ray  # the test extra installs it
 
-ray = pytest.importorskip("ray", reason="the sweep extra (ray) is not installed")
-
-from pik_mj import cli  # noqa: E402
-from pik_mj.exceptions import InvalidInput  # noqa: E402
-from pik_mj.record import read_recording  # noqa: E402
-from pik_mj.sweep import Grid, Sweep, Uniform, Worker, read_rows, run_sweep  # noqa: E402
-from pik_mj.sweep.dataset import UNREPEATABLE, comparable  # noqa: E402
-from pik_mj.sweep.spec import point_seed  # noqa: E402
-from pik_mj.sweep.views import COLORS, summary_table, write_views  # noqa: E402
+from pik_mj import cli
+from pik_mj.exceptions import InvalidInput
+from pik_mj.record import read_recording
+from pik_mj.sweep import Grid, Sweep, Uniform, Worker, read_rows, run_sweep
+from pik_mj.sweep.dataset import UNREPEATABLE, comparable
+from pik_mj.sweep.spec import point_seed
+from pik_mj.sweep.views import COLORS, summary_table, write_views
 
 # 2 x 2 targets of the right hand beside and ahead of the pelvis, both stacks:
 # the low ones (z = 0.6 m) tip the unbalanced stack over, the rest stands.
