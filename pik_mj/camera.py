@@ -314,9 +314,9 @@ class Camera:
         occluder = None
         if dist > 0:
             geom = np.full(1, -1, dtype=np.int32)
-            hit = mujoco.mj_ray(
-                self.model, data, p_WC, ray / dist, group, 1, self.body_id, geom, None
-            )
+            # a camera fixed in the world excludes no body (body 0 holds the floor)
+            exclude = self.body_id if self.body_id > 0 else -1
+            hit = mujoco.mj_ray(self.model, data, p_WC, ray / dist, group, 1, exclude, geom, None)
             g = int(geom[0])
             if 0 <= hit < dist - 1e-9 and g >= 0 and int(self.model.geom_bodyid[g]) != own_body:
                 occluder = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"geom {g}"

@@ -43,6 +43,7 @@ MJCF = """
             resolution="400 300"/>
     <camera name="sensor" pos="0.05 0.02 1.5" focal="0.012 0.013" sensorsize="0.02 0.015"
             principal="0.001 -0.0015" resolution="200 150"/>
+    <geom name="roof" type="box" pos="-0.09 -0.09 1.5" size="0.03 0.03 0.005" group="3"/>
     <body name="ball" mocap="true" pos="0 0 0.3">
       <geom name="ball" type="sphere" size="0.015" material="glow" contype="0" conaffinity="0"/>
       <site name="ball_centre"/>
@@ -224,6 +225,12 @@ def test_occlusion_by_a_moving_box(model):
         assert cam.visibility(data, "ball_centre").occluder == vis.occluder
         assert cam.visibility(data, ball).occluder in (vis.occluder, "ball")
     assert states == [(True, None), (True, "shade"), (True, None)]
+    # a geom of the world body occludes the world camera too, when its group
+    # (3, not rendered by default) is among the rays' groups
+    assert cam.visibility(data, [-0.3, -0.3, 0.3]).visible
+    all_groups = (1, 1, 1, 1, 0, 0)
+    assert cam.visibility(data, [-0.3, -0.3, 0.3], geomgroup=all_groups).occluder == "roof"
+    assert cam.visibility(data, [-0.3, -0.1, 0.3], geomgroup=all_groups).visible
     # a world point without a body: the ball's own geom hides its centre
     place(model, data, shade=[3, 0, 1])
     assert cam.visibility(data, ball).occluder == "ball"
