@@ -257,18 +257,18 @@ def find_limbs(
     )
     hip = tree.common(touching)
     branches: dict[int, list[int]] = {}
-    for b in touching:
-        if b == hip:
-            continue
-        path = tree.path(b)
-        branches.setdefault(path[path.index(hip) + 1], []).append(b)
+    if hip not in touching:  # else the touching bodies lie on one chain: one leg
+        for b in touching:
+            path = tree.path(b)
+            branches.setdefault(path[path.index(hip) + 1], []).append(b)
+    n_legs = len(branches) or 1
     details.append(
-        f"they hang off {tree.name(hip)!r} in {len(branches)} branch(es) "
-        f"{[tree.name(b) for b in branches]}"
+        f"they make {n_legs} leg(s), hanging off {tree.name(hip)!r}"
+        + (f" in the branches {[tree.name(b) for b in branches]}" if branches else "")
     )
-    if len(branches) != 2 or any(b == hip for b in touching):
+    if n_legs != 2:
         if {"rleg", "lleg"} & set(required):
-            raise fail(f"the floor is touched by {len(branches)} leg branch(es), not 2")
+            raise fail(f"the floor is touched by {n_legs} leg(s), not 2")
         return limbs
     (start_a, feet_a), (start_b, feet_b) = branches.items()
     foot_a, foot_b = tree.common(feet_a), tree.common(feet_b)

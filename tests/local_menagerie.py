@@ -3,9 +3,12 @@ package's cache, never downloaded (tests never touch the network)."""
 
 from __future__ import annotations
 
+import functools
+
+import mujoco
 import pytest
 
-from pik_mj.models import menagerie_available
+from pik_mj.models import load_model, menagerie_available
 
 
 def requires_menagerie(name: str) -> None:
@@ -16,3 +19,11 @@ def requires_menagerie(name: str) -> None:
             f"holding Menagerie robot folders, or run `python -m mujoco_menagerie prefetch "
             f"{name}` on a machine with network (tests never download)"
         )
+
+
+@functools.cache
+def menagerie_model(name: str) -> mujoco.MjModel:
+    """The compiled Menagerie robot ``name``, loaded once per test session (G1's
+    meshes take 1.7 s to load); skips like :func:`requires_menagerie`. Read only."""
+    requires_menagerie(name)
+    return load_model(name)

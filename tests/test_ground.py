@@ -6,7 +6,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import pytest
-from local_menagerie import requires_menagerie
+from local_menagerie import menagerie_model
 
 from pik_mj import ground
 from pik_mj.balance import convex_hull_2d, polygon_area
@@ -249,8 +249,7 @@ def test_menagerie_soles_against_mujoco_contacts(name):
     """In the standing pose put 3 mm into a floor: each sole polygon and the hull
     of MuJoCo's contact points on that foot agree within 1 mm both ways; the old
     bounding boxes (visual meshes included) are larger by the measured amounts."""
-    requires_menagerie(name)
-    model = load_model(name)
+    model = menagerie_model(name)
     pose = standing_pose(model)
     q = pose.qpos.copy()
     q[2] -= pose.floor_gap + ground.DEFAULT_TOLERANCE

@@ -8,7 +8,7 @@ import json
 import mujoco
 import mujoco_menagerie
 import pytest
-from local_menagerie import requires_menagerie
+from local_menagerie import menagerie_model
 
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.models import (
@@ -118,8 +118,7 @@ def test_menagerie_names_without_io():
     [("unitree_g1", 36, 35, 31), ("unitree_h1", 26, 25, 21), ("booster_t1", 30, 29, 25)],
 )
 def test_real_menagerie_humanoids_load(name, nq, nv, nbody):
-    requires_menagerie(name)
-    model = load_model(name)
+    model = menagerie_model(name)
     assert (model.nq, model.nv, model.nbody) == (nq, nv, nbody)
     # the robot alone: no floor plane of the robot's scene.xml
     assert mujoco.mjtGeom.mjGEOM_PLANE not in set(model.geom_type)
