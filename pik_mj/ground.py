@@ -248,7 +248,7 @@ def sole_polygon(
     else:
         heights = {}
         for g in geoms:
-            gid = _geom_id(model, g)
+            gid = _element_id(model, "geom", g)
             if not is_collision_geom(model, gid):
                 raise InvalidInput(
                     f"sole geom {g!r} is not a collision geom (contype = conaffinity = 0)"
@@ -305,25 +305,20 @@ def sole_polygons(
     return polys
 
 
-def _geom_id(model: mujoco.MjModel, geom: int | str) -> int:
-    if isinstance(geom, str):
-        g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, geom)
-        if g < 0:
-            raise UnknownName("geom", geom, names_of(model, "geom"))
-        return int(g)
-    g = int(geom)
-    if not 0 <= g < model.ngeom:
-        raise InvalidInput(f"geom id {g} is out of range [0, {model.ngeom})")
-    return g
+def _element_id(model: mujoco.MjModel, kind: str, element: int | str) -> int:
+    """Id of a ``"body"`` or ``"geom"`` given by name or id (checked)."""
+    count = model.nbody if kind == "body" else model.ngeom
+    if isinstance(element, str):
+        obj = mujoco.mjtObj.mjOBJ_BODY if kind == "body" else mujoco.mjtObj.mjOBJ_GEOM
+        i = mujoco.mj_name2id(model, obj, element)
+        if i < 0:
+            raise UnknownName(kind, element, names_of(model, kind))
+        return int(i)
+    i = int(element)
+    if not 0 <= i < count:
+        raise InvalidInput(f"{kind} id {i} is out of range [0, {count})")
+    return i
 
 
 def _body_id(model: mujoco.MjModel, body: int | str) -> int:
-    if isinstance(body, str):
-        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body)
-        if b < 0:
-            raise UnknownName("body", body, names_of(model, "body"))
-        return int(b)
-    b = int(body)
-    if not 0 <= b < model.nbody:
-        raise InvalidInput(f"body id {b} is out of range [0, {model.nbody})")
-    return b
+    return _element_id(model, "body", body)
