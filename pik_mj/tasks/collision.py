@@ -31,17 +31,18 @@ below it, avoidance uses only what the target leaves free (the seed's null
 space term). Pair lists are built like the seed's
 ``collision-avoidance-link-pair-from-link-list``: see :func:`collision_pairs`.
 
-A pair already closer than ``d_o`` when the task is made (a Menagerie robot's
-arm hanging 5 mm from its hip) keeps that start distance ``d_0`` as its own
-bound, ``d_o,i = min(d_o, d_0)``: it may not come closer, and the task can be
-satisfied (pushing it out to ``d_o`` could fight the feet and never converge).
+A pair already closer than ``d_o`` when the task is made (standing, Unitree
+H1's torso and right shoulder link are 3.5 mm apart, G1's elbow and wrist pitch
+links 9.5 mm) keeps that start distance ``d_0`` as its own bound,
+``d_o,i = min(d_o, d_0)``: it may not come closer, and the task can be satisfied
+(pushing it out to ``d_o`` could fight the feet and never converge).
 
 Each iteration measures only the pairs that can be in the yellow zone: a pair
 whose geoms' bounding spheres (``geom_rbound`` about ``geom_xpos``) or
 world-aligned boxes (MuJoCo's ``geom_aabb`` carried by ``geom_xmat``) are
 ``d_y`` or more apart cannot be nearer than ``d_y``, so ``mj_geomDistance``
 runs only for the others, once per iteration (rows, error and stop test share
-it), and only the pairs inside the yellow zone give rows.
+it), and only the pairs that have come inside the yellow zone give rows.
 """
 
 from __future__ import annotations
@@ -316,7 +317,6 @@ class CollisionAvoidanceTask(Task):
         self.name = name
         self._g1 = np.array([p.geom1 for p in self.pairs], dtype=int)
         self._g2 = np.array([p.geom2 for p in self.pairs], dtype=int)
-        self.bounds = np.full(len(self.pairs), self.orange)
         self.keep_start_distances(configuration)
 
     def keep_start_distances(self, configuration: mink.Configuration) -> None:
