@@ -8,12 +8,19 @@ Names accepted by :func:`model_path`, :func:`load_spec` and :func:`load_model`:
 * ``dm_humanoid``     — dm_control ``suite/humanoid.xml`` (27 DoF), read from the
   installed dm_control package.
 * ``dm_humanoid_cmu`` — dm_control ``suite/humanoid_CMU.xml`` (62 DoF), idem.
+* a MuJoCo Menagerie robot (``unitree_g1``, ``booster_t1``, ...; see
+  :func:`menagerie_models`), through the ``mujoco-menagerie`` package: its default
+  robot model (the robot alone, not its scene), or an entry point named after a
+  colon (``unitree_g1:g1_with_hands``). The package reads the robot from
+  ``MENAGERIE_ROOT`` (a Menagerie checkout) when that is set, else from its own
+  cache, downloading it there on first use.
 
 Any other argument is taken as a path to an MJCF file.
 """
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import warnings
@@ -49,6 +56,65 @@ def available_models() -> list[str]:
     return [*_SHIPPED, *_DM_CONTROL]
 
 
+def menagerie_models(category: str | None = None) -> list[str]:
+    """Names of the MuJoCo Menagerie robots (no I/O), e.g. ``category="humanoid"``."""
+    import mujoco_menagerie  # Imported lazily: only Menagerie names need it.
+
+    return [r.name for r in mujoco_menagerie.robots(category)]
+
+
+def menagerie_available(name: str) -> bool:
+    """Whether the Menagerie robot ``name`` (``robot[:entry]``) is on this machine.
+
+    True when it is under ``MENAGERIE_ROOT`` or in the package's cache, i.e. when
+    :func:`model_path` needs no download.
+    """
+    import mujoco_menagerie
+
+    robot = name.partition(":")[0]
+    if robot not in mujoco_menagerie.names():
+        return False
+    cache = mujoco_menagerie.Cache()
+    if cache.root is not None:
+        return (cache.root / robot).is_dir()
+    return cache.is_cached(mujoco_menagerie.get(robot))
+
+
+def _menagerie_path(name: str) -> Path | None:
+    """The MJCF file of the Menagerie robot ``robot[:entry]``, or None for other names.
+
+    Raises:
+        UnknownName: The robot has no such entry point (lists its entry points).
+        InvalidInput: The robot is neither under ``MENAGERIE_ROOT`` nor cached,
+            and downloading it failed (e.g. no network).
+    """
+    import mujoco_menagerie
+
+    robot_name, _, entry = name.partition(":")
+    if robot_name not in mujoco_menagerie.names():
+        return None
+    robot = mujoco_menagerie.get(robot_name)
+    entry = entry or robot.default_model
+    if entry not in robot.entry_names:
+        raise UnknownName(f"{robot_name} entry point", entry, robot.entry_names)
+    cache = mujoco_menagerie.Cache()
+    try:
+        return Path(robot.xml(entry, cache)).resolve()
+    except mujoco_menagerie.MenagerieError as err:
+        where = (
+            f"MENAGERIE_ROOT={str(cache.root)!r} has no folder {robot_name!r}"
+            if cache.root is not None
+            else f"it is not in the mujoco-menagerie cache {str(cache.dir)!r} and "
+            "downloading it failed"
+        )
+        raise InvalidInput(
+            f"MuJoCo Menagerie robot {robot_name!r} is not available: {where} ({err}). "
+            "Set MENAGERIE_ROOT to a folder holding Menagerie robot folders, or load it "
+            f"once where there is network (python -m mujoco_menagerie prefetch {robot_name}), "
+            "or give an MJCF path"
+        ) from err
+
+
 def _dm_control_suite_dir() -> Path:
     import dm_control  # Imported lazily: only the dm_humanoid models need it.
 
@@ -63,14 +129,18 @@ def model_path(name_or_path: str | os.PathLike[str]) -> Path:
     """Resolve a model name or an MJCF path to an existing file.
 
     Args:
-        name_or_path: One of :func:`available_models` or a path to an MJCF file.
+        name_or_path: One of :func:`available_models`, a Menagerie robot name
+            (``robot`` or ``robot:entry``, see :func:`menagerie_models`) or a path
+            to an MJCF file.
 
     Returns:
         Absolute path of the MJCF file.
 
     Raises:
-        UnknownName: ``name_or_path`` is neither a known name nor path-like.
-        InvalidInput: ``name_or_path`` is a path that does not exist.
+        UnknownName: ``name_or_path`` is neither a known name nor path-like, or
+            names a Menagerie entry point the robot does not have.
+        InvalidInput: ``name_or_path`` is a path that does not exist, or a
+            Menagerie robot that is not on this machine and cannot be downloaded.
     """
     if isinstance(name_or_path, str) and name_or_path in _SHIPPED:
         return MODELS_DIR / _SHIPPED[name_or_path]
@@ -84,7 +154,16 @@ def model_path(name_or_path: str | os.PathLike[str]) -> Path:
                 f"or one of the model names {available_models()}"
             )
         return path
-    raise UnknownName("model", str(name_or_path), available_models())
+    path = _menagerie_path(str(name_or_path))
+    if path is not None:
+        return path
+    near = difflib.get_close_matches(str(name_or_path), menagerie_models(), n=3)
+    err = UnknownName("model", str(name_or_path), [*available_models(), *near])
+    err.args = (
+        f"{err.args[0]}, or any MuJoCo Menagerie robot (pik_mj.models.menagerie_models()), "
+        "or an MJCF path",
+    )
+    raise err
 
 
 def load_spec(name_or_path: str | os.PathLike[str]) -> mujoco.MjSpec:
