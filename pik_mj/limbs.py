@@ -21,9 +21,9 @@ In the standing configuration (:func:`pik_mj.keyframes.standing_pose`):
   is neither arm nor leg and lies on the middle line.
 
 A limb holds the hinge and slide joints from its first body to its end body and
-an end frame: the site named like the end body, else the end body's only site
-not used by a sensor (dm_control's touch sites are sensing zones), else the end
-body itself. These rules reproduce pik_mj's naming of ``sample_humanoid`` and
+an end frame: the site named like the end body, else the end body's only point
+site that is not a touch sensor's zone (volume sites are sensing zones), else
+the end body itself. These rules reproduce pik_mj's naming of ``sample_humanoid`` and
 the tables of dm_control's two humanoids (tested).
 
 When the tree does not give the limbs asked for, :func:`find_limbs` raises
@@ -158,17 +158,21 @@ def _tree(model: mujoco.MjModel, qpos: np.ndarray, root: int) -> _Tree:
 def end_frame(model: mujoco.MjModel, body: int) -> tuple[str, str]:
     """``(name, "site" | "body")`` of the end frame of a limb ending at ``body``.
 
-    The site named like the body; else the body's only site not used by a
-    sensor; else the body.
+    The site named like the body; else the body's only point site (a sphere,
+    MuJoCo's default site type) that is not a touch sensor's zone; else the
+    body. Box, capsule, cylinder and ellipsoid sites are volumes (dm_control's
+    touch and force zones, bumpers), not frames; a point site carrying a
+    force/torque sensor or an IMU is a frame like any other.
     """
     name = model.body(body).name
     sites = [s for s in range(model.nsite) if model.site_bodyid[s] == body]
     names = [model.site(s).name for s in sites]
     if name and name in names:
         return name, "site"
-    on_site = model.sensor_objtype == mujoco.mjtObj.mjOBJ_SITE
-    sensed = set(model.sensor_objid[on_site].tolist())
-    free = [s for s in sites if s not in sensed and model.site(s).name]
+    touch = model.sensor_type == mujoco.mjtSensor.mjSENS_TOUCH
+    zones = set(model.sensor_objid[touch].tolist())
+    point = model.site_type == mujoco.mjtGeom.mjGEOM_SPHERE
+    free = [s for s in sites if point[s] and s not in zones and model.site(s).name]
     if len(free) == 1:
         return model.site(free[0]).name, "site"
     return name, "body"

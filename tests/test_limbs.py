@@ -52,7 +52,7 @@ _EXPECTED = {
         "lleg": (6, "left_foot", "site", "left_hip_pitch_link"),
         "rarm": (7, "right_wrist_yaw_link", "body", "right_shoulder_pitch_link"),
         "larm": (7, "left_wrist_yaw_link", "body", "left_shoulder_pitch_link"),
-        "torso": (3, "torso_link", "body", "waist_yaw_link"),
+        "torso": (3, "imu_in_torso", "site", "waist_yaw_link"),
     },
     "unitree_g1:g1_with_hands": {  # the fingers are left out: the arm ends at the wrist
         "rarm": (7, "right_wrist_yaw_link", "body", "right_shoulder_pitch_link"),
