@@ -18,10 +18,11 @@ import argparse
 import json
 import time
 
+import cases
 import mink
 import numpy as np
 
-from pik_mj import FrameTask, cases, solve
+from pik_mj import FrameTask, solve
 from pik_mj.classic_ik import classic_inverse_kinematics
 from pik_mj.models import load_model
 
