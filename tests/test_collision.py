@@ -136,7 +136,7 @@ def test_yellow_zone_inactive_rows():
 
 def test_pair_list_like_the_seed_example():
     """Seed: forearm, upper arm, torso, base → forearm–torso, forearm–base, upper–base."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.reset_pose()
     model, data = robot.model, robot.data
     links = ["rarm_lower", "rarm_upper", "torso_chest", "pelvis"]
