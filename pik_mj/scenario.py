@@ -30,7 +30,7 @@ from ._record_adapter import Recorder
 from .balance import support_polygon
 from .ik import sole_polygons
 from .robot import Robot
-from .sim import HoldReport, Scene, StaticChecks, StaticReport, balance_report
+from .sim import HoldCriteria, HoldReport, Scene, StaticChecks, StaticReport, balance_report
 from .solve import SolveResult
 
 __all__ = [
@@ -123,9 +123,18 @@ class ScenarioResult:
         return ok
 
     def add_solve(
-        self, label: str, result: SolveResult, checks: StaticChecks | None = None
+        self,
+        label: str,
+        result: SolveResult,
+        checks: StaticChecks | None = None,
+        *,
+        finish: Sequence[Any] = (),
     ) -> SolveResult:
-        """Keep solve ``label`` and, with ``checks``, its per-iteration static reports."""
+        """Keep solve ``label`` and, with ``checks``, its per-iteration static
+        reports; hand ``result`` to the ``finish`` method of each of ``finish``
+        (the solve's logger and progress display)."""
+        for callback in finish:
+            callback.finish(result)
         self.solves[label] = result
         if checks is not None:
             self.static_reports[label] = list(checks.reports)
@@ -137,12 +146,13 @@ class ScenarioResult:
         scene: Scene,
         static: StaticReport,
         hold: HoldReport | None,
+        criteria: HoldCriteria,
         *,
-        allowed: Sequence[str],
         external: Sequence[tuple[str, Any, Any]] = (),
     ) -> None:
         """Keep the final pose's static check and hold (a check on the hold's
         verdict), and what ``pik-mj validate`` needs to redo them."""
+        allowed = scene.allowed_contacts if criteria.allowed is None else criteria.allowed
         robot = scene.robot
         self.robot = robot
         source = robot.source.to_dict() if robot.source is not None else {}

@@ -48,9 +48,7 @@ def run(
         log = recorder.solve_logger(label, checks=checks)
         progress = Progress(label, total=50, stream=err)
         res = inverse_kinematics(robot, *targets, callback=[checks, log, progress], **options)
-        log.finish(res)
-        progress.finish(res)
-        result.add_solve(label, res, checks)
+        result.add_solve(label, res, checks, finish=[log, progress])
 
     solve(
         "left hand to start",
@@ -86,13 +84,9 @@ def run(
     # The final pose in physics; the contacts the solves made are intended.
     q = robot.configuration.q.copy()
     static = scene.static_check(q)
-    allowed = sorted({*scene.allowed_contacts, *static.touching_geoms})
-    held = None
-    if hold:
-        held = scene.hold(
-            q, hold, criteria=HoldCriteria(allowed=allowed), callback=recorder.hold_logger()
-        )
-    result.add_balance(scene, static, held, allowed=allowed)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
 
     solves = result.solves
     shakes = [r for k, r in solves.items() if k.startswith("shake")]

@@ -57,24 +57,15 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         stop=100,
         callback=[checks, log, progress],
     )
-    log.finish(res)
-    progress.finish(res)
-    result.add_solve("reach with forces", res, checks)
+    result.add_solve("reach with forces", res, checks, finish=[log, progress])
 
     # The final pose in physics, with the hand wrenches it was solved for.
     q = robot.configuration.q.copy()
     static = scene.static_check(q, external=forces)
-    allowed = sorted({*scene.allowed_contacts, *static.touching_geoms})
-    held = None
-    if hold:
-        held = scene.hold(
-            q,
-            hold,
-            criteria=HoldCriteria(allowed=allowed),
-            external=forces,
-            callback=recorder.hold_logger(),
-        )
-    result.add_balance(scene, static, held, allowed=allowed, external=forces)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    log = recorder.hold_logger()
+    held = scene.hold(q, hold, criteria=criteria, external=forces, callback=log) if hold else None
+    result.add_balance(scene, static, held, criteria, external=forces)
 
     # Independent check: moments about the feet midpoint (3D cross products), where
     # a pure vertical ground force must balance gravity and the hand wrenches.

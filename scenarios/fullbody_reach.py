@@ -72,20 +72,14 @@ def run(
         stop=100,
         callback=[checks, log, progress],
     )
-    log.finish(res)
-    progress.finish(res)
-    result.add_solve("reach", res, checks)
+    result.add_solve("reach", res, checks, finish=[log, progress])
 
     # The final pose in physics; the contacts the solve made are intended.
     q = robot.configuration.q.copy()
     static = scene.static_check(q)
-    allowed = sorted({*scene.allowed_contacts, *static.touching_geoms})
-    held = None
-    if hold:
-        held = scene.hold(
-            q, hold, criteria=HoldCriteria(allowed=allowed), callback=recorder.hold_logger()
-        )
-    result.add_balance(scene, static, held, allowed=allowed)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
 
     feet1 = foot_poses(robot)
     hand = robot.frame_pose(robot.limb("larm").end_frame, robot.limb("larm").end_frame_type)

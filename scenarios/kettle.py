@@ -56,9 +56,7 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
     look = inverse_kinematics(
         robot, [], look_at=p_kettle, joints="chain", callback=[checks, log, progress]
     )
-    log.finish(look)
-    progress.finish(look)
-    result.add_solve("look", look, checks)
+    result.add_solve("look", look, checks, finish=[log, progress])
     gaze_look = gaze_angle(robot, p_kettle)
 
     checks = scene.static_checker()
@@ -72,9 +70,7 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         stop=100,
         callback=[checks, log, progress],
     )
-    log.finish(grasp)
-    progress.finish(grasp)
-    result.add_solve("grasp", grasp, checks)
+    result.add_solve("grasp", grasp, checks, finish=[log, progress])
     X_grasp = robot.frame_pose("rarm_end")
     gaze_grasp = gaze_angle(robot, p_kettle)
 
@@ -98,20 +94,14 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
     q = robot.configuration.q.copy()
     q[kettle_adr : kettle_adr + 7] = np.r_[X_carried.translation(), X_carried.rotation().wxyz]
     robot.configuration.update(q)
-    log.finish(lift)
-    progress.finish(lift)
-    result.add_solve("lift", lift, checks)
+    result.add_solve("lift", lift, checks, finish=[log, progress])
 
     # The final pose in physics, the kettle held in the hand by a weld.
-    held_scene = Scene.from_robot(robot, grasps=[("rarm_end", "kettle")])
-    static = held_scene.static_check(q)
-    allowed = sorted({*held_scene.allowed_contacts, *static.touching_geoms})
-    held = None
-    if hold:
-        held = held_scene.hold(
-            q, hold, criteria=HoldCriteria(allowed=allowed), callback=recorder.hold_logger()
-        )
-    result.add_balance(held_scene, static, held, allowed=allowed)
+    scene = Scene.from_robot(robot, grasps=[("rarm_end", "kettle")])
+    static = scene.static_check(q)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
 
     X_lift = robot.frame_pose("rarm_end")
     d = X_lift.translation() - X_grasp.translation()

@@ -36,9 +36,7 @@ def run(recorder: Recorder, *, quiet: bool = True, samples: int = 16) -> Scenari
         """``inverse_kinematics`` with the logger and the progress."""
         log, progress = recorder.solve_logger(label), Progress(label, total=50, stream=err)
         res = inverse_kinematics(robot, target, callback=[log, progress], **options)
-        log.finish(res)
-        progress.finish(res)
-        return result.add_solve(label, res)
+        return result.add_solve(label, res, finish=[log, progress])
 
     reached, failed, reverted_exactly = [], [], True
     for i in np.linspace(0, 400, samples, endpoint=False):

@@ -73,20 +73,14 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         stop=100,
         callback=[checks, log, progress],
     )
-    log.finish(res)
-    progress.finish(res)
-    result.add_solve("hand on the wall", res, checks)
+    result.add_solve("hand on the wall", res, checks, finish=[log, progress])
 
     # The final pose in physics; the palm on the wall is an intended contact.
     q = robot.configuration.q.copy()
     static = scene.static_check(q)
-    allowed = sorted({*scene.allowed_contacts, *static.touching_geoms})
-    held = None
-    if hold:
-        held = scene.hold(
-            q, hold, criteria=HoldCriteria(allowed=allowed), callback=recorder.hold_logger()
-        )
-    result.add_balance(scene, static, held, allowed=allowed)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
 
     com = robot.com()
     region = scfr_task.region(robot.configuration)

@@ -43,7 +43,7 @@ class HoldCriteria:
         fall_ratio: The robot fell when its root height drops below this ratio of
             its start [-].
         allowed: Robot geoms allowed to touch the environment (default: the
-            scene's ``allowed_contacts``, its soles).
+            scene's ``allowed_contacts``, its soles); repeated names count once.
         feet: Geoms whose slip is the verdict's foot slip (default: the allowed
             geoms named ``*sole*`` or ``*foot*``, else all allowed geoms). A hand
             on a wall or a handle still appears in ``slip_per_geom``.
@@ -71,6 +71,8 @@ class HoldCriteria:
         for label, names in (("allowed", self.allowed), ("feet", self.feet)):
             if isinstance(names, str):
                 raise InvalidInput(f"{label} must be a list of geom names, got {names!r}")
+            if names is not None:
+                object.__setattr__(self, label, tuple(dict.fromkeys(names)))
 
     def thresholds(self) -> dict[str, float]:
         return {
