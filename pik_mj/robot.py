@@ -513,14 +513,16 @@ class Robot:
         dz = -robot._ground_gap(spec) if robot.has_floating_base else 0.0
         if abs(dz) <= GROUND_TOLERANCE:
             dz = 0.0
-        if at is not None or dz != 0.0:
-            place_root(spec, alone, robot.root_body_id, p_WR + np.array([0.0, 0.0, dz]), yaw)
-        if env_spec is not None:
-            spec = attach_environment(spec, env_spec)
-        try:
-            world = spec.compile()
-        except ValueError as err:
-            raise InvalidInput(f"the robot's world does not compile: {err}") from err
+        world = alone
+        if at is not None or dz != 0.0 or env_spec is not None:
+            if at is not None or dz != 0.0:
+                place_root(spec, alone, robot.root_body_id, p_WR + np.array([0.0, 0.0, dz]), yaw)
+            if env_spec is not None:
+                spec = attach_environment(spec, env_spec)
+            try:
+                world = spec.compile()
+            except ValueError as err:
+                raise InvalidInput(f"the robot's world does not compile: {err}") from err
         out = cls(world, root_body=robot.root_body, limbs=limbs, keyframe=keyframe)
         out.spec = spec
         out.source = RobotSource(

@@ -119,9 +119,11 @@ def run(
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser(__doc__).parse_args(argv)
+    p = parser(__doc__)
+    p.add_argument("--steps", type=int, default=32, help="shaking steps")
+    args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, hold=args.hold, quiet=args.quiet)
+        result = run(recorder, hold=args.hold, quiet=args.quiet, steps=args.steps)
     return report(result, args)
 
 

@@ -15,22 +15,27 @@ import pik_mj.scenarios
 import pytest
 
 SOURCE = Path(__file__).resolve().parents[1]
+HOLD = ["--hold", "0.3"]
 #: Quicker runs of every scenario (shorter holds and walks): the point is that
 #: each one runs from the install; tests/test_run_recording.py checks the figures.
 FAST = {
+    "cocktail_shaker": ["--steps", "4", *HOLD],
     "walk_forward": ["--steps", "1", "--dt", "0.05"],
     "walk_go_pos": ["--x", "0.1", "--y", "0.0", "--theta", "10", "--dt", "0.05"],
 }
-HOLD = ["--hold", "0.3"]
 
-#: `pik-mj run NAME` for every scenario in one interpreter (pik_mj.cli.main is what
-#: the console script calls).
+#: `pik-mj list`, then `pik-mj run NAME` for every name listed, in one interpreter
+#: (pik_mj.cli.main is what the console script calls).
 DRIVER = """
-import json, sys
+import contextlib, io, json, sys
 import pik_mj, pik_mj.cli, pik_mj.mjcf, pik_mj.scenarios
-runs = json.loads(sys.argv[1])
-codes = {name: pik_mj.cli.main(["run", name, "--quiet", *argv]) for name, argv in runs.items()}
+fast = json.loads(sys.argv[1])
+with contextlib.redirect_stdout(io.StringIO()) as listed:
+    listed_code = pik_mj.cli.main(["list"])
+names = [line.split()[0] for line in listed.getvalue().splitlines()]
+codes = {name: pik_mj.cli.main(["run", name, "--quiet", *fast[name]]) for name in names}
 print(json.dumps({
+    "listed": [listed_code, names],
     "codes": codes,
     "files": [pik_mj.__file__, pik_mj.scenarios.__file__, pik_mj.mjcf.__file__],
 }))
@@ -51,7 +56,7 @@ def installed(tmp_path_factory) -> Path:
     site = tmp / "site"
     subprocess.run(
         [
-            *(sys.executable, "-m", "pip", "install", "--quiet", "--no-deps"),
+            *(sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-compile"),
             *("--no-build-isolation", "--no-index", "--target", str(site), str(src)),
         ],
         check=True,
@@ -69,19 +74,19 @@ def _installed(site: Path, cwd: Path, *command: str) -> subprocess.CompletedProc
 def test_list_and_run_every_scenario_from_a_non_editable_install(installed, tmp_path):
     cwd = tmp_path / "empty"
     cwd.mkdir()
-    # the console script pip generated for [project.scripts]
-    listed = _installed(installed, cwd, str(installed / "bin" / "pik-mj"), "list")
-    assert listed.returncode == 0, listed.stderr
-    names = [line.split()[0] for line in listed.stdout.splitlines()]
-    assert names == pik_mj.scenarios.SCENARIOS
-    runs = {name: FAST.get(name, HOLD if name != "three_dof_reach" else []) for name in names}
-    done = _installed(installed, cwd, sys.executable, "-c", DRIVER, json.dumps(runs))
+    names = pik_mj.scenarios.SCENARIOS
+    fast = {name: FAST.get(name, HOLD if name != "three_dof_reach" else []) for name in names}
+    done = _installed(installed, cwd, sys.executable, "-c", DRIVER, json.dumps(fast))
     assert done.returncode == 0, done.stderr[-3000:]
     report = json.loads(done.stdout.splitlines()[-1])
     # imported from the install, not from the source tree
     for file in report["files"]:
         assert Path(file).resolve().is_relative_to(installed.resolve()), file
+    assert report["listed"] == [0, names]
     assert report["codes"] == dict.fromkeys(names, 0), done.stdout[-3000:]
     for name in names:  # `pik-mj run NAME` records into out/NAME.rrd by default
         assert (cwd / "out" / f"{name}.rrd").stat().st_size > 10_000, name
     assert sorted(p.name for p in cwd.iterdir()) == ["out"]  # nothing else written
+    # the console script pip wrote for [project.scripts] calls the same main
+    script = (installed / "bin" / "pik-mj").read_text()
+    assert "from pik_mj.cli import main" in script

@@ -343,7 +343,7 @@ class Scene:
                     "a Scene adds an environment only to a robot without one"
                 )
             spec = attach_environment(spec, environment)
-        if not has_plane(_compile(spec)):
+        if not has_plane(rm if environment is None else _compile(spec)):
             add_floor(spec)
         spec.option.timestep = float(timestep)
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
@@ -451,6 +451,8 @@ class Scene:
 
     def _extend_keyframe_ctrl(self, spec: mujoco.MjSpec, n_old: int) -> None:
         """Keyframes that set ``ctrl`` get the servo targets of their own pose."""
+        if not any(len(key.ctrl) for key in spec.keys):
+            return
         model = _compile(spec)  # servos not counted in key_ctrl yet: compile first
         for k in range(model.nkey):
             key = spec.keys[k]
