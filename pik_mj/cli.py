@@ -214,14 +214,15 @@ def _validate(argv: list[str]) -> int:
     if not (math.isfinite(args.duration) and args.duration > 0):
         raise InvalidInput(f"--duration must be > 0 [s], got {args.duration}")
     pose = read_pose_file(args.file)
-    source = pose["source"]
-    if args.environment is not None:  # another world: the robot keeps its placement
+    source, q = pose["source"], pose["q"]
+    if args.environment is not None:  # another world: the robot keeps its pose
         env = None if args.environment.lower() == "none" else args.environment
+        original = Robot.from_source(source)
         at = source.at
-        if isinstance(at, str):
-            placement = Robot.from_source(source).placement
-            at = placement if env is None or placement is None else at
+        if isinstance(at, str) and env is None:  # no site to stand at: its coordinates
+            at = original.placement
         source = replace(source, environment=env, at=at)
+        q = q[: original.own_nq]
     recorder = None
     if args.save:
         Path(args.save).parent.mkdir(parents=True, exist_ok=True)
@@ -232,7 +233,7 @@ def _validate(argv: list[str]) -> int:
             recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
         report = validate_pose(
             source,
-            pose["q"],
+            q,
             args.duration,
             allowed=pose["allowed_contacts"],
             grasps=pose["grasps"],

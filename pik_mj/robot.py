@@ -380,6 +380,7 @@ class Robot:
         source: The :class:`RobotSource` that rebuilds it, or None.
         placement: ``(x, y, z, yaw)`` [m, rad] where the robot's model frame was
             put (``at``), or None.
+        keyframe: The start pose's keyframe (:meth:`reset_pose`), or None for ``qpos0``.
 
     Raises:
         UnknownName: ``root_body``, ``keyframe`` or a limb's joint/frame does not exist.
@@ -638,6 +639,13 @@ class Robot:
     def root_body_id(self) -> int:
         """Id of the robot's top-level body."""
         return int(self._root_id)
+
+    @property
+    def own_nq(self) -> int:
+        """Length of the robot's own part of ``q``: its joints come first, the
+        environment's (e.g. the room's kettle) after them."""
+        k = len(self._robot_joint_ids)
+        return int(self.model.nq if k == self.model.njnt else self.model.jnt_qposadr[k])
 
     @property
     def has_floating_base(self) -> bool:

@@ -343,6 +343,12 @@ def test_validate_reproduces_the_hold_of_a_run(tmp_path, capsys):
     bare.write_text(json.dumps({"model": robot["model"], "q": robot["q"]}))
     assert cli.main(["validate", str(bare), "--duration", "0.5", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["hold"]["simulated"] == pytest.approx(0.5)
+    # the same pose in another world: the room around it (its floor at z = 0 too,
+    # nothing else within reach), the kettle's joint appended at its start
+    assert cli.main(["validate", str(js), "--environment", "room", "--json", str(out)]) == 0
+    v = json.loads(out.read_text())
+    assert v["robot"]["environment"] == "room" and v["passed"]
+    assert v["hold"]["drift"] == pytest.approx(d["balance"]["hold"]["drift"], rel=1e-3)
 
 
 def test_validate_fails_when_the_com_leans_past_the_toes(tmp_path, capsys):

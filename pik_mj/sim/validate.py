@@ -48,8 +48,9 @@ def validate_pose(
     Args:
         source: The robot's :class:`~pik_mj.robot.RobotSource` (or its
             ``to_dict()``, or a model name / MJCF path).
-        q: Robot configuration (the robot's ``nq``), the name of one of its
-            keyframes, or None for its start pose.
+        q: Robot configuration (the robot's ``nq``; or only its own joints,
+            :attr:`~pik_mj.robot.Robot.own_nq`, the environment then at its start),
+            the name of one of its keyframes, or None for its start pose.
         duration: Hold duration [s].
         mu: Friction coefficient of the equilibrium LP (None: MuJoCo's).
         allowed: Robot geoms allowed to touch the environment (default: its soles).
@@ -75,12 +76,14 @@ def validate_pose(
         q = robot.model.key(q).qpos
     if q is not None:
         q = np.asarray(q, dtype=float)
-        if q.shape != (robot.model.nq,):
+        if q.shape not in ((robot.model.nq,), (robot.own_nq,)):
             raise InvalidInput(
-                f"q must be the robot's configuration of shape ({robot.model.nq},), "
-                f"got shape {q.shape}"
+                f"q must be the robot's configuration of shape ({robot.model.nq},) or its "
+                f"own joints' ({robot.own_nq},), got shape {q.shape}"
             )
-        robot.configuration.update(q.copy())
+        full = robot.configuration.q.copy()
+        full[: len(q)] = q
+        robot.configuration.update(full)
     q_robot = robot.configuration.q.copy()
     scene = Scene.from_robot(robot, allowed_contacts=allowed, grasps=grasps)
     static = scene.static_check(q_robot, mu=mu, external=external)

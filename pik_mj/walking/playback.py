@@ -1,9 +1,9 @@
 """Play a :class:`~pik_mj.walking.wholebody.WalkPattern` in MuJoCo physics.
 
 The robot stands in its :class:`pik_mj.sim.Scene` (made with
-:meth:`~pik_mj.sim.Scene.from_robot`, a floor and a position servo on every
-hinge joint; :data:`WALK_CONTACT` for the soles); the physics starts at rest in the pattern's
-first configuration and the servo targets follow the pattern, linearly
+:meth:`~pik_mj.sim.Scene.from_robot`: a floor, a position servo on every hinge
+joint; the walks use :data:`WALK_CONTACT`); the physics starts at rest in the
+pattern's first configuration and the servo targets follow the pattern, linearly
 interpolated at the physics rate. With MuJoCo's position actuator
 :math:`\\tau = k_p (u - q) - k_v \\dot q`, the control
 
