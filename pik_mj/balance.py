@@ -34,7 +34,7 @@ from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection
 
 from pik_mj.exceptions import InvalidInput, PikError
-from pik_mj.spatial import STANDARD_GRAVITY, skew
+from pik_mj.spatial import STANDARD_GRAVITY, rot_z, skew
 
 GRAVITY = (0.0, 0.0, -STANDARD_GRAVITY)
 """Gravity vector [m/s²] (world frame, z up) of the functions here, which take no
@@ -610,12 +610,9 @@ def foot_contact(
         torsion: See :class:`ContactConstraint`.
         pyramid: See :class:`ContactConstraint`.
     """
-    yaw = _scalar(yaw, "yaw")
-    c, s = math.cos(yaw), math.sin(yaw)
-    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     return ContactConstraint(
         p_WC=p_W,
-        R_WC=R,
+        R_WC=rot_z(_scalar(yaw, "yaw")),
         half_x=half_x,
         half_y=half_y,
         mu=mu,

@@ -209,12 +209,8 @@ class Scene:
         carried_mass: Mass of the grasped objects [kg].
     """
 
-    def __init__(self, robot: Robot, **options: Any):
-        self._build(robot, **options)
-
-    @classmethod
-    def from_robot(
-        cls,
+    def __init__(
+        self,
         robot: Robot,
         *,
         environment: EnvironmentLike | None = None,
@@ -229,7 +225,7 @@ class Scene:
         impratio: float = 10.0,
         noslip_iterations: int = 0,
         grasps: Sequence[GraspLike] = (),
-    ) -> Scene:
+    ):
         """The physics scene of ``robot``'s world.
 
         Args:
@@ -271,40 +267,7 @@ class Scene:
             UnknownName: Unknown joint in ``kp``/``kv``, geoms in
                 ``allowed_contacts``, frames or bodies in ``grasps``.
         """
-        return cls(
-            robot,
-            environment=environment,
-            timestep=timestep,
-            kp=kp,
-            kv=kv,
-            default_kp=default_kp,
-            default_kv=default_kv,
-            contact=contact,
-            contact_tolerance=contact_tolerance,
-            allowed_contacts=allowed_contacts,
-            impratio=impratio,
-            noslip_iterations=noslip_iterations,
-            grasps=grasps,
-        )
 
-    # ------------------------------------------------------------ construction
-    def _build(
-        self,
-        robot: Robot,
-        *,
-        environment: EnvironmentLike | None,
-        timestep: float,
-        kp: float | Mapping[str, float],
-        kv: float | Mapping[str, float],
-        default_kp: float,
-        default_kv: float,
-        contact: ContactParams | None,
-        contact_tolerance: float,
-        allowed_contacts: Sequence[str] | None,
-        impratio: float,
-        noslip_iterations: int,
-        grasps: Sequence[GraspLike],
-    ) -> None:
         from pik_mj.robot import Robot
 
         if not isinstance(robot, Robot):
@@ -410,6 +373,13 @@ class Scene:
         self._geom_id = {n: g for g, n in enumerate(self._geom_names) if n}
         self.allowed_contacts = self._allowed(allowed_contacts)
 
+    @classmethod
+    def from_robot(cls, robot: Robot, **options: Any) -> Scene:
+        """The physics scene of ``robot``'s world: ``Scene(robot, **options)``
+        (the options are :class:`Scene`'s)."""
+        return cls(robot, **options)
+
+    # ------------------------------------------------------------ construction
     def _check_prefix(self, model: mujoco.MjModel) -> None:
         """The robot's joints come first in the scene, at the same addresses."""
         rm = self.robot.model
