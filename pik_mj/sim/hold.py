@@ -22,15 +22,16 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pik_mj.callbacks import Callback, as_callbacks
+from pik_mj.dynamics import contact_wrenches
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
 
-from .static import finite_or_none
+from .static import finite_or_none, point_contacts
 
 if TYPE_CHECKING:
     from .scene import External, Scene
 
-__all__ = ["HoldCriteria", "HoldReport", "HoldSample", "hold"]
+__all__ = ["HoldCriteria", "HoldReport", "HoldSample", "hold", "holding_torques"]
 
 
 @dataclass(frozen=True)
@@ -240,6 +241,72 @@ def _external_wrench(scene: Scene, frame: str, force: ArrayLike, moment: ArrayLi
     return apply
 
 
+def holding_torques(
+    scene: Scene, q: ArrayLike, external: Sequence[External] = ()
+) -> np.ndarray | None:
+    r"""Generalized forces that hold ``q`` still against gravity, the contact
+    forces and the external wrenches:
+
+    .. math::
+
+        \tau = g(q) - \sum_i J_{p}(p_i)^T f_i - \sum_e J_e^T w_e
+           - \sum_o J_{p,F_o}(c_o)^T m_o g
+
+    ``g`` comes from ``qfrc_bias`` at zero velocity; ``f_i`` are the
+    least-norm forces inside the friction pyramids that balance the robot at
+    the actual contacts ``p_i`` (:func:`pik_mj.dynamics.contact_wrenches`; the
+    equilibrium LP's own forces are any feasible point, often on a cone's
+    edge, which would push the feet to slip). The rows on the servo joints
+    are the static feed-forward of a PD hold with gravity compensation; the
+    free-joint rows are ~0. A grasped object's weight ``m_o g`` acts at its
+    CoM ``c_o`` on the grasping frame's body (the weld carries it in the
+    physics); the contact forces balance the robot and its objects.
+
+    Returns:
+        ``(nv,)`` [N, N·m], or None when the pose has no static equilibrium.
+    """
+    m, d = scene.model, scene.data
+    scene.set_pose(q)
+    wrenches = scene._wrenches(d, external)
+    report = scene.static_check(q, external=external)
+    if not report.feasible or report.forces is None:
+        return None
+    weight = (scene.mass + scene.carried_mass) * np.asarray(m.opt.gravity, dtype=float)
+    total = -np.concatenate([weight, np.cross(report.com, weight)])
+    for w in wrenches:
+        F, M = np.asarray(w.force, float), np.asarray(w.moment, float)
+        total -= np.concatenate([F, np.cross(np.asarray(w.p_W, float), F) + M])
+    env = report.environment_contacts
+    solved = contact_wrenches(point_contacts(env, report.mu), total)
+    if solved is None:
+        return None
+    scene.set_pose(q)
+    tau = d.qfrc_bias.copy()
+    jacp = np.zeros((3, m.nv))
+    for c, f in zip(env, solved[:, :3], strict=True):
+        mujoco.mj_jac(
+            m, d, jacp, None, c.position, int(m.geom_bodyid[scene._geom_id[c.robot_geom]])
+        )
+        tau -= jacp.T @ f
+    for frame, b in zip(scene._grasp_frames, scene._grasp_bodies, strict=True):
+        # the weight of a grasped object hangs on the frame's body at its CoM
+        mujoco.mj_jac(m, d, jacp, None, d.subtree_com[b], frame.body_id)
+        tau -= jacp.T @ (m.body_subtreemass[b] * np.asarray(m.opt.gravity))
+    qfrc = np.zeros(m.nv)
+    for (frame, F, M), w in zip(external, wrenches, strict=True):
+        body = Frame.find(m, frame).body_id
+        mujoco.mj_applyFT(
+            m,
+            d,
+            np.asarray(F, float),
+            np.asarray(M, float),
+            np.asarray(w.p_W, float),
+            body,
+            qfrc,
+        )
+    return tau - qfrc
+
+
 def hold(
     scene: Scene,
     q: ArrayLike,
@@ -283,7 +350,7 @@ def hold(
         every: Steps between callback calls (>= 1).
         margin_every: Steps between evaluations of the CoM margin (a convex hull
             each, ~0.5 ms).
-        feedforward: Add :meth:`Scene.holding_torques` on the servo joints (PD
+        feedforward: Add :func:`holding_torques` on the servo joints (PD
             with gravity compensation): the hold then starts in equilibrium
             instead of sagging onto its servos' error, which with the default
             gains (damping ratio ~0.1) overshoots by 1-2 cm and can tip a pose
@@ -320,7 +387,7 @@ def hold(
 
     m, d = scene.model, scene.data
     root = scene.robot.root_body_id
-    tau = scene.holding_torques(q, external) if feedforward else None
+    tau = holding_torques(scene, q, external) if feedforward else None
     mujoco.mj_resetData(m, d)
     scene.set_pose(q)
     if tau is not None:

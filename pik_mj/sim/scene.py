@@ -13,9 +13,9 @@ Modelling choices (documented here once):
 
 * **Servos**: MuJoCo position actuators ``τ = kp (q_ref - q) - kv q̇`` on every
   robot hinge/slide joint; :meth:`Scene.hold` adds the static feed-forward of
-  :meth:`Scene.holding_torques`, so the pose starts in equilibrium instead of
-  sagging by ``τ_gravity / kp``. The robot's own actuators are kept with zero
-  control. The integrator is ``implicitfast``, which treats ``kv`` implicitly.
+  :func:`pik_mj.sim.hold.holding_torques`, so the pose starts in equilibrium
+  instead of sagging by ``τ_gravity / kp``. The robot's own actuators are kept
+  with zero control. The integrator is ``implicitfast``, which treats ``kv`` implicitly.
 * **Friction**: elliptic cones with ``impratio = 10`` (MuJoCo's advice against
   the slow creep of soft contacts under a sustained tangential load). The
   equilibrium LP uses an inscribed pyramid, so it is the more conservative of
@@ -49,14 +49,13 @@ import copy
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
 from pik_mj import balance
-from pik_mj.dynamics import contact_wrenches
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.frames import Frame
 from pik_mj.robot import sole_geoms
@@ -65,6 +64,7 @@ from pik_mj.spatial import matrix_to_quat, quat_to_matrix
 from .environment import EnvironmentLike, add_floor, attach_environment, has_plane
 from .guard import StateGuard
 from .static import ContactInfo, StaticChecks, StaticReport
+from .static import static_check as _static_check
 
 if TYPE_CHECKING:
     from pik_mj.robot import Robot
@@ -709,125 +709,11 @@ class Scene:
         return out
 
     # ------------------------------------------------------------ static check
-    def static_check(
-        self,
-        q: ArrayLike,
-        *,
-        mu: float | None = None,
-        external: Sequence[External] = (),
-        pyramid: Literal["inscribed", "circumscribed"] = "inscribed",
-        max_ground_slope: float = math.pi / 4,
-        scfr: bool = False,
-    ) -> StaticReport:
-        """Contacts, support polygon, CoM margin and static equilibrium of a pose.
-
-        Collision detection runs on a copy of the model whose robot geoms have
-        ``margin = contact_tolerance``; contacts with ``dist <= contact_tolerance``
-        count. Each environment contact ``i`` is a point contact at ``p_i`` with
-        normal ``n_i`` into the robot; the LP (HiGHS) asks for forces ``f_i``
-
-        .. math::
-
-            \\sum_i f_i + m g + \\sum_k f_k = 0, \\quad
-            \\sum_i p_i \\times f_i + c \\times m g + \\sum_k (\\tau_k + p_k \\times f_k) = 0,
-
-            f_i \\cdot n_i \\ge 0, \\quad |f_i \\cdot t_{i,j}| \\le \\mu' f_i \\cdot n_i
-
-        (``μ' = μ/√2`` for the inscribed pyramid). The support polygon is the
-        convex hull of the contacts whose normal is within ``max_ground_slope``
-        of up, projected along gravity; ``margin = min_j (a_j^T c + b_j)`` [m].
-
-        Args:
-            q: Robot configuration (``robot.model.nq``).
-            mu: Friction coefficient for the LP; None uses each contact's MuJoCo
-                friction.
-            external: Wrenches ``(frame, force, moment)`` acting on the robot.
-            pyramid: Friction pyramid (see :class:`pik_mj.balance.ContactConstraint`).
-            max_ground_slope: Largest angle [rad] between a contact normal and up
-                for the contact to count in the support polygon.
-            scfr: Also compute the margin to the static centroid feasible region
-                of the actual contacts (:func:`pik_mj.balance.scfr`, ~20-60 LPs).
-
-        Returns:
-            A :class:`StaticReport`.
-        """
-        if mu is not None and not (math.isfinite(mu) and mu >= 0):
-            raise InvalidInput(f"mu must be finite and >= 0, got {mu}")
-        m, d = self._probe_model, self._probe_data
-        d.qpos[:] = self._qpos(q)
-        d.qvel[:] = 0.0
-        mujoco.mj_forward(m, d)
-        contacts = self._contacts(m, d, self.contact_tolerance)
-        com = self.com(d)
-        region, margin = self.support(contacts, com, max_ground_slope)
-        wrenches = self._wrenches(d, external)
-        env = [c for c in contacts if not c.self_contact]
-        gravity = np.asarray(m.opt.gravity, dtype=float)
-        forces = None
-        scfr_margin = None
-        if not env:
-            feasible, message = False, "no contact with the environment"
-        else:
-            cons = self.contact_constraints(env, mu, pyramid)
-            result = balance.static_equilibrium(
-                cons, self.mass + self.carried_mass, com, wrenches, gravity
-            )
-            feasible, message = result.feasible, result.message
-            if result.wrenches is not None:
-                forces = result.wrenches[:, :3].copy()
-            if scfr:
-                scfr_margin = self._scfr_margin(cons, com, wrenches, gravity)
-        return StaticReport(
-            contacts=contacts,
-            support_polygon=np.zeros((0, 3)) if region is None else region.vertices_3d,
-            com=com,
-            margin=margin,
-            feasible=feasible,
-            message=message,
-            forces=forces,
-            mu=mu,
-            scfr_margin=scfr_margin,
-            q=np.array(q, dtype=float),
-            margin_outline=(
-                region.shrunk(margin) if region is not None and margin > 0 else np.zeros((0, 3))
-            ),
-        )
-
-    @staticmethod
-    def contact_constraints(
-        contacts: Sequence[ContactInfo],
-        mu: float | None = None,
-        pyramid: Literal["inscribed", "circumscribed"] = "inscribed",
-    ) -> list[balance.ContactConstraint]:
-        """Point-contact constraints (friction pyramid about each normal) of contacts."""
-        return [
-            balance.contact_from_normal(
-                c.position, c.normal, mu=c.friction if mu is None else mu, pyramid=pyramid
-            )
-            for c in contacts
-        ]
-
-    def _scfr_margin(
-        self,
-        cons: list[balance.ContactConstraint],
-        com: np.ndarray,
-        external: Sequence[balance.ExternalWrench],
-        gravity: np.ndarray,
-    ) -> float:
-        pts = np.array([c.p_WC for c in cons])
-        lo, hi = pts[:, :2].min(axis=0) - 2.0, pts[:, :2].max(axis=0) + 2.0
-        try:
-            region = balance.scfr(
-                cons,
-                self.mass + self.carried_mass,
-                external,
-                gravity,
-                com_z=float(com[2]),
-                bounds=(lo[0], hi[0], lo[1], hi[1]),
-            )
-        except InvalidInput:  # degenerate region (a segment or a point)
-            return -math.inf
-        return region.signed_distance(com[:2])
+    def static_check(self, q: ArrayLike, **options: Any) -> StaticReport:
+        """:func:`pik_mj.sim.static.static_check` of the robot configuration ``q``
+        in this scene (options: ``mu``, ``external``, ``pyramid``,
+        ``max_ground_slope``, ``scfr``)."""
+        return _static_check(self, q, **options)
 
     def static_checker(
         self,
@@ -851,69 +737,6 @@ class Scene:
         self._guard.step(n)
 
     # -------------------------------------------------------------------- hold
-    def holding_torques(self, q: ArrayLike, external: Sequence[External] = ()) -> np.ndarray | None:
-        r"""Generalized forces that hold ``q`` still against gravity, the contact
-        forces and the external wrenches:
-
-        .. math::
-
-            \tau = g(q) - \sum_i J_{p}(p_i)^T f_i - \sum_e J_e^T w_e
-               - \sum_o J_{p,F_o}(c_o)^T m_o g
-
-        ``g`` comes from ``qfrc_bias`` at zero velocity; ``f_i`` are the
-        least-norm forces inside the friction pyramids that balance the robot at
-        the actual contacts ``p_i`` (:func:`pik_mj.dynamics.contact_wrenches`; the
-        equilibrium LP's own forces are any feasible point, often on a cone's
-        edge, which would push the feet to slip). The rows on the servo joints
-        are the static feed-forward of a PD hold with gravity compensation; the
-        free-joint rows are ~0. A grasped object's weight ``m_o g`` acts at its
-        CoM ``c_o`` on the grasping frame's body (the weld carries it in the
-        physics); the contact forces balance the robot and its objects.
-
-        Returns:
-            ``(nv,)`` [N, N·m], or None when the pose has no static equilibrium.
-        """
-        m, d = self.model, self.data
-        self.set_pose(q)
-        wrenches = self._wrenches(d, external)
-        report = self.static_check(q, external=external)
-        if not report.feasible or report.forces is None:
-            return None
-        weight = (self.mass + self.carried_mass) * np.asarray(m.opt.gravity, dtype=float)
-        total = -np.concatenate([weight, np.cross(report.com, weight)])
-        for w in wrenches:
-            F, M = np.asarray(w.force, float), np.asarray(w.moment, float)
-            total -= np.concatenate([F, np.cross(np.asarray(w.p_W, float), F) + M])
-        env = report.environment_contacts
-        solved = contact_wrenches(self.contact_constraints(env, report.mu), total)
-        if solved is None:
-            return None
-        self.set_pose(q)
-        tau = d.qfrc_bias.copy()
-        jacp = np.zeros((3, m.nv))
-        for c, f in zip(env, solved[:, :3], strict=True):
-            mujoco.mj_jac(
-                m, d, jacp, None, c.position, int(m.geom_bodyid[self._geom_id[c.robot_geom]])
-            )
-            tau -= jacp.T @ f
-        for frame, b in zip(self._grasp_frames, self._grasp_bodies, strict=True):
-            # the weight of a grasped object hangs on the frame's body at its CoM
-            mujoco.mj_jac(m, d, jacp, None, d.subtree_com[b], frame.body_id)
-            tau -= jacp.T @ (m.body_subtreemass[b] * np.asarray(m.opt.gravity))
-        qfrc = np.zeros(m.nv)
-        for (frame, F, M), w in zip(external, wrenches, strict=True):
-            body = Frame.find(m, frame).body_id
-            mujoco.mj_applyFT(
-                m,
-                d,
-                np.asarray(F, float),
-                np.asarray(M, float),
-                np.asarray(w.p_W, float),
-                body,
-                qfrc,
-            )
-        return tau - qfrc
-
     def hold(
         self,
         q: ArrayLike,

@@ -1,10 +1,10 @@
 """The static check of a pose in its scene: contacts, support polygon, CoM
 margin and static equilibrium (DESIGN.md §5), per pose or per IK iteration.
 
-:meth:`pik_mj.sim.Scene.static_check` runs MuJoCo's collision detection at the
-pose (kinematics only, no stepping) and reports a :class:`StaticReport`;
-:class:`StaticChecks` is the per-iteration callback of :func:`pik_mj.solve` that
-keeps one report per iteration.
+:func:`static_check` (:meth:`pik_mj.sim.Scene.static_check`) runs MuJoCo's
+collision detection at the pose (kinematics only, no stepping) and reports a
+:class:`StaticReport`; :class:`StaticChecks` is the per-iteration callback of
+:func:`pik_mj.solve` that keeps one report per iteration.
 """
 
 from __future__ import annotations
@@ -13,14 +13,26 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal
 
+import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
+
+from pik_mj import balance
+from pik_mj.exceptions import InvalidInput
 
 if TYPE_CHECKING:
-    from .scene import Scene
+    from .scene import External, Scene
 
-__all__ = ["ContactInfo", "StaticChecks", "StaticReport", "finite_or_none"]
+__all__ = [
+    "ContactInfo",
+    "StaticChecks",
+    "StaticReport",
+    "finite_or_none",
+    "point_contacts",
+    "static_check",
+]
 
 
 def finite_or_none(x: float | None) -> float | None:
@@ -136,6 +148,128 @@ class StaticReport:
             "mu": self.mu,
             "message": self.message,
         }
+
+
+def static_check(
+    scene: Scene,
+    q: ArrayLike,
+    *,
+    mu: float | None = None,
+    external: Sequence[External] = (),
+    pyramid: Literal["inscribed", "circumscribed"] = "inscribed",
+    max_ground_slope: float = math.pi / 4,
+    scfr: bool = False,
+) -> StaticReport:
+    """Contacts, support polygon, CoM margin and static equilibrium of a pose.
+
+    Collision detection runs on a copy of the model whose robot geoms have
+    ``margin = contact_tolerance``; contacts with ``dist <= contact_tolerance``
+    count. Each environment contact ``i`` is a point contact at ``p_i`` with
+    normal ``n_i`` into the robot; the LP (HiGHS) asks for forces ``f_i``
+
+    .. math::
+
+        \\sum_i f_i + m g + \\sum_k f_k = 0, \\quad
+        \\sum_i p_i \\times f_i + c \\times m g + \\sum_k (\\tau_k + p_k \\times f_k) = 0,
+
+        f_i \\cdot n_i \\ge 0, \\quad |f_i \\cdot t_{i,j}| \\le \\mu' f_i \\cdot n_i
+
+    (``μ' = μ/√2`` for the inscribed pyramid). The support polygon is the
+    convex hull of the contacts whose normal is within ``max_ground_slope``
+    of up, projected along gravity; ``margin = min_j (a_j^T c + b_j)`` [m].
+
+    Args:
+        q: Robot configuration (``robot.model.nq``).
+        mu: Friction coefficient for the LP; None uses each contact's MuJoCo
+            friction.
+        external: Wrenches ``(frame, force, moment)`` acting on the robot.
+        pyramid: Friction pyramid (see :class:`pik_mj.balance.ContactConstraint`).
+        max_ground_slope: Largest angle [rad] between a contact normal and up
+            for the contact to count in the support polygon.
+        scfr: Also compute the margin to the static centroid feasible region
+            of the actual contacts (:func:`pik_mj.balance.scfr`, ~20-60 LPs).
+
+    Returns:
+        A :class:`StaticReport`.
+    """
+    if mu is not None and not (math.isfinite(mu) and mu >= 0):
+        raise InvalidInput(f"mu must be finite and >= 0, got {mu}")
+    m, d = scene._probe_model, scene._probe_data
+    d.qpos[:] = scene._qpos(q)
+    d.qvel[:] = 0.0
+    mujoco.mj_forward(m, d)
+    contacts = scene._contacts(m, d, scene.contact_tolerance)
+    com = scene.com(d)
+    region, margin = scene.support(contacts, com, max_ground_slope)
+    wrenches = scene._wrenches(d, external)
+    env = [c for c in contacts if not c.self_contact]
+    gravity = np.asarray(m.opt.gravity, dtype=float)
+    forces = None
+    scfr_margin = None
+    if not env:
+        feasible, message = False, "no contact with the environment"
+    else:
+        cons = point_contacts(env, mu, pyramid)
+        result = balance.static_equilibrium(
+            cons, scene.mass + scene.carried_mass, com, wrenches, gravity
+        )
+        feasible, message = result.feasible, result.message
+        if result.wrenches is not None:
+            forces = result.wrenches[:, :3].copy()
+        if scfr:
+            scfr_margin = _scfr_margin(scene, cons, com, wrenches, gravity)
+    return StaticReport(
+        contacts=contacts,
+        support_polygon=np.zeros((0, 3)) if region is None else region.vertices_3d,
+        com=com,
+        margin=margin,
+        feasible=feasible,
+        message=message,
+        forces=forces,
+        mu=mu,
+        scfr_margin=scfr_margin,
+        q=np.array(q, dtype=float),
+        margin_outline=(
+            region.shrunk(margin) if region is not None and margin > 0 else np.zeros((0, 3))
+        ),
+    )
+
+
+def point_contacts(
+    contacts: Sequence[ContactInfo],
+    mu: float | None = None,
+    pyramid: Literal["inscribed", "circumscribed"] = "inscribed",
+) -> list[balance.ContactConstraint]:
+    """Point-contact constraints (friction pyramid about each normal) of contacts."""
+    return [
+        balance.contact_from_normal(
+            c.position, c.normal, mu=c.friction if mu is None else mu, pyramid=pyramid
+        )
+        for c in contacts
+    ]
+
+
+def _scfr_margin(
+    scene: Scene,
+    cons: list[balance.ContactConstraint],
+    com: np.ndarray,
+    external: Sequence[balance.ExternalWrench],
+    gravity: np.ndarray,
+) -> float:
+    pts = np.array([c.p_WC for c in cons])
+    lo, hi = pts[:, :2].min(axis=0) - 2.0, pts[:, :2].max(axis=0) + 2.0
+    try:
+        region = balance.scfr(
+            cons,
+            scene.mass + scene.carried_mass,
+            external,
+            gravity,
+            com_z=float(com[2]),
+            bounds=(lo[0], hi[0], lo[1], hi[1]),
+        )
+    except InvalidInput:  # degenerate region (a segment or a point)
+        return -math.inf
+    return region.signed_distance(com[:2])
 
 
 class StaticChecks:
