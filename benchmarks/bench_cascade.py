@@ -19,11 +19,11 @@ from __future__ import annotations
 import argparse
 import time
 
+import cases
 import mink
 import numpy as np
 
 import pik_mj
-from pik_mj import cases
 
 THRE, RTHRE = 1e-3, np.deg2rad(1.0)
 

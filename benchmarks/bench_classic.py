@@ -4,7 +4,7 @@ full-body targets.
 Arm: targets are reachable by construction: the end pose of a random
 configuration inside the joint ranges (x, z and the pitch about y: the arm is
 planar). Full body: dm_control's humanoid with both feet and the right hand as
-targets (:mod:`pik_mj.cases`; the classic solver stacks all three in one
+targets (``benchmarks/cases.py``; the classic solver stacks all three in one
 SR-inverse, the cascade puts the feet above the hand, mink weighs them in one
 QP). Every solver starts from the same configuration and stops at ``--stop``
 iterations or when every target is within 1 mm and 1 degree.
@@ -18,10 +18,11 @@ import argparse
 import json
 import time
 
+import cases
 import mink
 import numpy as np
 
-from pik_mj import FrameTask, cases, solve
+from pik_mj import FrameTask, solve
 from pik_mj.classic_ik import classic_inverse_kinematics
 from pik_mj.models import load_model
 

@@ -3,8 +3,8 @@
 The solve is ``scenarios/fullbody_reach.py``'s (sample humanoid, waist 10°, both
 feet fixed, centroid x-y over the feet, left hand to the seed's (0.4, 0.1, -0.6) m
 from the pelvis, position only, ``stop=100``). It is timed without a callback and
-recorded exactly as ``pik-mj run`` records it: through
-:class:`pik_mj.scenarios.ScenarioRecorder`'s callback (every body's pose and,
+recorded exactly as ``pik-mj run`` records it: through the recorder's
+``solve_logger`` (every body's pose and,
 from them, every geom's; the CoM and its target; every task's error from the
 solve loop's own evaluation; each frame task's current and target frame; the
 blueprint) into a temporary ``.rrd``.
@@ -40,9 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
+from pik_mj import Recorder
 from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.robot import Robot
-from pik_mj.scenarios import ScenarioRecorder
 from pik_mj.solve import IterationInfo, SolveResult
 
 MODEL = "sample_humanoid"
@@ -85,8 +85,10 @@ def time_recorded(robot: Robot, path: Path) -> tuple[float, float, float, float,
     """Returns (setup, solve + flush/close, in the callback, flush/close) times [s], result."""
     target, p_mid = start(robot)
     t0 = time.perf_counter()
-    rec = ScenarioRecorder(path, robot, name="bench_record", simulate=False, hold=0.0)
-    callback = rec.callback("reach")
+    rec = Recorder.to_file(path, application_id="bench_record")
+    rec.log_model_geometry(robot.model, robot_root_body=robot.root_body)
+    rec.flush()  # as a scenario run: the geometry is on disk before the solve
+    callback = rec.solve_logger("reach")
     spent: list[float] = []
 
     def timed(info: IterationInfo) -> None:
@@ -109,7 +111,7 @@ def main(argv=None) -> dict:
     if args.reps < 1:
         parser.error("--reps must be >= 1")
 
-    robot = Robot.load(MODEL)
+    robot = Robot.from_model(MODEL)
     plain, recorded, setup, in_callback, closing = [], [], [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench_record.rrd"

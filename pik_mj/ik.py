@@ -41,6 +41,7 @@ import mink
 import numpy as np
 
 from . import dynamics
+from .callbacks import Callback
 from .exceptions import InvalidInput
 from .frames import Frame
 from .robot import Robot
@@ -61,11 +62,9 @@ __all__ = [
     "gaze_angle",
     "inverse_kinematics",
     "sole_polygons",
+    "sole_size",
     "static_balance_point",
 ]
-
-GRAVITY = 9.81
-"""Magnitude of gravity [m/s²] used when the model's option gives none."""
 
 DEFAULT_ROOT_BOUNDS = (
     np.array([-0.5, -0.5, -0.5, *np.deg2rad([-20.0, -20.0, -10.0])]),
@@ -163,7 +162,7 @@ def static_balance_point(
         [n for _, _, n in parsed],
         [frame.position(robot.data) for frame, _, _ in parsed],
         z=float(height),
-        gravity=float(np.linalg.norm(robot.model.opt.gravity)) or GRAVITY,
+        gravity=float(np.linalg.norm(robot.model.opt.gravity)),
     )
 
 
@@ -210,6 +209,33 @@ def sole_polygons(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> list[
         bottom = pts[pts[:, 2] <= pts[:, 2].min() + 1e-6]
         polys.append(bottom if len(bottom) >= 3 else pts)
     return polys
+
+
+def sole_size(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[float, float]:
+    """Length and width [m] of the soles: the extent of :func:`sole_polygons`
+    along the x and y axes of each leg's end frame (the sole frame, at the sole's
+    centre), the same for every leg.
+
+    Raises:
+        InvalidInput: A sole not centred on its end frame, or legs whose soles
+            differ (by more than 1 mm).
+    """
+    sizes = []
+    for leg, pts in zip(legs, sole_polygons(robot, legs), strict=True):
+        limb = robot.limb(leg)
+        X = robot.frame_pose(limb.end_frame, limb.end_frame_type)
+        local = (pts - X.translation()) @ X.rotation().as_matrix()
+        lo, hi = local[:, :2].min(axis=0), local[:, :2].max(axis=0)
+        if np.any(np.abs(lo + hi) > 1e-3):
+            raise InvalidInput(
+                f"the sole of {leg!r} is not centred on its end frame "
+                f"{limb.end_frame!r} (x, y extents {lo} .. {hi} m)"
+            )
+        sizes.append(hi - lo)
+    if np.ptp(np.array(sizes), axis=0).max() > 1e-3:
+        raise InvalidInput(f"the soles of {list(legs)} differ in size: {np.array(sizes)} m")
+    length, width = np.mean(sizes, axis=0)
+    return float(length), float(width)
 
 
 # ---------------------------------------------------------------------------
@@ -436,7 +462,7 @@ def inverse_kinematics(
     gaze_axis: Sequence[float] = (1.0, 0.0, 0.0),
     posture_weight: float = 1e-2,
     extra_levels: Sequence[Sequence[Any]] | None = None,
-    callback: Callable[..., None] | None = None,
+    callback: Callback | Sequence[Callback] | None = None,
     **solve_kwargs: Any,
 ) -> SolveResult:
     """irteus ``:inverse-kinematics``: bring move targets onto targets, root fixed.
@@ -469,7 +495,8 @@ def inverse_kinematics(
         posture_weight: Cost of moving away from the start posture, last level
             [cost/rad²].
         extra_levels: Levels inserted before the posture level.
-        callback: Per-iteration callback (see :func:`pik_mj.solve.solve`).
+        callback: A per-iteration callback or a list of them (see
+            :func:`pik_mj.solve.solve`).
         **solve_kwargs: Passed to :func:`pik_mj.solve.solve` (``min_loop``,
             ``qp_solver``, ...).
 
@@ -633,7 +660,7 @@ def fullbody_inverse_kinematics(
     gaze_axis: Sequence[float] = (1.0, 0.0, 0.0),
     posture_weight: float = 1e-2,
     extra_levels: Sequence[Sequence[Any]] | None = None,
-    callback: Callable[..., None] | None = None,
+    callback: Callback | Sequence[Callback] | None = None,
     **solve_kwargs: Any,
 ) -> SolveResult:
     """irteus ``:fullbody-inverse-kinematics``: feet fixed, centroid over the feet,

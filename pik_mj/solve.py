@@ -11,13 +11,14 @@ configuration when it ends unsatisfied; any exception restores it too.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import mink
 import numpy as np
 
+from .callbacks import Callback, as_callbacks
 from .cascade import (
     DEFAULT_RELAXATION,
     CascadeStep,
@@ -212,7 +213,7 @@ def solve(
     qp_solver: object = "osqp",
     qp_args: dict[str, Any] | None = None,
     correct: bool = True,
-    callback: Callable[[IterationInfo], None] | None = None,
+    callback: Callback | Sequence[Callback] | None = None,
 ) -> SolveResult:
     """Prioritized inverse kinematics: iterate the cascade until the tasks hold.
 
@@ -240,7 +241,8 @@ def solve(
             that were satisfied before it (a Newton projection), so that the
             second-order drift a step causes in tasks already achieved (feet
             fixed while a hand reaches) is removed within the same iteration.
-        callback: Called after every iteration with an :class:`IterationInfo`.
+        callback: A callable, or a list of callables called in order, after
+            every iteration with an :class:`IterationInfo`.
 
     Returns:
         A :class:`SolveResult`.
@@ -258,6 +260,7 @@ def solve(
         raise InvalidInput(f"min_loop must be a non-negative integer, got {min_loop!r}")
     if not (np.isfinite(relaxation) and relaxation >= 0):
         raise InvalidInput(f"relaxation must be finite and >= 0, got {relaxation}")
+    callbacks = as_callbacks(callback)
     task_levels = normalize_levels(levels, dt)
     n_solved = len(task_levels) - 1
     regs = [
@@ -309,10 +312,12 @@ def solve(
             converged = iteration >= min_loop and everything
             qp_times.append(qp_time)
             times.append(time.perf_counter() - t0)
-            if callback is not None:
-                callback(
-                    IterationInfo(iteration, configuration, task_levels, step, times[-1], reports)
+            if callbacks:
+                info = IterationInfo(
+                    iteration, configuration, task_levels, step, times[-1], reports
                 )
+                for call in callbacks:
+                    call(info)
             if converged:
                 break
     except BaseException:

@@ -89,7 +89,7 @@ def test_bench_balance_avoidance_pairs_cover_arm_body_and_floor():
     assert frozenset(("rleg_sole", "floor")) not in pairs
     assert frozenset(("rarm_upper", "torso_chest")) not in pairs
     # the floor adds no degree of freedom: the same q as the robot-only model
-    assert robot.model.nq == bench.Robot.load(bench.MODEL).model.nq
+    assert robot.model.nq == bench.Robot.from_model(bench.MODEL).model.nq
 
 
 def test_bench_balance_targets_in_the_box():
@@ -123,7 +123,7 @@ def test_bench_record_rrd_holds_the_iterations(tmp_path):
     from pik_mj.robot import Robot
 
     bench = _load("bench_record")
-    robot = Robot.load(bench.MODEL)
+    robot = Robot.from_model(bench.MODEL)
     path = tmp_path / "r.rrd"
     _, _, _, _, result = bench.time_recorded(robot, path)
     data = read_recording(path)

@@ -12,16 +12,9 @@ import numpy as np
 import pytest
 import qpsolvers
 
-from pik_mj import (
-    DEFAULT_RELAXATION,
-    InfeasibleHardConstraints,
-    OSQPBackend,
-    QPFailure,
-    Regularization,
-    TaskRows,
-    solve_cascade,
-)
-from pik_mj.qp import QpsolversBackend
+from pik_mj import InfeasibleHardConstraints, QPFailure, TaskRows
+from pik_mj.cascade import DEFAULT_RELAXATION, Regularization, solve_cascade
+from pik_mj.qp import OSQPBackend, QpsolversBackend
 
 NV = 8
 # eps_prim_inf well below τ (1e-9): see OSQP_DEFAULTS.

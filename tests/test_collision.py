@@ -190,7 +190,7 @@ def test_prefilter_never_drops_a_near_pair_and_evaluate_agrees():
     yellow zone (brute force over all pairs with mj_geomDistance), and the
     distances equal the brute force ones; evaluate() gives compute_rows'
     rows, compute_error's norm and is_satisfied's verdict."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     m = robot.model
     bodies = [m.body(b).name for b in range(1, m.nbody) if m.body_geomnum[b] > 0]
     pairs = collision_pairs(m, robot.data, bodies)
@@ -218,7 +218,7 @@ def test_prefilter_never_drops_a_near_pair_and_evaluate_agrees():
 def test_moving_pairs_are_those_whose_distance_changes():
     """Pairs kept for the right arm's joints are exactly those whose distance
     changes when those joints (and only those) move at random."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     m = robot.model
     bodies = [m.body(b).name for b in range(1, m.nbody) if m.body_geomnum[b] > 0]
     pairs = collision_pairs(m, robot.data, bodies)
@@ -236,7 +236,7 @@ def test_moving_pairs_are_those_whose_distance_changes():
 
 def test_pair_list_like_the_seed_example():
     """Seed: forearm, upper arm, torso, base → forearm–torso, forearm–base, upper–base."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.reset_pose()
     model, data = robot.model, robot.data
     links = ["rarm_lower", "rarm_upper", "torso_chest", "pelvis"]

@@ -6,12 +6,12 @@ limits hard.
 
 from __future__ import annotations
 
+import cases
 import mink
 import numpy as np
 import pytest
 
 import pik_mj
-from pik_mj import cases
 from pik_mj.tasks.frame import FrameTask
 
 

@@ -15,7 +15,8 @@ from fd import fd_jacobian
 
 import pik_mj
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import compose_scene, load_model
+from pik_mj.models import load_model
+from pik_mj.robot import Robot
 from pik_mj.tasks.com import CentroidTask, robot_root_body
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.joint_coupling import JointCouplingTask
@@ -239,7 +240,7 @@ def test_centroid_jacobian_fd_on_the_fixed_arm(arm, frame):
 
 
 def test_centroid_counts_only_the_robot_in_a_scene():
-    model = compose_scene("sample_humanoid", "room").compile()
+    model = Robot.from_model("sample_humanoid", environment="room").model
     cfg = configured(model, model.qpos0.copy())
     task = CentroidTask(cfg, [0, 0, 0])
     root = task.root_body

@@ -29,8 +29,9 @@ import mink
 import mujoco
 import numpy as np
 
-from ..exceptions import InvalidInput, UnknownName
+from ..exceptions import InvalidInput
 from ..frames import Frame
+from ..robot import robot_root_body
 from .frame import AxisSpec, constrained_axes, skew
 from .task import Task, TaskRows, diagonal_weights
 
@@ -39,50 +40,6 @@ Vector3Fn = Callable[[mink.Configuration], Any]
 
 def _body_name(model: mujoco.MjModel, b: int) -> str:
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body#{b}"
-
-
-def robot_root_body(model: mujoco.MjModel, root_body: str | None = None) -> int:
-    """Id of the robot's top-level body.
-
-    Args:
-        model: The model.
-        root_body: A body name (any body except the world; its subtree is the
-            robot). None picks among the top-level bodies (children of the
-            world): those with a free joint if any, then the one with the most
-            degrees of freedom in its subtree.
-
-    Raises:
-        UnknownName: No body ``root_body``.
-        InvalidInput: ``root_body`` is the world, or the default is ambiguous.
-    """
-    top = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
-    names = [_body_name(model, b) for b in top]
-    if root_body is not None:
-        if not isinstance(root_body, str):
-            raise InvalidInput(f"root_body must be a body name, got {type(root_body).__name__}")
-        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-        if b < 0:
-            raise UnknownName("body", root_body, [_body_name(model, i) for i in range(model.nbody)])
-        if b == 0:
-            raise InvalidInput(
-                f"root_body {root_body!r} is the world body, whose subtree holds the "
-                f"environment too; give the robot's top-level body, one of {names}"
-            )
-        return int(b)
-    if not top:
-        raise InvalidInput("the model has no body besides the world")
-    free = int(mujoco.mjtJoint.mjJNT_FREE)
-    floating = [
-        b for b in top if model.body_jntnum[b] > 0 and model.jnt_type[model.body_jntadr[b]] == free
-    ]
-    candidates = floating or top
-    dofs = [int(model.body_dofnum[model.body_rootid == b].sum()) for b in candidates]
-    best = max(dofs)
-    if dofs.count(best) > 1:
-        raise InvalidInput(
-            f"cannot tell which top-level body is the robot among {names}; pass root_body"
-        )
-    return int(candidates[dofs.index(best)])
 
 
 def com_position(configuration: mink.Configuration, body: int) -> np.ndarray:

@@ -20,10 +20,10 @@ import mink
 import mujoco
 import numpy as np
 
-from .models import load_model
-from .solve import solve
-from .tasks.frame import FrameTask
-from .tasks.mink_adapter import MinkTask
+from pik_mj.models import load_model
+from pik_mj.solve import solve
+from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.mink_adapter import MinkTask
 
 FEET = ("left_foot", "right_foot")
 HAND = "right_hand"
