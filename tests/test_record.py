@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.record import PATHS, EntityData, Recorder, blueprint, read_recording
-from pik_mj.record_geometry import right_mul_matrix
+from pik_mj.record.geometry import right_mul_matrix
 
 TET = np.array([[0, 0, 0], [0.2, 0, 0], [0, 0.2, 0], [0, 0, 0.2]], dtype=float)
 TET_POS = np.array([0.0, 0.0, 0.1])

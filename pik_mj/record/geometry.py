@@ -1,4 +1,4 @@
-"""MuJoCo geoms as rerun primitives, grouped: one entity per primitive kind.
+"""MuJoCo geoms and bodies as rerun primitives, grouped: one entity per primitive kind.
 
 Every visible geom is one instance of a multi-instance rerun primitive
 (``Boxes3D``, ``Capsules3D``, ``Cylinders3D``, ``Ellipsoids3D``), or one instance
@@ -37,12 +37,17 @@ import numpy.typing as npt
 import rerun as rr
 
 __all__ = [
+    "BODY_MARKER_RADIUS",
+    "BodyFrames",
     "GeomGroup",
     "InstancePoses",
+    "body_markers",
     "geom_groups",
     "geom_rgba",
     "hfield_mesh",
     "right_mul_matrix",
+    "subtree",
+    "unique_names",
     "vertex_normals",
 ]
 
@@ -333,3 +338,59 @@ def geom_groups(
             )
         )
     return out, skipped
+
+
+# ---------------------------------------------------------------------------
+# Bodies
+
+
+def subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
+    """Boolean mask of the bodies in the kinematic subtree of ``root``."""
+    inside = np.zeros(model.nbody, dtype=bool)
+    inside[root] = True
+    for b in range(root + 1, model.nbody):  # parents have smaller ids
+        inside[b] = inside[model.body_parentid[b]]
+    return inside
+
+
+def unique_names(kind: str, names: Sequence[str]) -> list[str]:
+    """MJCF names with ``<kind>_<id>`` for unnamed ones, made unique."""
+    out: list[str] = []
+    seen: set[str] = set()
+    for i, name in enumerate(names):
+        n = name or f"{kind}_{i}"
+        if n in seen:
+            n = f"{n}_{i}"
+        seen.add(n)
+        out.append(n)
+    return out
+
+
+#: Radius [m] of the marker drawn at each body frame.
+BODY_MARKER_RADIUS = 0.01
+
+
+def body_markers(names: Sequence[str]) -> Any:
+    """Small wireframe spheres labelled with the body names (their poses are
+    logged per row)."""
+    return rr.Ellipsoids3D(
+        half_sizes=np.full((len(names), 3), BODY_MARKER_RADIUS),
+        colors=[(230, 230, 230)],
+        labels=list(names),
+        show_labels=False,
+    )
+
+
+@dataclass
+class BodyFrames:
+    """The frames of the moving bodies of the robot (or of the scene), and the
+    geometry they carry: its instance poses follow from the body poses."""
+
+    path: str
+    ids: np.ndarray  # body ids, one instance each
+    groups: list[GeomGroup]  # the moving geom groups on these bodies
+    instances: InstancePoses
+
+    def geometry(self, frames: np.ndarray) -> list[tuple[GeomGroup, np.ndarray]]:
+        """Each group with its (rows, k, 7) poses, from body poses (rows, bodies, 7)."""
+        return list(zip(self.groups, self.instances(frames), strict=True))

@@ -1,0 +1,102 @@
+"""The one entity-path table of pik_mj's recordings, and their timelines."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import rerun as rr
+
+__all__ = ["PATHS", "TIMELINES", "EntityPaths"]
+
+#: Kind of every timeline pik_mj uses: ``iteration`` counts IK solver iterations,
+#: ``sim_time`` is physics time in [s]. Other timelines need an explicit ``kind``.
+TIMELINES: dict[str, str] = {"iteration": "sequence", "sim_time": "duration"}
+
+
+def _part(name: str) -> str:
+    """Escape one entity-path part (MJCF names may hold '/', spaces, ...)."""
+    return rr.escape_entity_path_part(name)
+
+
+@dataclass(frozen=True)
+class EntityPaths:
+    """Every rerun entity path pik_mj writes. Names are escaped path parts.
+
+    Attributes:
+        world: Root of the 3D scene (z up).
+        robot: Parent of the robot's geometry (``world/robot/<kind>``) and body
+            frames (``world/robot/bodies``).
+        scene: Parent of the environment's geometry: ``world/scene/<kind>``
+            (welded to the world), ``world/scene/moving/<kind>`` and
+            ``world/scene/moving/bodies`` (free or mocap bodies).
+        com: Centre of mass ``p_WC`` [m].
+        com_target: Target of the centre of mass [m].
+        support_polygon: Support polygon outline (child ``margin``: shrunk outline).
+        scfr: Static centroid feasible region outline.
+        zmp: Zero-moment point [m].
+        contact_points: Contact points [m].
+        contact_forces: Contact forces drawn as arrows (scaled, [m/N]).
+        tasks: Parent of task frames: ``world/tasks/<task>/target|current``.
+        errors: Parent of task error series: ``errors/level_<k>/<task>``.
+        events: Text log of the run.
+        hold: Parent of physics-hold metrics: ``hold/<metric>`` (e.g. ``hold/drift``).
+        balance: Parent of per-iteration balance metrics of the simulated static
+            check: ``balance/<metric>`` (e.g. ``balance/margin``).
+    """
+
+    world: str = "world"
+    robot: str = "world/robot"
+    scene: str = "world/scene"
+    com: str = "world/com"
+    com_target: str = "world/com_target"
+    support_polygon: str = "world/support_polygon"
+    scfr: str = "world/scfr"
+    zmp: str = "world/zmp"
+    contact_points: str = "world/contacts/points"
+    contact_forces: str = "world/contacts/forces"
+    tasks: str = "world/tasks"
+    errors: str = "errors"
+    events: str = "log/events"
+    hold: str = "hold"
+    balance: str = "balance"
+
+    def geoms(self, kind: str, *, robot: bool = True, moving: bool = True) -> str:
+        """Path of the geoms of one primitive ``kind`` (``boxes``, ``capsules``,
+        ``cylinders``, ``ellipsoids``, ``meshes/<mesh>``, ``hfields/<hfield>``)
+        of the robot, of the scene welded to the world, or of moving scene bodies."""
+        if robot:
+            return f"{self.robot}/{kind}"
+        return f"{self.scene}/moving/{kind}" if moving else f"{self.scene}/{kind}"
+
+    def bodies(self, *, robot: bool = True) -> str:
+        """Path of the body frames ``X_WB`` of the robot or of the moving scene
+        bodies (one instance per body, labelled with its MJCF name)."""
+        return f"{self.robot}/bodies" if robot else f"{self.scene}/moving/bodies"
+
+    def task_target(self, task: str) -> str:
+        """Path of a task's target frame."""
+        return f"{self.tasks}/{_part(task)}/target"
+
+    def task_current(self, task: str) -> str:
+        """Path of a task's current frame."""
+        return f"{self.tasks}/{_part(task)}/current"
+
+    def level_errors(self, level: int) -> str:
+        """Parent path of the error series of priority level ``level``."""
+        return f"{self.errors}/level_{int(level)}"
+
+    def task_error(self, level: int, task: str) -> str:
+        """Path of the scalar error series of ``task`` on priority level ``level``."""
+        return f"{self.level_errors(level)}/{_part(task)}"
+
+    def hold_metric(self, name: str) -> str:
+        """Path of a physics-hold metric series, e.g. ``hold/drift``."""
+        return f"{self.hold}/{_part(name)}"
+
+    def balance_metric(self, name: str) -> str:
+        """Path of a per-iteration balance metric series, e.g. ``balance/margin``."""
+        return f"{self.balance}/{_part(name)}"
+
+
+#: The one entity-path table of pik_mj.
+PATHS = EntityPaths()
