@@ -509,11 +509,12 @@ def test_sim_time_is_seconds_and_timelines_can_be_dropped(model, tmp_path):
 
 
 def test_rrd_verify_and_blueprint(model, tmp_path):
+    # the blueprint sent at close lays out what was logged
     path = tmp_path / "full.rrd"
     with Recorder.to_file(path) as rec:
         rec.log_model_geometry(model)
-        rec.send_blueprint(levels=[1, 2, 3])
         rec.log_body_poses(_posed_data(model, 1), time=0)
+        rec.log_task_errors({(k, "task"): 0.5 for k in (1, 2, 3)})
     result = _verify(path)
     assert result.returncode == 0, result.stderr
     bp = read_recording(path, blueprint=True)
@@ -537,9 +538,10 @@ def test_rrd_verify_and_blueprint(model, tmp_path):
 def test_blueprint_read_back_is_the_last_one_sent(tmp_path):
     # every send_blueprint makes its own store, listed in no set order
     path = tmp_path / "resent.rrd"
-    with Recorder.to_file(path) as rec:
-        for n in range(1, 6):
-            rec.send_blueprint(levels=range(1, n + 1))
+    rec = Recorder.to_file(path)
+    for n in range(1, 6):
+        rec.send_blueprint(levels=range(1, n + 1))
+    rec.close(blueprint=False)
     bp = read_recording(path, blueprint=True)
     origins = {
         e.temporal["ViewBlueprint:space_origin"][-1][1][0]
@@ -567,6 +569,15 @@ def test_recording_is_valid_after_an_exception(model, tmp_path):
     assert times.tolist() == list(range(10))
     _, e = out[PATHS.task_error(1, "com")].series("Scalars:scalars", "iteration")
     assert [x[0] for x in e] == [float(k) for k in range(10)]
+    # the failure is in the text log, at the last time logged, and the layout was sent
+    ((t, text),) = out[PATHS.events].temporal["TextLog:text"]
+    assert text == ["run raised RuntimeError: solver exploded"] and t["iteration"] == 9
+    bp = read_recording(path, blueprint=True)
+    assert "errors/level_1" in {
+        e.temporal["ViewBlueprint:space_origin"][-1][1][0]
+        for e in bp.values()
+        if "ViewBlueprint:space_origin" in e.temporal
+    }
     with pytest.raises(PikError, match="closed"):
         rec.log_scalar("x", 1.0)
 

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import rerun.blueprint as rrb
 
 from .paths import PATHS, EntityPaths
 
-__all__ = ["blueprint"]
+__all__ = ["blueprint", "blueprint_for"]
 
 
 def blueprint(
@@ -33,3 +33,25 @@ def blueprint(
     if not series:
         return rrb.Blueprint(view3d)
     return rrb.Blueprint(rrb.Horizontal(view3d, rrb.Vertical(*series), column_shares=[2, 1]))
+
+
+def _under(logged: Mapping[str, set[str]], parent: str) -> bool:
+    return any(path.startswith(f"{parent}/") for path in logged)
+
+
+def blueprint_for(logged: Mapping[str, set[str]], paths: EntityPaths = PATHS) -> rrb.Blueprint:
+    """The layout of everything ``logged`` (entity path -> its timelines): a
+    plot per priority level of every solve, the simulation's series when they
+    were logged.
+
+    Args:
+        logged: What a :class:`~pik_mj.record.recorder.Recorder` logged
+            (:meth:`~pik_mj.record.recorder.Recorder.logged`).
+        paths: Entity-path table.
+    """
+    prefix = f"{paths.errors}/level_"
+    levels = sorted({int(p[len(prefix) :].split("/")[0]) for p in logged if p.startswith(prefix)})
+    extra = [(paths.balance, "balance (simulation)")] if _under(logged, paths.balance) else []
+    if _under(logged, paths.hold):
+        extra.append((paths.hold, "physics hold"))
+    return blueprint(levels, paths, extra=extra)

@@ -35,6 +35,7 @@ The per-iteration loggers of a solve and of a physics hold are
 from __future__ import annotations
 
 import math
+import time
 import uuid
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -45,10 +46,11 @@ import mujoco
 import numpy as np
 import numpy.typing as npt
 import rerun as rr
+import rerun.blueprint as rrb
 
 from ..exceptions import InvalidInput, PikError, UnknownName
 from . import geometry
-from .blueprint import blueprint
+from .blueprint import blueprint, blueprint_for
 from .columns import (
     BODY_FRAME,
     INSTANCE_POSES,
@@ -61,6 +63,7 @@ from .columns import (
     pose_batches_of,
 )
 from .geometry import BodyFrames, InstancePoses
+from .loggers import HoldLogger, SolveLogger
 from .paths import PATHS, TIMELINES, EntityPaths
 
 __all__ = ["Recorder"]
@@ -103,20 +106,33 @@ class Recorder:
 
     Per-iteration data (body poses, frames, points, scalars) and static data
     (geometry) are buffered; every buffer is sent, in one call, when one
-    entity holds ``flush_every`` rows, and on :meth:`flush` /
+    entity holds ``flush_every`` rows, when ``flush_interval`` has passed since
+    the last send (a live viewer then follows the run), and on :meth:`flush` /
     :meth:`send_buffered` / :meth:`close` / leaving the ``with`` block (also when
-    the block raised). ``flush_every=1`` logs each row at once (for a live
-    viewer; ~60 us per entity per row instead of ~1 us buffered).
+    the block raised). ``flush_every=1`` logs each row at once (~60 us per
+    entity per row instead of ~1 us buffered).
 
     Time is set with :meth:`set_time` (or by :meth:`log_body_poses`); set it
     through the Recorder, not on the stream, so buffered rows carry it.
 
+    :meth:`close` sends one blueprint laid out for everything that was logged
+    (:func:`pik_mj.record.blueprint.blueprint_for`), then closes the stream.
+
     Args:
-        stream: The recording stream to log to (never the global one).
+        stream: The recording stream to log to, passed explicitly (the
+            Recorder never logs to rerun's global stream on its own), e.g. the
+            one ``rr.script_setup`` returns (``--save``, ``--connect``,
+            ``--spawn``, ``--serve``).
         flush_every: Rows buffered per entity before they are sent (>= 1).
+        flush_interval: Longest time [s] rows stay buffered, or None (sent by
+            count and on :meth:`flush` only, the default of :meth:`to_file`).
         owns_stream: Whether :meth:`close` disconnects ``stream`` (finalizing its
             file sinks). A stream you pass in is only flushed by default.
         paths: Entity-path table.
+
+    Attributes:
+        robot_root_body: Name of the robot's root body given to
+            :meth:`log_model_geometry` (None: every body is the robot's).
     """
 
     def __init__(
@@ -124,6 +140,7 @@ class Recorder:
         stream: rr.RecordingStream,
         *,
         flush_every: int = 256,
+        flush_interval: float | None = 0.2,
         owns_stream: bool = False,
         paths: EntityPaths = PATHS,
     ):
@@ -132,9 +149,15 @@ class Recorder:
                 f"stream must be a rerun.RecordingStream, got {type(stream).__name__}"
             )
         _check_flush_every(flush_every)
+        if flush_interval is not None and not (
+            math.isfinite(flush_interval) and flush_interval > 0
+        ):
+            raise InvalidInput(f"flush_interval must be > 0 [s] or None, got {flush_interval}")
         self.stream = stream
         self.paths = paths
         self.flush_every = int(flush_every)
+        self.flush_interval = flush_interval
+        self._next_send = -math.inf
         self.owns_stream = owns_stream
         self.closed = False
         # Current time: timeline -> value, and its kind (fixed once used).
@@ -147,8 +170,15 @@ class Recorder:
         self._blocks: dict[tuple[Any, ...], Block] = {}
         self._outbox = Outbox()
         self._error_paths: dict[tuple[tuple[int, str], ...], tuple[str, ...]] = {}
+        # What was logged: entity path -> timelines of its rows (the blueprint's input)
+        self._logged: dict[str, set[str]] = {}
+        # Solves: the last tick of the iteration timeline, and the fixed targets
+        # logged (path -> the target object, or the value of the CoM target)
+        self._tick = 0
+        self._logged_targets: dict[str, object] = {}
         # Filled by log_model_geometry.
         self._model: mujoco.MjModel | None = None
+        self.robot_root_body: str | None = None
         self._frames: dict[tuple[str, ...], BodyFrames] = {}  # by (path,)
         self.skipped_geoms: list[str] = []
 
@@ -172,7 +202,54 @@ class Recorder:
             raise InvalidInput(f"directory of the recording {str(path)!r} does not exist")
         stream = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
         stream.save(path)
-        return cls(stream, flush_every=flush_every, owns_stream=True)
+        return cls(stream, flush_every=flush_every, flush_interval=None, owns_stream=True)
+
+    @property
+    def model(self) -> mujoco.MjModel | None:
+        """The model whose geometry was logged last (:meth:`log_model_geometry`)."""
+        return self._model
+
+    # -- loggers ----------------------------------------------------------------
+
+    def solve_logger(self, label: str, checks: Any = None, *, start: Any = None) -> SolveLogger:
+        """A callback for ``pik_mj.solve(..., callback=...)`` that logs solve
+        ``label`` iteration by iteration; call its ``finish(result)`` after the
+        solve. See :class:`~pik_mj.record.loggers.SolveLogger`.
+
+        Args:
+            label: Name of the solve (text log).
+            checks: The scene's per-iteration static checker (an object with a
+                ``.reports`` list), placed BEFORE this logger in the callbacks:
+                its last report is logged each iteration.
+            start: The robot (or its ``mink.Configuration`` / ``MjData``) in
+                the start pose, logged at the solve's first tick.
+        """
+        return SolveLogger(self, label, checks, start=start)
+
+    def hold_logger(self, every: int = 10) -> HoldLogger:
+        """A callback for ``scene.hold(..., callback=...)`` that logs every
+        ``every``-th sample on ``sim_time``. See
+        :class:`~pik_mj.record.loggers.HoldLogger`."""
+        return HoldLogger(self, every)
+
+    def _begin_solve(self) -> int:
+        """Start a solve at the current tick of ``iteration`` (a hold's
+        ``sim_time`` no longer stamps rows); returns the tick."""
+        self.disable_timeline("sim_time")
+        self.set_time("iteration", self._tick)
+        return self._tick
+
+    def _next_tick(self) -> int:
+        """The next tick of the ``iteration`` timeline (counted over all solves)."""
+        self._tick += 1
+        return self._tick
+
+    def _begin_hold(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Start a hold: rows are on ``sim_time`` only; the geometry of the
+        scene's ``model`` is logged when it is not the model logged."""
+        self.disable_timeline("iteration")
+        if model is not self._model:
+            self.log_model_geometry(model, data, robot_root_body=self.robot_root_body)
 
     # -- lifetime ---------------------------------------------------------------
 
@@ -185,6 +262,12 @@ class Recorder:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        if exc is not None and not self.closed:
+            try:
+                self.log_text(f"run raised {type(exc).__name__}: {exc}", level="ERROR")
+            finally:
+                self.close()
+            return
         self.close()
 
     def flush(self) -> None:
@@ -200,13 +283,19 @@ class Recorder:
         self._send_buffers()
         self.stream.flush(timeout_sec=0.0)  # start the pipeline, do not wait
 
-    def close(self) -> None:
-        """Send the buffered rows; disconnect the stream if this Recorder owns it
-        (which flushes it and finalizes its file), else flush it. Idempotent."""
+    def close(self, *, blueprint: bool = True) -> None:
+        """Send the buffered rows and (with ``blueprint``) one blueprint laid out
+        for everything logged; disconnect the stream if this Recorder owns it
+        (which flushes it and finalizes its file), else flush it. The stream is
+        closed also when sending fails. Idempotent."""
         if self.closed:
             return
         try:
             self._send_buffers()
+            # the stream writes the rows on its threads while the blueprint is built
+            self.stream.flush(timeout_sec=0.0)
+            if blueprint:
+                self.stream.send_blueprint(self.blueprint())
             if not self.owns_stream:
                 self.stream.flush()
         finally:
@@ -214,12 +303,23 @@ class Recorder:
             if self.owns_stream:
                 self.stream.disconnect()
 
+    def logged(self) -> dict[str, set[str]]:
+        """Every entity path logged so far (static data left out) -> the
+        timelines its rows carry."""
+        return {path: set(timelines) for path, timelines in self._logged.items()}
+
+    def blueprint(self) -> rrb.Blueprint:
+        """The blueprint of what was logged so far (what :meth:`close` sends)."""
+        return blueprint_for(self._logged, self.paths)
+
     def _send_buffers(self) -> None:
         """Send every buffered row of every entity, and pending static data, in
         one call."""
         for block in self._blocks.values():
             block.drain(self._outbox, self._frames.get(block.paths))
         self._outbox.send(self.stream)
+        if self.flush_interval is not None:
+            self._next_send = time.monotonic() + self.flush_interval
 
     def _check_open(self) -> None:
         if self.closed:
@@ -285,6 +385,7 @@ class Recorder:
         self._check_open()
         if not static:
             self._sync_stream_time()
+            self._logged.setdefault(path, set()).update(self._time)
         self.stream.log(path, *archetypes, static=static, strict=True)
 
     def _log_static(self, path: str, *archetypes: Any) -> None:
@@ -324,7 +425,11 @@ class Recorder:
             block = self._blocks[key] = Block(
                 paths, kind, style, names, kinds, self.flush_every, rows.shape[1]
             )
-        if block.append(self._time_vals, rows):
+            for path in paths:
+                self._logged.setdefault(path, set()).update(names)
+        if block.append(self._time_vals, rows) or (
+            self.flush_interval is not None and time.monotonic() >= self._next_send
+        ):
             self._send_buffers()
 
     # -- geometry -------------------------------------------------------------
@@ -391,6 +496,7 @@ class Recorder:
 
         # Send rows buffered for a previous model before replacing the table.
         self._send_buffers()
+        self.robot_root_body = robot_root_body
 
         self._log_static(self.paths.world, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         geom_names = geometry.unique_names("geom", [model.geom(g).name for g in range(model.ngeom)])
@@ -615,8 +721,14 @@ class Recorder:
             raise InvalidInput(f"text level must be one of {_TEXT_LEVELS}, got {level!r}")
         self._log(self.paths.events, rr.TextLog(str(message), level=level))
 
-    def send_blueprint(self, levels: Iterable[int], extra: Sequence[tuple[str, str]] = ()) -> None:
-        """Send :func:`blueprint` of ``levels`` (and ``extra`` series) with the stream
-        (made active)."""
+    def send_blueprint(
+        self, levels: Iterable[int] | None = None, extra: Sequence[tuple[str, str]] = ()
+    ) -> None:
+        """Send a blueprint now (made active): the one of what was logged so far
+        (:meth:`blueprint`), or the layout of ``levels`` and ``extra`` series
+        (:func:`~pik_mj.record.blueprint.blueprint`). :meth:`close` sends the
+        blueprint of everything logged after it."""
         self._check_open()
-        self.stream.send_blueprint(blueprint(list(levels), self.paths, extra=extra))
+        self.stream.send_blueprint(
+            self.blueprint() if levels is None else blueprint(list(levels), self.paths, extra=extra)
+        )
