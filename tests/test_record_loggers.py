@@ -26,10 +26,14 @@ import rerun as rr
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.record import PATHS, Recorder, read_recording
+from pik_mj.record import PATHS, Recorder, read_blueprint, read_recording
 from pik_mj.record.loggers import margin_outline
+from pik_mj.record.style import FORCE_PER_WEIGHT
 from pik_mj.robot import Robot
 from pik_mj.sim import Scene
+from pik_mj.walking import GaitParameters
+from pik_mj.walking.playback import play_walk_pattern
+from pik_mj.walking.wholebody import straight_walk
 
 SCALAR = "Scalars:scalars"
 POINTS = "Points3D:positions"
@@ -132,6 +136,8 @@ def recorded(tmp_path_factory):
     out = {"path": path, "robot": robot}
     with Recorder.to_file(path, "test_loggers") as rec:
         rec.log_model_geometry(robot.model, robot_root_body=robot.root_body)
+        out["force_scale"], out["height"] = rec.force_scale, rec.measures.height
+        out["lift"] = rec.lift
         out["com0"] = robot.com()
         first = Capture(robot)
         log = rec.solve_logger("reach", start=robot)
@@ -149,6 +155,7 @@ def recorded(tmp_path_factory):
             hold(s)
         hold.finish()
         out["logged"] = rec.logged()
+        out["force_scale_end"] = rec.force_scale
     out["rec"] = read_recording(path)
     return out
 
@@ -217,14 +224,24 @@ def test_static_checks_are_the_reports(recorded):
     last = reports[-1]
     times, strips = rec[PATHS.support_polygon].series("LineStrips3D:strips", "iteration")
     loop = np.array(strips[-1][0])
-    np.testing.assert_allclose(loop[:-1], last.support_polygon, atol=1e-6)
+    up = np.array([0.0, 0.0, recorded["lift"]])  # drawn above the soles
+    assert recorded["lift"] > 0.07  # the sample humanoid's soles are 7 cm thick
+    lifted = last.support_polygon + up
+    np.testing.assert_allclose(loop[:-1], lifted, atol=1e-6)
     np.testing.assert_allclose(loop[-1], loop[0])
     _, outline = rec[f"{PATHS.support_polygon}/margin"].series("LineStrips3D:strips", "iteration")
-    np.testing.assert_allclose(
-        np.array(outline[-1][0])[:-1], margin_outline(last.support_polygon, last.margin), atol=1e-6
-    )
+    expected = margin_outline(last.support_polygon, last.margin) + up
+    np.testing.assert_allclose(np.array(outline[-1][0])[:-1], expected, atol=1e-6)
+    # forces drawn at the robot's scale: its weight as FORCE_PER_WEIGHT of its height
     _, forces = rec[PATHS.contact_forces].series("Arrows3D:vectors", "iteration")
-    np.testing.assert_allclose(np.array(forces[-1]), 1e-3 * last.forces, atol=1e-6)
+    robot = recorded["robot"]
+    weight = -robot.model.opt.gravity[2] * robot.mass
+    assert recorded["force_scale"] == pytest.approx(FORCE_PER_WEIGHT * recorded["height"] / weight)
+    np.testing.assert_allclose(
+        np.array(forces[-1]), recorded["force_scale"] * last.forces, atol=1e-6
+    )
+    assert 1.2 < recorded["height"] < 1.8  # the sample humanoid, soles to head [m]
+    assert recorded["force_scale_end"] == recorded["force_scale"]  # the hold's scene too
 
 
 def test_margin_outline_is_at_the_margin_from_every_edge():
@@ -279,7 +296,8 @@ def test_blueprint_covers_every_solve_and_the_hold(recorded):
         for e in bp.values()
         if "ViewBlueprint:space_origin" in e.temporal
     }
-    assert {PATHS.level_errors(k) for k in levels} | {PATHS.balance, PATHS.hold} <= origins
+    plots = {PATHS.level_errors(k, log10=True) for k in levels}
+    assert plots | {PATHS.balance, PATHS.hold, PATHS.world, PATHS.events} == origins
     assert _verify(recorded["path"]).returncode == 0
 
 
@@ -296,6 +314,7 @@ def test_a_solve_recorded_on_its_own_stream(tmp_path):
         result = log.finish(_reach(robot, [0.3, 0.2, -0.4], log))
     rr.script_teardown(args)
     stream.disconnect()  # what the end of the script's process does
+    rr.set_global_data_recording(None)  # script_setup made it the global one
     assert rec.robot_root_body == robot.root_body  # found from the model
     data = read_recording(tmp_path / "mine.rrd")
     times, _ = data[PATHS.com].series(POINTS, "iteration")
@@ -337,6 +356,184 @@ def test_bad_logger_input():
         rec.solve_logger("x", checks=object())
     with pytest.raises(InvalidInput, match="start must be an MjData"):
         rec.solve_logger("x", start=3)
+
     with pytest.raises(InvalidInput, match="flush_interval must be > 0"):
         Recorder(rec.stream, flush_interval=0.0)
     rec.close()
+
+
+# ---------------------------------------------------------------------------
+# The blueprint a person opens (issue 16)
+
+
+def _robot_points(rec, timeline: str) -> np.ndarray:
+    """Every logged body position of the robot on ``timeline`` (n, 3) [m]."""
+    _, rows = rec[PATHS.bodies()].series("Ellipsoids3D:centers", timeline)
+    return np.vstack([np.array(r) for r in rows])
+
+
+def _check_framed(eye: dict, points: np.ndarray, height: float) -> None:
+    """The camera looks at the robot from within a few robot heights."""
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    # it looks at the robot's middle ...
+    assert np.linalg.norm(eye["look_target"][:2] - centre[:2]) < 0.25 * height
+    assert points[:, 2].min() < eye["look_target"][2] < points[:, 2].max()
+    # ... from within three robot heights, above the ground, never from inside it
+    distance = np.linalg.norm(points - eye["position"], axis=1)
+    assert 0.5 * height < distance.min() and distance.max() < 3.0 * height
+    assert eye["position"][2] > 0
+
+
+def _check_plots_have_data(rec, views, timeline: str) -> int:
+    """Every plot names ``timeline`` and shows some series with rows on it."""
+    plots = [v for v in views if v.kind == "TimeSeries"]
+    for view in plots:
+        assert view.timelines == [timeline], view.name
+        shown = view.entities(rec)
+        assert shown, f"plot {view.name!r} shows no logged entity"
+        rows = [len(rec[e].series(SCALAR, timeline)[0]) for e in shown]
+        assert max(rows) > 1, f"plot {view.name!r} has no data on {timeline}"
+    return len(plots)
+
+
+def test_blueprint_opens_on_the_solve(recorded):
+    rec, layout = recorded["rec"], read_blueprint(recorded["path"])
+    assert layout.timeline == "iteration"  # the time panel opens on the solve
+    (solve, views), (hold, hold_views) = layout.tabs
+    assert "iteration" in solve and "sim_time" in hold
+    assert views[0].kind == "3D" and views[0].origin == PATHS.world
+    _check_framed(views[0].eye, _robot_points(rec, "iteration"), recorded["height"])
+    assert _check_plots_have_data(rec, views, "iteration") == 5  # 3 levels, 2 balance
+    assert any(v.kind == "TextLog" and v.origin == PATHS.events for v in views)
+    # error plots are log-scaled: they show log10 of the logged errors
+    errors = [v for v in views if "error" in v.name]
+    assert [v.origin for v in errors] == [PATHS.level_errors(k, log10=True) for k in (1, 2, 3)]
+    key = (2, "target:larm_end")
+    _, linear = rec[PATHS.task_error(*key)].series(SCALAR, "iteration")
+    _, log10 = rec[PATHS.task_error(*key, log10=True)].series(SCALAR, "iteration")
+    np.testing.assert_allclose([v[0] for v in log10], np.log10([v[0] for v in linear]))
+    assert min(v[0] for v in log10) < -3  # converged below 1 mm: visible on this scale
+    # plots grouped by unit: no plot mixes metres with counts or newtons
+    names = {v.name: v.entities(rec) for v in views + hold_views if v.kind == "TimeSeries"}
+    assert names["static check: CoM margin to the support polygon [m]"] == ["balance/margin"]
+    assert names["hold: vertical contact force [N]"] == ["hold/contact_force_z"]
+    _check_framed(hold_views[0].eye, _robot_points(rec, "sim_time"), recorded["height"])
+    assert _check_plots_have_data(rec, hold_views, "sim_time") == 2
+
+
+@pytest.fixture(scope="module")
+def walked(tmp_path_factory):
+    """A step of the sample humanoid (and the closing one), played in physics
+    into a recording (coarse ticks: the whole-body IK per tick is the cost)."""
+    path = tmp_path_factory.mktemp("walk") / "walk.rrd"
+    robot = Robot.load("sample_humanoid")
+    pattern = straight_walk(robot, 1, 0.1, GaitParameters(dt=0.05, step_time=0.8))
+    with Recorder.to_file(path, "test_walk") as rec:
+        report = play_walk_pattern(pattern, "sample_humanoid", recorder=rec, settle_time=0.3)
+        lift = rec.lift
+    return {"path": path, "pattern": pattern, "report": report, "lift": lift, "robot": robot}
+
+
+def test_walk_series_are_the_pattern_and_the_playback(walked):
+    rec = read_recording(walked["path"])
+    pattern, report = walked["pattern"], walked["report"]
+    assert not report.fell
+    for name, zmp in (
+        ("zmp_reference", pattern.zmp_ref),
+        ("zmp_inverse_dynamics", pattern.zmp_computed),
+    ):
+        for i, axis in enumerate("xy"):
+            times, values = rec[PATHS.walk_series(axis, name)].series(SCALAR, "sim_time")
+            np.testing.assert_allclose(times, pattern.t, atol=1e-9)
+            assert [v[0] for v in values] == zmp[:, i].tolist()
+    times, margin = rec[PATHS.walk_series("margin", "zmp_inverse_dynamics")].series(
+        SCALAR, "sim_time"
+    )
+    assert [v[0] for v in margin] == pattern.support_margin("computed").tolist()
+    seen = np.all(np.isfinite(report.zmp), axis=1)
+    times, measured = rec[PATHS.walk_series("x", "zmp_measured")].series(SCALAR, "sim_time")
+    np.testing.assert_allclose(times, report.t[seen], atol=1e-9)
+    assert [v[0] for v in measured] == report.zmp[seen, 0].tolist()
+    _, com = rec[PATHS.walk_series("y", "com")].series(SCALAR, "sim_time")
+    assert [v[0] for v in com] == report.com[:, 1].tolist()
+    # the footstep plan: the stance, then one outline per footstep
+    strips = rec[PATHS.footsteps].static["LineStrips3D:strips"]
+    assert len(strips) == len(pattern.plan.initial_feet) + len(pattern.plan.footsteps)
+
+
+def _inside(polygon: np.ndarray, p: np.ndarray) -> float:
+    """Signed distance of ``p`` (2,) to the convex counter-clockwise ``polygon``
+    (m, 2): the smallest distance to an edge's line, positive inside."""
+    d = []
+    for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
+        t = (b - a) / np.linalg.norm(b - a)
+        d.append(t[0] * (p[1] - a[1]) - t[1] * (p[0] - a[0]))
+    return min(d)
+
+
+def test_walk_shows_the_zmp_inside_the_support_polygon(walked):
+    rec, pattern, lift = read_recording(walked["path"]), walked["pattern"], walked["lift"]
+    poly_t, polygons = rec[PATHS.support_polygon].series("LineStrips3D:strips", "sim_time")
+    assert 3 <= len(poly_t) < len(pattern.t) // 5  # logged when the support changes
+    zmp_t, zmp = rec[f"{PATHS.zmp}/inverse_dynamics"].series(POINTS, "sim_time")
+    _, margin = rec[PATHS.walk_series("margin", "zmp_inverse_dynamics")].series(SCALAR, "sim_time")
+    single = np.flatnonzero(pattern.plan.support != "double")
+    for k in (single[len(single) // 4], single[3 * len(single) // 4], 0):
+        at = np.flatnonzero(poly_t <= zmp_t[k])[-1]
+        loop = np.array(polygons[at][0])
+        # drawn above the soles, the ZMP at the same height
+        assert loop[:, 2] == pytest.approx(pattern.plan.ground_z + lift)
+        assert zmp[k][0][2] == pytest.approx(pattern.plan.ground_z + lift)
+        assert lift > 0.05  # above the sample humanoid's 7 cm soles
+        d = _inside(loop[:-1, :2], np.array(zmp[k][0][:2]))
+        assert d == pytest.approx(margin[k][0], abs=1e-5) and d > 0.01
+
+
+def test_walk_blueprint_opens_on_the_walk(walked):
+    rec, layout = read_recording(walked["path"]), read_blueprint(walked["path"])
+    assert layout.timeline == "sim_time"
+    ((name, views),) = layout.tabs
+    assert name.startswith("walking")
+    height = walked["robot"].model.stat.extent  # a robot height's order [m]
+    assert views[0].kind == "3D"
+    _check_framed(views[0].eye, _robot_points(rec, "sim_time"), max(height, 1.0))
+    assert _check_plots_have_data(rec, views, "sim_time") == 3
+    origins = {v.origin for v in views}
+    assert {f"{PATHS.walk}/x", f"{PATHS.walk}/y", f"{PATHS.walk}/margin"} <= origins
+
+
+def test_screenshot_shows_the_zmp_inside_the_polygon(walked, tmp_path):
+    """rerun's headless viewer renders the walk's 3D view: the cyan support
+    polygon and the ZMP markers inside it are on the picture."""
+    from PIL import Image
+
+    from pik_mj.record import screenshot, style
+
+    pattern = walked["pattern"]
+    # mid-way through the double support after the step: the ZMP between the
+    # soles, where neither hides it
+    double = pattern.plan.support == "double"
+    starts = np.flatnonzero(double[1:] & ~double[:-1]) + 1
+    ends = np.flatnonzero(~double[starts[0] :])[0] + starts[0]
+    t = float(pattern.t[(starts[0] + ends) // 2])
+    shot = screenshot.Shot(tmp_path / "walk.png", "sim_time", t, view="walking")
+    try:
+        (png,) = screenshot.screenshots(walked["path"], [shot], size=(800, 600))
+    except Exception as exc:  # the viewer needs a Vulkan adapter (a GPU, or Mesa's lavapipe)
+        if "adapter" in str(exc).lower() or "vulkan" in str(exc).lower():
+            pytest.skip(f"no graphics adapter for rerun's headless viewer: {exc}")
+        raise
+    image = np.asarray(Image.open(png).convert("RGB")).astype(int)
+    assert image.shape == (600, 800, 3)
+
+    def pixels(color) -> np.ndarray:
+        ys, xs = np.nonzero(np.abs(image - np.array(color)).sum(axis=2) < 60)
+        return np.column_stack([xs, ys])
+
+    polygon = pixels(style.SUPPORT_POLYGON)
+    zmp = np.vstack(
+        [pixels(c) for c in (style.ZMP, style.ZMP_REFERENCE, style.ZMP_INVERSE_DYNAMICS)]
+    )
+    assert len(polygon) > 50 and len(zmp) > 10  # both visible, not hidden by the soles
+    centre = zmp.mean(axis=0)
+    assert (polygon.min(axis=0) < centre).all() and (centre < polygon.max(axis=0)).all()

@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from .geometry import BodyFrames, GeomGroup
 
 __all__ = [
+    "ARROW",
     "BODY_FRAME",
     "INSTANCE_POSES",
     "POINT",
@@ -199,6 +200,37 @@ POINT = RowKind(
     ],
     style_columns=_point_style_columns,
     archetype=_point_archetype,
+)
+
+
+def _arrow_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
+    """Radius [m] and colour of an arrow, ``n`` rows."""
+    radius, color = style
+    return [
+        _one_per_row(
+            rr.components.RadiusBatch(np.full(n, radius, np.float32)),
+            rr.Arrows3D.descriptor_radii(),
+            n,
+        ),
+        _one_per_row(rr.components.ColorBatch([color] * n), rr.Arrows3D.descriptor_colors(), n),
+    ]
+
+
+#: An arrow: [origin, vector] [m], with its radius and colour as style.
+ARROW = RowKind(
+    width=6,
+    columns=lambda v, lengths: [
+        rr.components.Position3DBatch(v[:, :3])
+        .described(rr.Arrows3D.descriptor_origins())
+        .partition(lengths),
+        rr.components.Vector3DBatch(v[:, 3:])
+        .described(rr.Arrows3D.descriptor_vectors())
+        .partition(lengths),
+    ],
+    style_columns=_arrow_style_columns,
+    archetype=lambda v, style: rr.Arrows3D(
+        origins=v[:, :3], vectors=v[:, 3:], radii=[style[0]], colors=[style[1]]
+    ),
 )
 #: A frame: Transform3D, with its axes' length as style (none for no axes).
 TRANSFORM = _pose_kind(

@@ -26,18 +26,20 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import mujoco
 import numpy as np
+import rerun as rr
 
 from ..balance import halfplanes_from_polygon, shrink
 from ..exceptions import InvalidInput
 from ..tasks.com import CentroidTask, robot_root_body
 from ..tasks.frame import FrameTask
 from ..tasks.scfr import ScfrTask
+from . import style
 
 if TYPE_CHECKING:
     from ..solve import IterationInfo, SolveResult
     from .recorder import Recorder
 
-__all__ = ["HoldLogger", "HoldSample", "SolveLogger", "margin_outline"]
+__all__ = ["HoldLogger", "HoldSample", "SolveLogger", "log_walk", "margin_outline"]
 
 
 class HoldSample(Protocol):
@@ -171,6 +173,9 @@ class SolveLogger:
         self.checks = checks
         self.iterations = 0
         self._data = None if start is None else _mjdata(start)
+        if self._data is not None and recorder.model is None:  # its robot's geometry
+            model = self._data.model
+            recorder.log_model_geometry(model, robot_root_body=_top_level_body(model))
         self._configuration: Any = None
         self._plan: _Plan | None = None
         self._root: tuple[Any, int] | None = None  # (model, robot root body id)
@@ -208,7 +213,7 @@ class SolveLogger:
             if not region.empty:
                 z = float(np.mean([c.p_WC[2] for c in task.contacts_now(cfg)]))
                 v = np.column_stack([region.vertices, np.full(len(region.vertices), z)])
-                rec.log_polygon(v, path=rec.paths.scfr, color=(40, 200, 120))
+                rec.log_polygon(v, path=rec.paths.scfr, color=style.SCFR)
         com_target = None if plan.centroid is None else plan.centroid.target_now(cfg)
         self._log_pose(data, com_target)
         rec.log_task_errors({(r.level, r.name): r.error for r in info.tasks})
@@ -261,15 +266,16 @@ class SolveLogger:
         return plan
 
     def _log_targets(self, plan: _Plan, cfg: Any) -> None:
-        """Each frame task's target; a fixed one only when it changed (the
-        viewer holds the latest value; callable and robot-frame targets move)."""
+        """Each frame task's target frame and a labelled marker at it; a fixed
+        one only when it changed (the viewer holds the latest value; callable and
+        robot-frame targets move)."""
         rec = self.recorder
         logged = rec._logged_targets
         for task, target_path, _ in plan.frames:
             fixed = task.target_pose
             if fixed is None or logged.get(target_path) is not fixed:
                 p_T, R_T = task.target_pose_now(cfg)
-                rec.log_frame(target_path, p_T, _quat_wxyz(R_T))
+                rec.log_target(task.name, p_T, _quat_wxyz(R_T))
                 logged[target_path] = fixed
 
     def _log_pose(self, data: mujoco.MjData, com_target: Any = None) -> None:
@@ -346,8 +352,7 @@ class HoldLogger:
     def __call__(self, sample: HoldSample) -> None:
         rec = self.recorder
         if self.calls == 0:
-            rec._begin_hold(sample.model, sample.data)
-            rec.set_time("sim_time", float(sample.time))
+            rec._begin_hold(sample.model, sample.data, float(sample.time))
             rec.log_text("physics hold starts")
         n, self.calls = self.calls, self.calls + 1
         if n % self.every:
@@ -386,3 +391,121 @@ class HoldLogger:
                 level="INFO" if report.passed else "ERROR",
             )
         return report
+
+
+#: The walking series: (plot group, name, colour, legend), the colours those of
+#: the 3D overlays.
+_WALK_SERIES = [
+    (axis, name, color, f"{label} {axis} [m]")
+    for axis in "xy"
+    for name, color, label in (
+        ("zmp_reference", style.ZMP_REFERENCE, "ZMP reference"),
+        ("zmp_inverse_dynamics", style.ZMP_INVERSE_DYNAMICS, "ZMP of the inverse dynamics"),
+        ("zmp_measured", style.ZMP, "ZMP measured in physics"),
+        ("com", style.COM, "CoM"),
+    )
+] + [
+    ("margin", "zmp_inverse_dynamics", style.ZMP_INVERSE_DYNAMICS, "ZMP of the inverse dynamics"),
+    ("margin", "zmp_measured", style.ZMP, "ZMP measured in physics"),
+]
+
+
+def log_walk(recorder: Recorder, pattern: Any, report: Any) -> None:
+    """Log a walking pattern and its playback in physics on ``sim_time``.
+
+    ``pattern`` is a :class:`~pik_mj.walking.wholebody.WalkPattern`, ``report``
+    the :class:`~pik_mj.walking.playback.PlaybackReport` of playing it (its
+    samples are at ``report.t``, the pattern's ticks ``pattern.t`` first). Logged:
+
+    * the footstep plan, static: each sole's outline at its planned pose, the
+      initial stance first (:attr:`EntityPaths.footsteps`);
+    * per tick of the pattern: the ZMP reference and the ZMP of its inverse
+      dynamics as points (``world/zmp/reference|inverse_dynamics``), the
+      planned support polygon when it changes, the planned CoM (the CoM
+      target), and the series ``walk/x|y/zmp_reference``,
+      ``walk/x|y/zmp_inverse_dynamics``, ``walk/margin/zmp_inverse_dynamics``
+      (signed distance to the support polygon, positive inside [m]);
+    * per sample of the playback: the ZMP of the floor contact forces
+      (``world/zmp``, series ``walk/x|y/zmp_measured`` and, during the
+      pattern, ``walk/margin/zmp_measured``) and the CoM (``world/com`` with
+      its ground projection, series ``walk/x|y/com``);
+    * a line of text with the outcome.
+
+    Ground overlays are drawn :attr:`Recorder.lift` above the plan's ground
+    plane.
+    """
+    from ..balance import convex_hull_2d
+    from ..walking.gait import DOUBLE_SUPPORT
+    from ..walking.wholebody import sole_corners, support_margin
+
+    rec, paths, plan = recorder, recorder.paths, pattern.plan
+    z = float(plan.ground_z) + rec.lift
+    limbs = plan.params.all_limbs
+    steps = [*plan.initial_feet.values(), *plan.footsteps]
+    outlines = [sole_corners(f.p_W, f.yaw) for f in steps]
+    rec._log_static(
+        paths.footsteps,
+        rr.LineStrips3D(
+            [np.column_stack([np.vstack([c, c[:1]]), np.full(5, z)]) for c in outlines],
+            colors=[style.FOOTSTEP],
+            radii=[style.OUTLINE_RADIUS / 2],
+        ),
+    )
+    for group, name, color, label in _WALK_SERIES:
+        rec._log_static(
+            paths.walk_series(group, name), rr.SeriesLines(colors=[color], names=[label])
+        )
+    K, N = len(pattern.t), len(report.t)
+    measured = np.asarray(report.zmp, dtype=float)
+    seen = np.all(np.isfinite(measured), axis=1)
+    during = np.where(seen[:K, None], measured[:K], 0.0)
+    if len(during) < K:  # the playback stopped early (a fall)
+        during = np.vstack([during, np.zeros((K - len(during), 2))])
+    margin_measured = support_margin(plan, during)
+    margin_id = support_margin(plan, pattern.zmp_computed)
+    rec.disable_timeline("iteration")
+    last_polygon: Any = None
+    for k in range(N):
+        rec.set_time("sim_time", float(report.t[k]))
+        if k < K:
+            support = limbs if plan.support[k] == DOUBLE_SUPPORT else (plan.support[k],)
+            key = tuple((lb, *plan.feet_p[lb][k][:2], plan.feet_yaw[lb][k]) for lb in support)
+            if key != last_polygon:
+                corners = np.vstack(
+                    [sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k]) for lb in support]
+                )
+                hull = convex_hull_2d(corners)
+                rec.log_polygon(np.column_stack([hull, np.full(len(hull), z)]), lift=0.0)
+                last_polygon = key
+            for name, p_xy, color in (
+                ("reference", pattern.zmp_ref[k], style.ZMP_REFERENCE),
+                ("inverse_dynamics", pattern.zmp_computed[k], style.ZMP_INVERSE_DYNAMICS),
+            ):
+                rec.log_point(
+                    f"{paths.zmp}/{name}",
+                    [p_xy[0], p_xy[1], z],
+                    radius=style.ZMP_RADIUS * 0.8,
+                    color=color,
+                )
+                for axis, v in zip("xy", p_xy, strict=True):
+                    rec.log_scalar(paths.walk_series(axis, f"zmp_{name}"), v)
+            rec.log_scalar(paths.walk_series("margin", "zmp_inverse_dynamics"), margin_id[k])
+            if seen[k]:
+                rec.log_scalar(paths.walk_series("margin", "zmp_measured"), margin_measured[k])
+            rec.log_com(report.com[k], target=pattern.com_ref[k])
+        else:
+            rec.log_com(report.com[k])
+        for axis, v in zip("xy", report.com[k][:2], strict=True):
+            rec.log_scalar(paths.walk_series(axis, "com"), v)
+        if seen[k]:
+            p = measured[k]
+            rec.log_point(paths.zmp, [p[0], p[1], z], radius=style.ZMP_RADIUS, color=style.ZMP)
+            for axis, v in zip("xy", p, strict=True):
+                rec.log_scalar(paths.walk_series(axis, "zmp_measured"), v)
+    rec.log_text(
+        f"walk: {len(plan.footsteps)} footsteps over {pattern.duration:.2f} s; ZMP of the "
+        f"inverse dynamics at least {margin_id.min() * 1e3:.1f} mm inside the support polygon; "
+        f"in physics: {'FELL' if report.fell else 'no fall'}, ends "
+        f"{report.final_midfeet_error * 1e3:.1f} mm from the plan",
+        level="WARN" if report.fell else "INFO",
+    )

@@ -15,7 +15,7 @@ from rerun.chunk import RrdReader
 
 from ..exceptions import InvalidInput, UnknownName
 
-__all__ = ["EntityData", "read_recording"]
+__all__ = ["BlueprintLayout", "EntityData", "ViewLayout", "read_blueprint", "read_recording"]
 
 
 @dataclass
@@ -104,3 +104,115 @@ def _newest_timestamp(reader: Any, store: Any) -> int:
             if pa.types.is_timestamp(f.type) and len(batch.column(i)):
                 newest = max(newest, int(max(batch.column(i).cast(pa.int64()).to_pylist())))
     return newest
+
+
+@dataclass
+class ViewLayout:
+    """One view of a blueprint read back.
+
+    Attributes:
+        kind: rerun's view class (``"3D"``, ``"TimeSeries"``, ``"TextLog"``).
+        name: Display name.
+        origin: Space origin (an entity path).
+        contents: Its query expressions (``"$origin/**"`` or entity paths).
+        timelines: Timelines of its visible time ranges.
+        eye: ``{"position": (3,), "look_target": (3,)}`` of a 3D view's camera, or None.
+    """
+
+    kind: str
+    name: str
+    origin: str
+    contents: list[str]
+    timelines: list[str]
+    eye: dict[str, np.ndarray] | None
+
+    def entities(self, paths: Any) -> list[str]:
+        """The entity paths among ``paths`` that the view shows (its contents'
+        ``$origin/**``, ``<path>/**`` and exact paths)."""
+        out = []
+        for path in paths:
+            for query in self.contents:
+                q = query.replace("$origin", self.origin).lstrip("+ ").strip()
+                if (q.endswith("/**") and (path == q[:-3] or path.startswith(q[:-2]))) or (
+                    path == q
+                ):
+                    out.append(path)
+                    break
+        return out
+
+
+@dataclass
+class BlueprintLayout:
+    """A recording's blueprint, read back (:func:`read_blueprint`).
+
+    Attributes:
+        timeline: The timeline the time panel opens on (None: rerun's choice).
+        tabs: ``(name, views)`` of each tab, the active one first when the root
+            is a tab container; else one entry, the root's views.
+    """
+
+    timeline: str | None
+    tabs: list[tuple[str, list[ViewLayout]]]
+
+
+def _last(entity: EntityData | None, component: str) -> Any:
+    if entity is None or component not in entity.temporal:
+        return None
+    return entity.temporal[component][-1][1]
+
+
+def read_blueprint(path: str | Path) -> BlueprintLayout:
+    """The active blueprint of an ``.rrd`` file: its time panel's timeline and
+    the views of each tab, in order.
+
+    Raises:
+        InvalidInput: No such file, or it holds no blueprint.
+    """
+    import uuid
+
+    bp = read_recording(path, blueprint=True)
+    panel = _last(bp.get("time_panel"), "TimePanelBlueprint:timeline")
+    root = _last(bp.get("viewport"), "ViewportBlueprint:root_container")
+    if root is None:
+        raise InvalidInput(f"the blueprint of {str(path)!r} has no viewport")
+    root_path = f"container/{uuid.UUID(bytes=bytes(root[0]))}"
+
+    def view(key: str) -> ViewLayout:
+        e = bp[key]
+        eye = None
+        if f"{key}/EyeControls3D" in bp:
+            controls = bp[f"{key}/EyeControls3D"]
+            eye = {
+                name: np.array(_last(controls, f"EyeControls3D:{name}")[0], dtype=float)
+                for name in ("position", "look_target")
+            }
+        ranges = _last(bp.get(f"{key}/VisibleTimeRanges"), "VisibleTimeRanges:ranges") or []
+        return ViewLayout(
+            kind=str(_last(e, "ViewBlueprint:class_identifier")[0]),
+            name=str((_last(e, "ViewBlueprint:display_name") or [""])[0]),
+            origin=str(_last(e, "ViewBlueprint:space_origin")[0]),
+            contents=list(_last(bp.get(f"{key}/ViewContents"), "ViewContents:query") or []),
+            timelines=[r["timeline"] for r in ranges],
+            eye=eye,
+        )
+
+    def views(key: str) -> list[ViewLayout]:
+        if key.startswith("view/"):
+            return [view(key)]
+        return [v for child in _last(bp[key], "ContainerBlueprint:contents") for v in views(child)]
+
+    def name(key: str) -> str:
+        return str((_last(bp[key], "ContainerBlueprint:display_name") or [key])[0])
+
+    container = bp[root_path]
+    kind = _last(container, "ContainerBlueprint:container_kind")
+    if kind is not None and int(kind[0]) == 1:  # tabs
+        children = list(_last(container, "ContainerBlueprint:contents"))
+        active = _last(container, "ContainerBlueprint:active_tab")
+        if active is not None and active[0] in children:
+            children.remove(active[0])
+            children.insert(0, active[0])
+        tabs = [(name(child), views(child)) for child in children]
+    else:
+        tabs = [(name(root_path), views(root_path))]
+    return BlueprintLayout(None if panel is None else str(panel[0]), tabs)

@@ -34,6 +34,7 @@ The per-iteration loggers of a solve and of a physics hold are
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import uuid
@@ -49,9 +50,10 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ..exceptions import InvalidInput, PikError, UnknownName
-from . import geometry
-from .blueprint import blueprint, blueprint_for
+from . import geometry, style
+from .blueprint import Framing, blueprint, blueprint_for
 from .columns import (
+    ARROW,
     BODY_FRAME,
     INSTANCE_POSES,
     POINT,
@@ -63,7 +65,7 @@ from .columns import (
     pose_batches_of,
 )
 from .geometry import BodyFrames, InstancePoses
-from .loggers import HoldLogger, SolveLogger
+from .loggers import HoldLogger, SolveLogger, log_walk
 from .paths import PATHS, TIMELINES, EntityPaths
 
 __all__ = ["Recorder"]
@@ -179,6 +181,13 @@ class Recorder:
         # Filled by log_model_geometry.
         self._model: mujoco.MjModel | None = None
         self.robot_root_body: str | None = None
+        self.measures: geometry.Measures | None = None
+        # What the camera of each timeline frames: timeline -> (low, high) corners
+        # of the robot's body positions [m], and the robot's heading [rad]
+        self._extent: dict[str, tuple[np.ndarray, np.ndarray, float]] = {}
+        # The last pose of each task's target (task -> (p, q_wxyz)), shown again
+        # when a hold starts
+        self._targets: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._frames: dict[tuple[str, ...], BodyFrames] = {}  # by (path,)
         self.skipped_geoms: list[str] = []
 
@@ -244,12 +253,44 @@ class Recorder:
         self._tick += 1
         return self._tick
 
-    def _begin_hold(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Start a hold: rows are on ``sim_time`` only; the geometry of the
-        scene's ``model`` is logged when it is not the model logged."""
+    def _begin_hold(self, model: mujoco.MjModel, data: mujoco.MjData, time: float) -> None:
+        """Start a hold at ``sim_time`` = ``time``: rows are on ``sim_time``
+        only; the geometry of the scene's ``model`` is logged when it is not the
+        model logged; the last targets of the solves are shown again."""
         self.disable_timeline("iteration")
         if model is not self._model:
             self.log_model_geometry(model, data, robot_root_body=self.robot_root_body)
+        self.set_time("sim_time", time)
+        for label, (p, q) in self._targets.items():
+            self.log_target(label, p, q)
+        com_target = self._logged_targets.get(self.paths.com_target)
+        if isinstance(com_target, np.ndarray):
+            self.log_point(
+                self.paths.com_target,
+                com_target,
+                radius=style.COM_TARGET_RADIUS,
+                color=style.COM_TARGET,
+            )
+
+    def log_walk(self, pattern: Any, report: Any) -> None:
+        """Log a walking pattern and its playback in physics on ``sim_time``:
+        footsteps, ZMPs (reference, inverse dynamics, measured), CoM, support
+        polygon, margins. See :func:`~pik_mj.record.loggers.log_walk`."""
+        log_walk(self, pattern, report)
+
+    def log_target(self, task: str, p: npt.ArrayLike, quat_wxyz: npt.ArrayLike) -> None:
+        """Log the target of ``task``: its frame (``world/tasks/<task>/target``,
+        position [m], MuJoCo quaternion) and a marker labelled with the task's
+        name (``.../target_point``)."""
+        self.log_frame(self.paths.task_target(task), p, quat_wxyz)
+        self.log_point(
+            self.paths.task_target_point(task),
+            p,
+            radius=style.TARGET_RADIUS,
+            color=style.TARGET,
+            label=str(task),
+        )
+        self._targets[str(task)] = (np.array(p, dtype=float), np.array(quat_wxyz, dtype=float))
 
     # -- lifetime ---------------------------------------------------------------
 
@@ -309,8 +350,16 @@ class Recorder:
         return {path: set(timelines) for path, timelines in self._logged.items()}
 
     def blueprint(self) -> rrb.Blueprint:
-        """The blueprint of what was logged so far (what :meth:`close` sends)."""
-        return blueprint_for(self._logged, self.paths)
+        """The blueprint of what was logged so far (what :meth:`close` sends):
+        :func:`~pik_mj.record.blueprint.blueprint_for`, each 3D view framed on
+        the robot's body positions seen on its timeline."""
+        m = self.measures
+        height, ground = (1.0, None) if m is None else (m.height, m.ground_z)
+        framing = {
+            timeline: Framing(low, high, heading, height, ground)
+            for timeline, (low, high, heading) in self._extent.items()
+        }
+        return blueprint_for(self._logged, self.paths, framing=framing)
 
     def _send_buffers(self) -> None:
         """Send every buffered row of every entity, and pending static data, in
@@ -441,7 +490,7 @@ class Recorder:
         *,
         robot_root_body: str | None = None,
         geom_groups: Iterable[int] = (0, 1, 2),
-        plane_half_size: float = 5.0,
+        plane_half_size: float | None = None,
     ) -> None:
         """Log every visible geom of ``model`` once, static, grouped by kind.
 
@@ -452,7 +501,13 @@ class Recorder:
         welded to the world (static poses, from ``data`` here), and the scene's on
         free, jointed or mocap bodies. The moving ones get their poses, and the
         body frames theirs (:meth:`EntityPaths.bodies`), from
-        :meth:`log_body_poses`. See :mod:`pik_mj.record_geometry`.
+        :meth:`log_body_poses`. See :mod:`pik_mj.record.geometry`.
+
+        The robot's height, weight and ground (:func:`~pik_mj.record.geometry.measure`,
+        :attr:`measures`) scale the camera of the blueprint and the contact force
+        arrows (:meth:`log_contacts`), and place the CoM's ground projection
+        (:meth:`log_com`). The height is the one of the first pose logged of the
+        robot: logging the same robot in another scene (a hold's) keeps it.
 
         Args:
             model: The MuJoCo model.
@@ -461,7 +516,8 @@ class Recorder:
             robot_root_body: Name of the robot's root body, or None.
             geom_groups: Geom groups to show (MuJoCo shows 0-2 by default;
                 dm_control puts collision geoms in group 3).
-            plane_half_size: Half extent [m] drawn for infinite planes.
+            plane_half_size: Half extent [m] drawn for infinite planes; default:
+                the scene's extent plus half a metre, at least one metre.
         """
         self._check_open()
         groups = {int(g) for g in geom_groups}
@@ -469,7 +525,9 @@ class Recorder:
             raise InvalidInput(
                 f"geom_groups must be in 0..{mujoco.mjNGROUP - 1}, got {sorted(groups)}"
             )
-        if not (math.isfinite(plane_half_size) and plane_half_size > 0):
+        if plane_half_size is not None and not (
+            math.isfinite(plane_half_size) and plane_half_size > 0
+        ):
             raise InvalidInput(f"plane_half_size must be > 0 [m], got {plane_half_size}")
         body_names = geometry.unique_names("body", [model.body(b).name for b in range(model.nbody)])
         if robot_root_body is None:
@@ -496,7 +554,15 @@ class Recorder:
 
         # Send rows buffered for a previous model before replacing the table.
         self._send_buffers()
+        measures = geometry.measure(model, data, robot)
+        if self.measures is not None and robot_root_body == self.robot_root_body:
+            # the same robot in another scene (a hold's): the scale of its
+            # drawings stays that of its first pose logged
+            measures = dataclasses.replace(measures, height=self.measures.height)
+        self.measures = measures
         self.robot_root_body = robot_root_body
+        if plane_half_size is None:
+            plane_half_size = self.measures.floor_half_size
 
         self._log_static(self.paths.world, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
         geom_names = geometry.unique_names("geom", [model.geom(g).name for g in range(model.ngeom)])
@@ -562,12 +628,33 @@ class Recorder:
             if not np.isfinite(poses).all():
                 raise InvalidInput(f"body poses at {timeline}={time} are not finite")
             rows.append((frames, poses))
+        self._track_extent(timeline, rows)
         # buffered, the geoms' poses follow from these rows when they are sent
         for frames, poses in rows:
             self._append((frames.path,), poses, BODY_FRAME)
             if self.flush_every == 1:
                 for group, instances in frames.geometry(poses[None]):
                     self._append((group.path,), instances[0], INSTANCE_POSES[group.archetype])
+
+    def _track_extent(self, timeline: str, rows: list[tuple[BodyFrames, np.ndarray]]) -> None:
+        """Grow the box of the robot's body positions seen on ``timeline``."""
+        robot = self.paths.bodies(robot=True)
+        for frames, poses in rows:
+            if frames.path != robot:
+                continue
+            p = poses[:, :3]
+            seen = self._extent.get(timeline)
+            if seen is None:
+                w, x, y, z = poses[0, 3:]  # the root's x axis, on the ground plane
+                heading = math.atan2(2 * (x * y + w * z), 1 - 2 * (y * y + z * z))
+                self._extent[timeline] = (p.min(axis=0), p.max(axis=0), heading)
+            else:
+                low, high, heading = seen
+                self._extent[timeline] = (
+                    np.minimum(low, p.min(axis=0)),
+                    np.maximum(high, p.max(axis=0)),
+                    heading,
+                )
 
     # -- per-iteration primitives ---------------------------------------------
 
@@ -590,10 +677,30 @@ class Recorder:
         self._append((path,), p.reshape(1, 3), POINT, style)
 
     def log_com(self, p_WC: npt.ArrayLike, target: npt.ArrayLike | None = None) -> None:
-        """Log the centre of mass ``p_WC`` [m] and, if given, its target [m]."""
-        self.log_point(self.paths.com, p_WC, radius=0.03, color=(230, 40, 40))
+        """Log the centre of mass ``p_WC`` [m] and, if given, its target [m].
+
+        For a floating-base robot its projection on the ground (``ground_z`` of
+        :attr:`measures`, drawn :attr:`lift` above it) and the arrow down to it
+        go to :attr:`EntityPaths.com_ground`.
+        """
+        p = _vec(p_WC, (3,), "CoM", self.paths.com)
+        self.log_point(self.paths.com, p, radius=style.COM_RADIUS, color=style.COM)
+        ground = None if self.measures is None else self.measures.ground_z
+        if ground is not None:
+            foot = np.array([p[0], p[1], ground + self.lift])
+            self._append(
+                (self.paths.com_ground,),
+                np.concatenate([p, foot - p]).reshape(1, 6),
+                ARROW,
+                (style.COM_GROUND_RADIUS / 2, style.COM_GROUND),
+            )
         if target is not None:
-            self.log_point(self.paths.com_target, target, radius=0.025, color=(40, 200, 40))
+            self.log_point(
+                self.paths.com_target,
+                target,
+                radius=style.COM_TARGET_RADIUS,
+                color=style.COM_TARGET,
+            )
 
     def log_polygon(
         self,
@@ -601,7 +708,8 @@ class Recorder:
         margin_vertices: npt.ArrayLike | None = None,
         *,
         path: str | None = None,
-        color: Sequence[int] = (40, 120, 255),
+        color: Sequence[int] = style.SUPPORT_POLYGON,
+        lift: float | None = None,
     ) -> None:
         """Log a polygon outline (closed loop) and optionally its margin outline.
 
@@ -611,46 +719,71 @@ class Recorder:
             margin_vertices: (k, 3) shrunk outline, logged at ``<path>/margin``.
             path: Entity path; default :attr:`EntityPaths.support_polygon`.
             color: RGB(A) of the outline.
+            lift: Drawn this far [m] above ``vertices``, clear of the floor and
+                the soles; default :attr:`lift`.
         """
         path = self.paths.support_polygon if path is None else path
+        lift = self.lift if lift is None else float(lift)
         loops = [(path, vertices, color)]
         if margin_vertices is not None:
-            loops.append((f"{path}/margin", margin_vertices, (255, 140, 0)))
+            loops.append((f"{path}/margin", margin_vertices, style.MARGIN))
         for p, verts, c in loops:
-            v = _vec(verts, (-1, 3), "polygon vertices of", p)
+            v = _vec(verts, (-1, 3), "polygon vertices of", p) + np.array([0.0, 0.0, lift])
             strips = [np.vstack([v, v[:1]])] if len(v) else []
-            self._log(p, rr.LineStrips3D(strips, colors=[tuple(c)], radii=[0.005]))
+            self._log(p, rr.LineStrips3D(strips, colors=[tuple(c)], radii=[style.OUTLINE_RADIUS]))
 
     def log_contacts(
         self,
         points: npt.ArrayLike,
         forces: npt.ArrayLike,
-        scale: float = 1e-3,
+        scale: float | None = None,
     ) -> None:
         """Log contact points [m] and forces [N] drawn as arrows of ``scale`` [m/N].
 
         .. math::
             \\text{arrow}_i = s \\, f_i
+
+        The default :attr:`force_scale` draws the robot's weight as
+        :data:`~pik_mj.record.style.FORCE_PER_WEIGHT` of its height.
         """
         p = _vec(points, (-1, 3), "contact points")
         f = _vec(forces, (len(p), 3), "contact forces")
+        scale = self.force_scale if scale is None else scale
         if not (math.isfinite(scale) and scale > 0):
             raise InvalidInput(f"contact force scale must be > 0 [m/N], got {scale}")
         self._log(
             self.paths.contact_points,
-            rr.Points3D(p, radii=[0.01], colors=[(255, 0, 255)]),
+            rr.Points3D(p, radii=[style.CONTACT_RADIUS], colors=[style.CONTACT]),
         )
         self._log(
             self.paths.contact_forces,
-            rr.Arrows3D(origins=p, vectors=f * scale, colors=[(255, 0, 255)]),
+            rr.Arrows3D(origins=p, vectors=f * scale, colors=[style.CONTACT]),
         )
+
+    @property
+    def lift(self) -> float:
+        """Height [m] above the ground of overlays on it (``measures.lift``:
+        above the soles; :data:`~pik_mj.record.style.LIFT` before any geometry
+        is logged)."""
+        return style.LIFT if self.measures is None else self.measures.lift
+
+    @property
+    def force_scale(self) -> float:
+        """Contact force arrows [m/N]: the robot's weight ``W`` drawn as
+        :data:`~pik_mj.record.style.FORCE_PER_WEIGHT` of its height ``h``,
+        ``s = F h / W`` (:data:`~pik_mj.record.style.DEFAULT_FORCE_SCALE` before
+        any geometry is logged)."""
+        m = self.measures
+        if m is None or m.weight <= 0:
+            return style.DEFAULT_FORCE_SCALE
+        return style.FORCE_PER_WEIGHT * m.height / m.weight
 
     def log_frame(
         self,
         path: str,
         p: npt.ArrayLike,
         quat_wxyz: npt.ArrayLike,
-        axis_length: float = 0.1,
+        axis_length: float = style.FRAME_AXIS,
     ) -> None:
         """Log a frame ``X_WF`` (position [m], MuJoCo quaternion (w, x, y, z)).
 
@@ -665,7 +798,7 @@ class Recorder:
         paths: Sequence[str],
         positions: npt.ArrayLike,
         quats_wxyz: npt.ArrayLike,
-        axis_length: float = 0.1,
+        axis_length: float = style.FRAME_AXIS,
     ) -> None:
         """Log frames ``X_WF_i`` at ``paths[i]``: positions (n, 3) [m], MuJoCo
         quaternions (n, 4) (w, x, y, z), normalized here.
@@ -696,7 +829,8 @@ class Recorder:
         self._append((path,), np.array([[v]]), SCALAR)
 
     def log_task_errors(self, errors: Mapping[tuple[int, str], float]) -> None:
-        """Log each task's error at ``errors/level_<k>/<task>``.
+        """Log each task's error at ``errors/level_<k>/<task>`` and its ``log10``
+        at ``errors_log10/level_<k>/<task>`` (errors below 1e-16 count as 1e-16).
 
         Args:
             errors: ``{(level, task_name): error}``; the error is whatever scalar
@@ -707,13 +841,16 @@ class Recorder:
         paths = self._error_paths.get(keys)
         if paths is None:
             paths = self._error_paths[keys] = tuple(
-                self.paths.task_error(level, name) for level, name in keys
+                self.paths.task_error(level, name, log10=log10)
+                for log10 in (False, True)
+                for level, name in keys
             )
         values = np.fromiter(errors.values(), dtype=float, count=len(keys))
         if not np.isfinite(values).all():
             bad = int(np.flatnonzero(~np.isfinite(values))[0])
             raise InvalidInput(f"scalar {paths[bad]!r} must be finite, got {values[bad]}")
-        self._append(paths, values.reshape(-1, 1), SCALAR)
+        rows = np.concatenate([values, np.log10(np.maximum(np.abs(values), 1e-16))])
+        self._append(paths, rows.reshape(-1, 1), SCALAR)
 
     def log_text(self, message: str, level: str = "INFO") -> None:
         """Log ``message`` to the run's text log at the current time."""
