@@ -7,6 +7,8 @@
                [--hold SECONDS] [--quiet]
     pik-mj validate FILE.json [--environment ENV] [--duration SECONDS] [--json OUT]
                [--out FILE.rrd]
+    pik-mj screenshot FILE.rrd --out FILE.png [--timeline NAME] [--time T|last]
+               [--view NAME] [--tab NAME] [--size WxH] [--panels]
 
 ``run`` without a name runs ``fullbody_reach``: it solves, validates in
 simulation and writes a recording. For a robot with a floating base every IK
@@ -81,6 +83,9 @@ def _parser() -> argparse.ArgumentParser:
     val.add_argument("--duration", type=float, default=DEFAULT_HOLD, help="hold duration [s]")
     val.add_argument("--json", help="JSON report to write")
     val.add_argument("--out", help="rerun recording of the hold (.rrd)")
+    from .record import screenshot
+
+    screenshot.add_arguments(sub.add_parser("screenshot", help="PNG of a recording (rerun)"))
     return parser
 
 
@@ -237,6 +242,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _list()
         if args.command == "validate":
             return _validate(args)
+        if args.command == "screenshot":
+            from .record import screenshot
+
+            return screenshot.run(args)
         return _run(args)
     except PikError as exc:
         print(f"pik-mj: error: {exc}", file=sys.stderr)
