@@ -16,8 +16,8 @@ import argparse
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 
 import mujoco
 import numpy as np
@@ -75,22 +75,6 @@ def _chain(*callbacks):
     return call
 
 
-@dataclass
-class Sample:
-    """A hold sample (the fields ``scene.hold`` passes its callback)."""
-
-    time: float
-    model: mujoco.MjModel
-    data: mujoco.MjData
-    com: np.ndarray
-    support_polygon: np.ndarray
-    margin: float
-    drift: float
-    slip: float
-    contact_points: np.ndarray
-    contact_forces: np.ndarray
-
-
 def _physics_samples(scene: Scene, q: np.ndarray, n: int):
     """``n`` samples of the robot standing in ``q`` on the scene's floor, one
     every 5 physics steps: contact forces on the robot from ``mj_contactForce``."""
@@ -113,7 +97,8 @@ def _physics_samples(scene: Scene, q: np.ndarray, n: int):
             points.append(c.pos.copy())
             forces.append(f_W if robot_geom[c.geom2] else -f_W)
         points = np.array(points).reshape(-1, 3)
-        yield Sample(
+        # the fields of a HoldSample (what scene.hold passes its callback)
+        yield SimpleNamespace(
             time=float(d.time),
             model=m,
             data=d,
@@ -207,6 +192,22 @@ def test_targets_show_from_the_start_and_frames_follow(recorded):
     assert np.linalg.norm(np.subtract(current[n1 - 1][0], targets[0][0])) < 1e-3
     end = robot.frame_pose("larm_end", "site").translation()
     np.testing.assert_allclose(current[-1][0], end, atol=1e-5)
+    # the labelled marker sits on the target; the CoM target shows from the start too
+    times, points = rec[PATHS.task_target_point(name)].series(POINTS, "iteration")
+    assert times.tolist() == [0, n1 + 1]
+    np.testing.assert_allclose([p[0] for p in points], [t[0] for t in targets], atol=1e-6)
+    _, labels = rec[PATHS.task_target_point(name)].series("Points3D:labels", "iteration")
+    assert labels[0] == [name]
+    times, _ = rec[PATHS.com_target].series(POINTS, "iteration")
+    assert times[0] == 0
+    # and they stay on screen during the hold (sim_time), at its first sample
+    t0 = recorded["samples"][0][0]
+    for path, component in (
+        (PATHS.task_target(name), "Transform3D:translation"),
+        (PATHS.com_target, POINTS),
+    ):
+        times, _ = rec[path].series(component, "sim_time")
+        assert times.tolist() == pytest.approx([t0])
 
 
 def test_static_checks_are_the_reports(recorded):

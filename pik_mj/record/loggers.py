@@ -214,8 +214,7 @@ class SolveLogger:
                 z = float(np.mean([c.p_WC[2] for c in task.contacts_now(cfg)]))
                 v = np.column_stack([region.vertices, np.full(len(region.vertices), z)])
                 rec.log_polygon(v, path=rec.paths.scfr, color=style.SCFR)
-        com_target = None if plan.centroid is None else plan.centroid.target_now(cfg)
-        self._log_pose(data, com_target)
+        self._log_pose(data)
         rec.log_task_errors({(r.level, r.name): r.error for r in info.tasks})
         if self.checks is not None and len(self.checks.reports) > self._reports_seen:
             self._reports_seen = len(self.checks.reports)
@@ -266,9 +265,10 @@ class SolveLogger:
         return plan
 
     def _log_targets(self, plan: _Plan, cfg: Any) -> None:
-        """Each frame task's target frame and a labelled marker at it; a fixed
-        one only when it changed (the viewer holds the latest value; callable and
-        robot-frame targets move)."""
+        """Each frame task's target frame and a labelled marker at it, and the
+        CoM target, each when it changed (the viewer holds the latest value; a
+        fixed frame target is compared by identity, callable and robot-frame
+        targets move)."""
         rec = self.recorder
         logged = rec._logged_targets
         for task, target_path, _ in plan.frames:
@@ -277,20 +277,17 @@ class SolveLogger:
                 p_T, R_T = task.target_pose_now(cfg)
                 rec.log_target(task.name, p_T, _quat_wxyz(R_T))
                 logged[target_path] = fixed
+        if plan.centroid is not None:
+            target = np.asarray(plan.centroid.target_now(cfg), dtype=float)
+            last = logged.get(rec.paths.com_target)
+            if not (isinstance(last, np.ndarray) and np.array_equal(last, target)):
+                rec.log_com_target(target)
 
-    def _log_pose(self, data: mujoco.MjData, com_target: Any = None) -> None:
-        """Body poses and the robot's CoM at the current count; the CoM target
-        when it changed."""
+    def _log_pose(self, data: mujoco.MjData) -> None:
+        """Body poses and the robot's CoM at the current count."""
         rec = self.recorder
         rec.log_body_poses(data, timeline="iteration", time=rec._time["iteration"])
-        if com_target is not None:
-            com_target = np.asarray(com_target, dtype=float)
-            last = rec._logged_targets.get(rec.paths.com_target)
-            if isinstance(last, np.ndarray) and np.array_equal(last, com_target):
-                com_target = None
-            else:
-                rec._logged_targets[rec.paths.com_target] = com_target.copy()
-        rec.log_com(data.subtree_com[self._root_id(rec.model)], target=com_target)
+        rec.log_com(data.subtree_com[self._root_id(rec.model)])
 
     def _root_id(self, model: Any) -> int:
         """The robot's root body in ``model``: the recording's

@@ -265,12 +265,7 @@ class Recorder:
             self.log_target(label, p, q)
         com_target = self._logged_targets.get(self.paths.com_target)
         if isinstance(com_target, np.ndarray):
-            self.log_point(
-                self.paths.com_target,
-                com_target,
-                radius=style.COM_TARGET_RADIUS,
-                color=style.COM_TARGET,
-            )
+            self.log_com_target(com_target)
 
     def log_walk(self, pattern: Any, report: Any) -> None:
         """Log a walking pattern and its playback in physics on ``sim_time``:
@@ -695,12 +690,16 @@ class Recorder:
                 (style.COM_GROUND_RADIUS / 2, style.COM_GROUND),
             )
         if target is not None:
-            self.log_point(
-                self.paths.com_target,
-                target,
-                radius=style.COM_TARGET_RADIUS,
-                color=style.COM_TARGET,
-            )
+            self.log_com_target(target)
+
+    def log_com_target(self, target: npt.ArrayLike) -> None:
+        """Log the target [m] of the centre of mass (the last one is shown again
+        when a hold starts)."""
+        p = _vec(target, (3,), "CoM target", self.paths.com_target)
+        self.log_point(
+            self.paths.com_target, p, radius=style.COM_TARGET_RADIUS, color=style.COM_TARGET
+        )
+        self._logged_targets[self.paths.com_target] = p.copy()
 
     def log_polygon(
         self,
