@@ -386,10 +386,9 @@ def _check_framed(eye: dict, points: np.ndarray, height: float) -> None:
 
 
 def _check_plots_have_data(rec, views, timeline: str) -> int:
-    """Every plot names ``timeline`` and shows some series with rows on it."""
+    """Every plot shows some series with rows on ``timeline``."""
     plots = [v for v in views if v.kind == "TimeSeries"]
     for view in plots:
-        assert view.timelines == [timeline], view.name
         shown = view.entities(rec)
         assert shown, f"plot {view.name!r} shows no logged entity"
         rows = [len(rec[e].series(SCALAR, timeline)[0]) for e in shown]
@@ -401,7 +400,7 @@ def test_blueprint_opens_on_the_solve(recorded):
     rec, layout = recorded["rec"], read_blueprint(recorded["path"])
     assert layout.timeline == "iteration"  # the time panel opens on the solve
     (solve, views), (hold, hold_views) = layout.tabs
-    assert "iteration" in solve and "sim_time" in hold
+    assert "iteration" in solve and "sim_time" in hold  # each tab names its timeline
     assert views[0].kind == "3D" and views[0].origin == PATHS.world
     _check_framed(views[0].eye, _robot_points(rec, "iteration"), recorded["height"])
     assert _check_plots_have_data(rec, views, "iteration") == 5  # 3 levels, 2 balance

@@ -14,8 +14,9 @@ each opening on what matters:
   (reference, inverse dynamics, measured) and CoM along x and y [m], and the
   ZMP's margin to the support polygon [m].
 
-Each plot names its unit and its timeline (a visible time range over the whole
-of its timeline); the time panel opens on the first tab's timeline.
+Each plot names its unit, each tab its timeline; the time panel opens on the
+first tab's timeline (rerun 0.41 has one timeline for all views: the other
+tabs' plots fill when it is switched to theirs).
 """
 
 from __future__ import annotations
@@ -111,20 +112,10 @@ def _view3d(
     )
 
 
-def _plot(
-    name: str, origin: str, timeline: str, contents: Sequence[str] | None = None
-) -> rrb.TimeSeriesView:
-    """A plot over the whole of ``timeline`` (its visible range names it)."""
-    whole = rrb.VisibleTimeRange(
-        timeline,
-        start=rrb.TimeRangeBoundary.infinite(),
-        end=rrb.TimeRangeBoundary.infinite(),
-    )
+def _plot(name: str, origin: str, contents: Sequence[str] | None = None) -> rrb.TimeSeriesView:
+    """A plot of the series under ``origin`` (or of ``contents``)."""
     return rrb.TimeSeriesView(
-        origin=origin,
-        name=name,
-        contents=list(contents) if contents else "$origin/**",
-        time_ranges=[whole],
+        origin=origin, name=name, contents=list(contents) if contents else "$origin/**"
     )
 
 
@@ -187,7 +178,6 @@ def blueprint_for(
                 _plot(
                     f"level {k}: " + ("log10 of each task's error" if log10 else "task errors"),
                     paths.level_errors(k, log10=log10),
-                    "iteration",
                 )
             )
         if paths.balance_metric("margin") in logged:
@@ -195,7 +185,6 @@ def blueprint_for(
                 _plot(
                     "static check: CoM margin to the support polygon [m]",
                     paths.balance,
-                    "iteration",
                     [paths.balance_metric("margin")],
                 )
             )
@@ -205,7 +194,6 @@ def blueprint_for(
                 _plot(
                     "static check: contacts [count], equilibrium (1 = yes)",
                     paths.balance,
-                    "iteration",
                     [paths.balance_metric(p) for p in counts],
                 )
             )
@@ -224,7 +212,6 @@ def blueprint_for(
                 )
                 + f" [{unit}]",
                 paths.hold,
-                "sim_time",
                 series,
             )
             for series, unit in ((metres, "m"), (newtons, "N"))
@@ -236,7 +223,7 @@ def blueprint_for(
     walk = _under(logged, paths.walk, "sim_time")
     if walk:
         plots = [
-            _plot(title, f"{paths.walk}/{group}", "sim_time")
+            _plot(title, f"{paths.walk}/{group}")
             for group, title in (
                 ("x", "walk: ZMP and CoM, x [m]"),
                 ("y", "walk: ZMP and CoM, y [m]"),

@@ -280,7 +280,7 @@ class SolveLogger:
         if plan.centroid is not None:
             target = np.asarray(plan.centroid.target_now(cfg), dtype=float)
             last = logged.get(rec.paths.com_target)
-            if not (isinstance(last, np.ndarray) and np.array_equal(last, target)):
+            if not (isinstance(last, np.ndarray) and bool((last == target).all())):
                 rec.log_com_target(target)
 
     def _log_pose(self, data: mujoco.MjData) -> None:
