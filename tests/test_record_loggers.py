@@ -187,7 +187,11 @@ def test_targets_show_from_the_start_and_frames_follow(recorded):
     # fixed targets are logged when they change: once per solve
     assert times.tolist() == [0, n1 + 1]
     times, current = rec[PATHS.task_current(name)].series("Transform3D:translation", "iteration")
-    assert len(times) == n1 + recorded["second"].iterations
+    # from the start pose (given to the first solve) on; the second solve had none
+    assert times[0] == 0 and len(times) == 1 + n1 + recorded["second"].iterations
+    _, lengths = rec[PATHS.task_current(name)].series("TransformAxes3D:axis_length", "iteration")
+    assert lengths[n1 + 1] == [0.0]  # hidden at the second solve's start count
+    current = current[1:]
     # at convergence the hand is on the target (thre 1 mm)
     assert np.linalg.norm(np.subtract(current[n1 - 1][0], targets[0][0])) < 1e-3
     end = robot.frame_pose("larm_end", "site").translation()
@@ -281,6 +285,10 @@ def test_hold_is_on_sim_time_every_nth_sample(recorded):
     np.testing.assert_allclose(pose_t, [s[0] for s in kept], atol=1e-9)
     _, com = rec[PATHS.com].series(POINTS, "sim_time")
     np.testing.assert_allclose(com[-1][0], kept[-1][2], atol=1e-6)
+    # the solve's current task frames do not follow the physics: no axes in the hold
+    current = rec[PATHS.task_current("target:larm_end")]
+    times, lengths = current.series("TransformAxes3D:axis_length", "sim_time")
+    assert times.tolist() == pytest.approx([samples[0][0]]) and lengths == [[0.0]]
     # the scene's floor was logged with the scene's model
     assert "floor" in rec[PATHS.geoms("boxes", robot=False, moving=False)].static["Boxes3D:labels"]
 

@@ -195,19 +195,18 @@ class SolveLogger:
         if rec.model is None:  # a solve recorded on its own: its robot's geometry
             rec.log_model_geometry(cfg.model, robot_root_body=_top_level_body(cfg.model))
         plan = self._plan_of(info.levels)
-        if self.iterations == 0:  # targets shown from the start count
+        if self.iterations == 0:  # targets and frames shown from the start count
             rec.set_time("iteration", self._start)
             self._log_targets(plan, cfg)
+            if self._data is not None:
+                self._log_frames(plan, self._data)
+            else:  # no start pose: no frame (rerun would draw one at the origin)
+                rec.hide_frames(plan.current_paths)
         self.iterations += 1
         rec.set_time("iteration", rec._next_tick())
         self._log_targets(plan, cfg)
         data = cfg.data
-        if plan.frames:  # all current frames in one call (one buffer)
-            rec.log_frames(
-                plan.current_paths,
-                [task.move_target.position(data) for task, _, _ in plan.frames],
-                [_quat_wxyz(task.move_target.rotation(data)) for task, _, _ in plan.frames],
-            )
+        self._log_frames(plan, data)
         for task in plan.scfr:
             region = task.region(cfg)
             if not region.empty:
@@ -282,6 +281,15 @@ class SolveLogger:
             last = logged.get(rec.paths.com_target)
             if not (isinstance(last, np.ndarray) and bool((last == target).all())):
                 rec.log_com_target(target)
+
+    def _log_frames(self, plan: _Plan, data: mujoco.MjData) -> None:
+        """The current frame of each frame task, in one call (one buffer)."""
+        if plan.frames:
+            self.recorder.log_frames(
+                plan.current_paths,
+                [task.move_target.position(data) for task, _, _ in plan.frames],
+                [_quat_wxyz(task.move_target.rotation(data)) for task, _, _ in plan.frames],
+            )
 
     def _log_pose(self, data: mujoco.MjData) -> None:
         """Body poses and the robot's CoM at the current count."""

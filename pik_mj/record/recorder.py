@@ -261,11 +261,25 @@ class Recorder:
         if model is not self._model:
             self.log_model_geometry(model, data, robot_root_body=self.robot_root_body)
         self.set_time("sim_time", time)
+        # the solves' current task frames do not follow the physics
+        self.hide_frames(
+            [
+                p
+                for p in self._logged
+                if p.startswith(f"{self.paths.tasks}/") and p.endswith("/current")
+            ]
+        )
         for label, (p, q) in self._targets.items():
             self.log_target(label, p, q)
         com_target = self._logged_targets.get(self.paths.com_target)
         if isinstance(com_target, np.ndarray):
             self.log_com_target(com_target)
+
+    def hide_frames(self, paths: Iterable[str]) -> None:
+        """Draw no axes for the frames ``paths`` from the current time on (a
+        frame without a pose at the current time is drawn at the origin)."""
+        for path in paths:
+            self._log(path, rr.TransformAxes3D(axis_length=0.0))
 
     def log_walk(self, pattern: Any, report: Any) -> None:
         """Log a walking pattern and its playback in physics on ``sim_time``:
