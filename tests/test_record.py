@@ -175,7 +175,6 @@ def test_paths_are_readable_and_nested():
     # names rerun would escape become plain parts: the viewer shows them as written
     assert PATHS.task_target("left hand/x") == "world/tasks/left_hand_x/target"
     assert PATHS.task_error(0, "limits: 30 joints") == "errors/level_0/limits_30_joints"
-    assert PATHS.task_target_point("target:larm_end") == "world/tasks/target_larm_end/target_point"
     assert all(rr.escape_entity_path_part(p) == p for p in ("target_larm_end", "é.x-1"))
     assert PATHS.task_current("rarm") == "world/tasks/rarm/current"
     assert PATHS.task_error(2, "com") == "errors/level_2/com"
@@ -460,7 +459,7 @@ def test_com_scalars_frames_and_text(model, tmp_path):
     r, g, b = style.COM
     assert {x[0] for x in colors} == {(r << 24) | (g << 16) | (b << 8) | 0xFF}  # opaque
     # no geometry logged: no ground known, no projection of the CoM
-    assert PATHS.com_ground not in out
+    assert "Arrows3D:vectors" not in out[PATHS.com].temporal
     hand = out[PATHS.task_target("hand")]
     assert not hand.static
     _, lengths = hand.series("TransformAxes3D:axis_length", "iteration")
@@ -633,8 +632,8 @@ def test_rows_of_many_entities_sent_together_read_back_per_entity(model, tmp_pat
     assert [r[0] for r in radii] == pytest.approx([style.COM_RADIUS] * 3)
     assert "Boxes3D:half_sizes" in out["world/robot/boxes"].static
     # a floating base: the CoM's plumb line to the floor plane (z = 0), lifted
-    times, vectors = out[PATHS.com_ground].series("Arrows3D:vectors", "iteration")
-    _, origins = out[PATHS.com_ground].series("Arrows3D:origins", "iteration")
+    times, vectors = out[PATHS.com].series("Arrows3D:vectors", "iteration")
+    _, origins = out[PATHS.com].series("Arrows3D:origins", "iteration")
     assert times.tolist() == [0, 2, 4]
     np.testing.assert_allclose([o[0] for o in origins], [[k, 0, 1] for k in (0, 2, 4)])
     np.testing.assert_allclose([v[0] for v in vectors], [[0, 0, style.LIFT - 1]] * 3, atol=1e-7)

@@ -196,11 +196,11 @@ def test_targets_show_from_the_start_and_frames_follow(recorded):
     assert np.linalg.norm(np.subtract(current[n1 - 1][0], targets[0][0])) < 1e-3
     end = robot.frame_pose("larm_end", "site").translation()
     np.testing.assert_allclose(current[-1][0], end, atol=1e-5)
-    # the labelled marker sits on the target; the CoM target shows from the start too
-    times, points = rec[PATHS.task_target_point(name)].series(POINTS, "iteration")
-    assert times.tolist() == [0, n1 + 1]
-    np.testing.assert_allclose([p[0] for p in points], [t[0] for t in targets], atol=1e-6)
-    _, labels = rec[PATHS.task_target_point(name)].series("Points3D:labels", "iteration")
+    # the labelled marker sits at the target frame's origin, on its entity; the CoM
+    # target shows from the start too
+    times, points = rec[PATHS.task_target(name)].series(POINTS, "iteration")
+    assert times.tolist() == [0, n1 + 1] and points == [[[0.0, 0.0, 0.0]]] * 2
+    _, labels = rec[PATHS.task_target(name)].series("Points3D:labels", "iteration")
     assert labels[0] == [name]
     times, _ = rec[PATHS.com_target].series(POINTS, "iteration")
     assert times[0] == 0

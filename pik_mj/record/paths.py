@@ -35,8 +35,9 @@ class EntityPaths:
         scene: Parent of the environment's geometry: ``world/scene/<kind>``
             (welded to the world), ``world/scene/moving/<kind>`` and
             ``world/scene/moving/bodies`` (free or mocap bodies).
-        com: Centre of mass ``p_WC`` [m] (child ``ground``: its projection on
-            the ground, and the line down to it).
+        com: Centre of mass ``p_WC`` [m] (``Points3D``) and, for a floating
+            base, its plumb line to the ground (``Arrows3D``, same entity: one
+            chunk).
         com_target: Target of the centre of mass [m].
         support_polygon: Support polygon outline (child ``margin``: shrunk outline).
         scfr: Static centroid feasible region outline.
@@ -46,7 +47,7 @@ class EntityPaths:
         contact_points: Contact points [m].
         contact_forces: Contact forces drawn as arrows (scaled, [m/N]).
         tasks: Parent of task frames: ``world/tasks/<task>/target|current``
-            (and ``target_point``, a labelled marker at the target).
+            (a target also carries a labelled marker at its origin).
         errors: Parent of task error series: ``errors/level_<k>/<task>``.
         errors_log10: The same series as ``log10`` of the error (a log scale):
             ``errors_log10/level_<k>/<task>``.
@@ -77,11 +78,6 @@ class EntityPaths:
     balance: str = "balance"
     walk: str = "walk"
 
-    @property
-    def com_ground(self) -> str:
-        """The CoM's projection on the ground (a point and the line down to it)."""
-        return f"{self.com}/ground"
-
     def geoms(self, kind: str, *, robot: bool = True, moving: bool = True) -> str:
         """Path of the geoms of one primitive ``kind`` (``boxes``, ``capsules``,
         ``cylinders``, ``ellipsoids``, ``meshes/<mesh>``, ``hfields/<hfield>``)
@@ -98,10 +94,6 @@ class EntityPaths:
     def task_target(self, task: str) -> str:
         """Path of a task's target frame."""
         return f"{self.tasks}/{path_part(task)}/target"
-
-    def task_target_point(self, task: str) -> str:
-        """Path of the labelled marker at a task's target."""
-        return f"{self.tasks}/{path_part(task)}/target_point"
 
     def task_current(self, task: str) -> str:
         """Path of a task's current frame."""

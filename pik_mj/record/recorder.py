@@ -289,15 +289,12 @@ class Recorder:
 
     def log_target(self, task: str, p: npt.ArrayLike, quat_wxyz: npt.ArrayLike) -> None:
         """Log the target of ``task``: its frame (``world/tasks/<task>/target``,
-        position [m], MuJoCo quaternion) and a marker labelled with the task's
-        name (``.../target_point``)."""
-        self.log_frame(self.paths.task_target(task), p, quat_wxyz)
+        position [m], MuJoCo quaternion) and, on the same entity (one chunk), a
+        marker labelled with the task's name at the frame's origin."""
+        path = self.paths.task_target(task)
+        self.log_frame(path, p, quat_wxyz)
         self.log_point(
-            self.paths.task_target_point(task),
-            p,
-            radius=style.TARGET_RADIUS,
-            color=style.TARGET,
-            label=str(task),
+            path, np.zeros(3), radius=style.TARGET_RADIUS, color=style.TARGET, label=str(task)
         )
         self._targets[str(task)] = (np.array(p, dtype=float), np.array(quat_wxyz, dtype=float))
 
@@ -690,7 +687,7 @@ class Recorder:
 
         For a floating-base robot its projection on the ground (``ground_z`` of
         :attr:`measures`, drawn :attr:`lift` above it) and the arrow down to it
-        go to :attr:`EntityPaths.com_ground`.
+        go to the same entity (an ``Arrows3D``: one chunk for both).
         """
         p = _vec(p_WC, (3,), "CoM", self.paths.com)
         self.log_point(self.paths.com, p, radius=style.COM_RADIUS, color=style.COM)
@@ -698,7 +695,7 @@ class Recorder:
         if ground is not None:
             foot = np.array([p[0], p[1], ground + self.lift])
             self._append(
-                (self.paths.com_ground,),
+                (self.paths.com,),
                 np.concatenate([p, foot - p]).reshape(1, 6),
                 ARROW,
                 (style.COM_GROUND_RADIUS / 2, style.COM_GROUND),
