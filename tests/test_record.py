@@ -18,15 +18,7 @@ import rerun as rr
 from scipy.spatial.transform import Rotation
 
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
-from pik_mj.record import (
-    PATHS,
-    TASK_ERROR,
-    EntityData,
-    Recorder,
-    blueprint,
-    read_recording,
-    style,
-)
+from pik_mj.record import PATHS, EntityData, Recorder, blueprint, read_recording, style
 from pik_mj.record.geometry import right_mul_matrix
 
 TET = np.array([[0, 0, 0], [0.2, 0, 0], [0, 0.2, 0], [0, 0, 0.2]], dtype=float)
@@ -186,6 +178,7 @@ def test_paths_are_readable_and_nested():
     assert all(rr.escape_entity_path_part(p) == p for p in ("target_larm_end", "é.x-1"))
     assert PATHS.task_current("rarm") == "world/tasks/rarm/current"
     assert PATHS.task_error(2, "com") == "errors/level_2/com"
+    assert PATHS.task_error(2, "com", log10=True) == "errors_log10/level_2/com"
     assert PATHS.hold_metric("drift") == "hold/drift"
     assert PATHS.walk_series("x", "zmp_reference") == "walk/x/zmp_reference"
 
@@ -452,12 +445,12 @@ def test_com_scalars_frames_and_text(model, tmp_path):
     np.testing.assert_allclose([x[0] for x in v], coms, rtol=1e-6)
     _, v = out[PATHS.com_target].series("Points3D:positions", "iteration")
     np.testing.assert_allclose([x[0] for x in v], [target] * 5, rtol=1e-6)
-    _, e = out[PATHS.task_error(1, "com")].series(TASK_ERROR, "iteration")
+    _, e = out[PATHS.task_error(1, "com")].series("Scalars:scalars", "iteration")
     np.testing.assert_allclose([x[0] for x in e], [0.0, 0.1, 0.2, 0.3, 0.4])
-    _, e = out[PATHS.task_error(2, "posture")].series(TASK_ERROR, "iteration")
-    np.testing.assert_allclose([x[0] for x in e], [0, 1, 4, 9, 16])
-    # the plotted scalars: log10 of each error, 1e-16 for an error of 0 (a log scale)
     _, e = out[PATHS.task_error(2, "posture")].series("Scalars:scalars", "iteration")
+    np.testing.assert_allclose([x[0] for x in e], [0, 1, 4, 9, 16])
+    # log10 of each error, 1e-16 for an error of 0 (the plots' log scale)
+    _, e = out[PATHS.task_error(2, "posture", log10=True)].series("Scalars:scalars", "iteration")
     np.testing.assert_allclose([x[0] for x in e], [-16, 0, np.log10(4), np.log10(9), np.log10(16)])
     # the style goes with every row, in the chunk of the data (no static chunk)
     _, radii = out[PATHS.com].series("Points3D:radii", "iteration")
@@ -548,9 +541,9 @@ def test_rrd_verify_and_blueprint(model, tmp_path):
     }
     assert views == {
         "world": "3D",
-        "errors/level_1": "TimeSeries",
-        "errors/level_2": "TimeSeries",
-        "errors/level_3": "TimeSeries",
+        "errors_log10/level_1": "TimeSeries",
+        "errors_log10/level_2": "TimeSeries",
+        "errors_log10/level_3": "TimeSeries",
     }
     assert isinstance(blueprint([]), rr.blueprint.Blueprint)
 

@@ -26,7 +26,7 @@ import rerun as rr
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.record import PATHS, TASK_ERROR, Recorder, read_blueprint, read_recording
+from pik_mj.record import PATHS, Recorder, read_blueprint, read_recording
 from pik_mj.record.loggers import margin_outline
 from pik_mj.record.style import FORCE_PER_WEIGHT
 from pik_mj.robot import Robot
@@ -153,12 +153,12 @@ def test_errors_are_the_task_reports_over_both_solves(recorded):
     ticks = {1: list(range(1, n1 + 1)), 2: list(range(n1 + 2, n1 + 2 + n2))}
     for solve, capture in ((1, recorded["first_capture"]), (2, recorded["second_capture"])):
         for key in capture.errors[0]:
-            times, values = rec[PATHS.task_error(*key)].series(TASK_ERROR, "iteration")
+            times, values = rec[PATHS.task_error(*key)].series(SCALAR, "iteration")
             mine = [(t, v[0]) for t, v in zip(times, values, strict=True) if t in ticks[solve]]
             assert [t for t, _ in mine] == ticks[solve]
             assert [v for _, v in mine] == [e[key] for e in capture.errors]
     final = {(t.level, t.name): t.error for t in res2.tasks}
-    last = {k: rec[PATHS.task_error(*k)].series(TASK_ERROR, "iteration")[1][-1][0] for k in final}
+    last = {k: rec[PATHS.task_error(*k)].series(SCALAR, "iteration")[1][-1][0] for k in final}
     assert last == final
 
 
@@ -305,7 +305,7 @@ def test_blueprint_covers_every_solve_and_the_hold(recorded):
         for e in bp.values()
         if "ViewBlueprint:space_origin" in e.temporal
     }
-    plots = {PATHS.level_errors(k) for k in levels}
+    plots = {PATHS.level_errors(k, log10=True) for k in levels}
     assert plots | {PATHS.balance, PATHS.hold, PATHS.world, PATHS.events} == origins
     assert _verify(recorded["path"]).returncode == 0
 
@@ -413,18 +413,14 @@ def test_blueprint_opens_on_the_solve(recorded):
     _check_framed(views[0].eye, _robot_points(rec, "iteration"), recorded["height"])
     assert _check_plots_have_data(rec, views, "iteration") == 5  # 3 levels, 2 balance
     assert any(v.kind == "TextLog" and v.origin == PATHS.events for v in views)
-    # error plots are log-scaled: the scalars they show are log10 of the errors
+    # error plots are log-scaled: they show log10 of the logged errors
     errors = [v for v in views if "error" in v.name]
-    assert [v.origin for v in errors] == [PATHS.level_errors(k) for k in (1, 2, 3)]
-    assert all("log10" in v.name for v in errors)
-    for view in errors:
-        for path in view.entities(rec):
-            _, linear = rec[path].series(TASK_ERROR, "iteration")
-            _, plotted = rec[path].series(SCALAR, "iteration")
-            e = np.maximum([v[0] for v in linear], 1e-16)
-            np.testing.assert_allclose([v[0] for v in plotted], np.log10(e))
-    _, plotted = rec[PATHS.task_error(2, "target:larm_end")].series(SCALAR, "iteration")
-    assert min(v[0] for v in plotted) < -3  # converged below 1 mm: visible on this scale
+    assert [v.origin for v in errors] == [PATHS.level_errors(k, log10=True) for k in (1, 2, 3)]
+    key = (2, "target:larm_end")
+    _, linear = rec[PATHS.task_error(*key)].series(SCALAR, "iteration")
+    _, log10 = rec[PATHS.task_error(*key, log10=True)].series(SCALAR, "iteration")
+    np.testing.assert_allclose([v[0] for v in log10], np.log10([v[0] for v in linear]))
+    assert min(v[0] for v in log10) < -3  # converged below 1 mm: visible on this scale
     # plots grouped by unit: no plot mixes metres with counts or newtons
     names = {v.name: v.entities(rec) for v in views + hold_views if v.kind == "TimeSeries"}
     assert names["static check: CoM margin to the support polygon [m]"] == ["balance/margin"]

@@ -22,7 +22,7 @@ import pytest
 
 from pik_mj import cli
 from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.record import PATHS, TASK_ERROR, EntityData, read_recording, style
+from pik_mj.record import PATHS, EntityData, read_recording, style
 from pik_mj.robot import Robot
 from pik_mj.scenarios import (
     REGISTRY,
@@ -97,7 +97,7 @@ def _check_iterations(rec: dict[str, EntityData], result: ScenarioResult) -> Non
             if keys.count((t.level, t.name)) > 1:
                 continue
             entity = rec[PATHS.task_error(t.level, t.name)]
-            assert _at(entity, TASK_ERROR, "iteration", last[label])[0] == pytest.approx(
+            assert _at(entity, SCALAR, "iteration", last[label])[0] == pytest.approx(
                 t.error, rel=1e-9, abs=1e-12
             )
     # the final pose logged is the robot's
@@ -198,7 +198,9 @@ def test_every_scenario_writes_a_valid_recording(name, tmp_path):
     }
     n_levels = max(len({t.level for t in s.tasks}) for s in result.solves.values())
     assert origins[PATHS.world] == "3D"
-    assert all(origins[PATHS.level_errors(k)] == "TimeSeries" for k in range(1, n_levels))
+    assert all(
+        origins[PATHS.level_errors(k, log10=True)] == "TimeSeries" for k in range(1, n_levels)
+    )
     if result.robot.has_floating_base:
         assert origins[PATHS.balance] == "TimeSeries"
         _check_simulation(rec, result)

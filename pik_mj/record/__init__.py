@@ -21,14 +21,12 @@ logged. Modules:
 """
 
 from .blueprint import blueprint
-from .columns import TASK_ERROR
 from .paths import PATHS, TIMELINES, EntityPaths
 from .reader import BlueprintLayout, EntityData, ViewLayout, read_blueprint, read_recording
 from .recorder import Recorder
 
 __all__ = [
     "PATHS",
-    "TASK_ERROR",
     "TIMELINES",
     "BlueprintLayout",
     "EntityData",

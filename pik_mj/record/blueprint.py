@@ -22,7 +22,7 @@ tabs' plots fill when it is switched to theirs).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -145,7 +145,6 @@ def blueprint_for(
     paths: EntityPaths = PATHS,
     *,
     framing: Mapping[str, Framing] | None = None,
-    log_scale: Collection[int] = (),
 ) -> rrb.Blueprint:
     """The layout of everything ``logged`` (see the module docstring).
 
@@ -155,8 +154,6 @@ def blueprint_for(
         paths: Entity-path table.
         framing: Per timeline, what the 3D view's camera frames (the robot's
             body positions seen on it); no camera is set without it.
-        log_scale: Priority levels whose error series are ``log10`` of the
-            errors (:meth:`~pik_mj.record.recorder.Recorder.log_task_errors`).
     """
     framing = framing or {}
     tabs: list[rrb.Container] = []
@@ -176,8 +173,13 @@ def blueprint_for(
         for k in levels:
             if k == 0 and len(levels) > 1:
                 continue  # hard rows: what the levels above keep
-            what = "log10 of each task's error" if k in log_scale else "task errors"
-            plots.append(_plot(f"level {k}: {what}", paths.level_errors(k)))
+            log10 = bool(_under(logged, paths.level_errors(k, log10=True)))
+            plots.append(
+                _plot(
+                    f"level {k}: " + ("log10 of each task's error" if log10 else "task errors"),
+                    paths.level_errors(k, log10=log10),
+                )
+            )
         if paths.balance_metric("margin") in logged:
             plots.append(
                 _plot(

@@ -31,12 +31,9 @@ if TYPE_CHECKING:
 __all__ = [
     "ARROW",
     "BODY_FRAME",
-    "ERROR",
-    "ERROR_COMPONENT",
     "INSTANCE_POSES",
     "POINT",
     "SCALAR",
-    "TASK_ERROR",
     "TRANSFORM",
     "Block",
     "Outbox",
@@ -184,29 +181,6 @@ def _point_archetype(v: np.ndarray, style: tuple[Any, ...]) -> Any:
     )
 
 
-#: The component holding a task's error ``e`` in the rows of :data:`ERROR`
-#: (their ``Scalars:scalars``, what the plots show, is ``log10 e``).
-TASK_ERROR = "TaskError:error"
-ERROR_COMPONENT = rr.ComponentDescriptor(
-    TASK_ERROR, archetype="pik_mj.TaskError", component_type="rerun.components.Scalar"
-)
-
-
-def _error_batches(v: np.ndarray) -> list[Any]:
-    """``log10`` of the error as the plotted scalar, the error beside it."""
-    return [
-        rr.components.ScalarBatch(v[:, 0]).described(rr.Scalars.descriptor_scalars()),
-        rr.components.ScalarBatch(v[:, 1]).described(ERROR_COMPONENT),
-    ]
-
-
-#: A task's error: [log10 e, e], one entity, one chunk (plotted on a log scale).
-ERROR = RowKind(
-    width=2,
-    columns=lambda v, lengths: [b.partition(lengths) for b in _error_batches(v)],
-    style_columns=_no_style,
-    archetype=lambda v, style: _error_batches(v),
-)
 SCALAR = RowKind(
     width=1,
     columns=lambda v, lengths: [

@@ -48,10 +48,9 @@ class EntityPaths:
         contact_forces: Contact forces drawn as arrows (scaled, [m/N]).
         tasks: Parent of task frames: ``world/tasks/<task>/target|current``
             (a target also carries a labelled marker at its origin).
-        errors: Parent of task error series: ``errors/level_<k>/<task>``
-            (:meth:`~pik_mj.record.recorder.Recorder.log_task_errors`: the
-            plotted ``Scalars`` are ``log10`` of the error, a log scale; the
-            error itself is the component ``TaskError:error``).
+        errors: Parent of task error series: ``errors/level_<k>/<task>``.
+        errors_log10: The same series as ``log10`` of the error (a log scale):
+            ``errors_log10/level_<k>/<task>``.
         events: Text log of the run.
         hold: Parent of physics-hold metrics: ``hold/<metric>`` (e.g. ``hold/drift``).
         balance: Parent of per-iteration balance metrics of the simulated static
@@ -73,6 +72,7 @@ class EntityPaths:
     contact_forces: str = "world/contacts/forces"
     tasks: str = "world/tasks"
     errors: str = "errors"
+    errors_log10: str = "errors_log10"
     events: str = "log/events"
     hold: str = "hold"
     balance: str = "balance"
@@ -99,13 +99,15 @@ class EntityPaths:
         """Path of a task's current frame."""
         return f"{self.tasks}/{path_part(task)}/current"
 
-    def level_errors(self, level: int) -> str:
-        """Parent path of the error series of priority level ``level``."""
-        return f"{self.errors}/level_{int(level)}"
+    def level_errors(self, level: int, *, log10: bool = False) -> str:
+        """Parent path of the error series of priority level ``level`` (of their
+        ``log10``)."""
+        return f"{self.errors_log10 if log10 else self.errors}/level_{int(level)}"
 
-    def task_error(self, level: int, task: str) -> str:
-        """Path of the error series of ``task`` on priority level ``level``."""
-        return f"{self.level_errors(level)}/{path_part(task)}"
+    def task_error(self, level: int, task: str, *, log10: bool = False) -> str:
+        """Path of the scalar error series of ``task`` on priority level ``level``
+        (of its ``log10``)."""
+        return f"{self.level_errors(level, log10=log10)}/{path_part(task)}"
 
     def hold_metric(self, name: str) -> str:
         """Path of a physics-hold metric series, e.g. ``hold/drift``."""

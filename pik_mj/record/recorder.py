@@ -55,7 +55,6 @@ from .blueprint import Framing, blueprint, blueprint_for
 from .columns import (
     ARROW,
     BODY_FRAME,
-    ERROR,
     INSTANCE_POSES,
     POINT,
     SCALAR,
@@ -173,7 +172,6 @@ class Recorder:
         self._blocks: dict[tuple[Any, ...], Block] = {}
         self._outbox = Outbox()
         self._error_paths: dict[tuple[tuple[int, str], ...], tuple[str, ...]] = {}
-        self._log_scale: set[int] = set()  # levels whose errors are log10 rows
         # What was logged: entity path -> timelines of its rows (the blueprint's input)
         self._logged: dict[str, set[str]] = {}
         # Solves: the last tick of the iteration timeline, and the fixed targets
@@ -367,7 +365,7 @@ class Recorder:
             timeline: Framing(low, high, heading, height, ground)
             for timeline, (low, high, heading) in self._extent.items()
         }
-        return blueprint_for(self._logged, self.paths, framing=framing, log_scale=self._log_scale)
+        return blueprint_for(self._logged, self.paths, framing=framing)
 
     def _send_buffers(self) -> None:
         """Send every buffered row of every entity, and pending static data, in
@@ -841,10 +839,8 @@ class Recorder:
         self._append((path,), np.array([[v]]), SCALAR)
 
     def log_task_errors(self, errors: Mapping[tuple[int, str], float]) -> None:
-        """Log each task's error ``e`` at ``errors/level_<k>/<task>``: the
-        plotted ``Scalars`` are ``log10 e`` (a log scale; errors below 1e-16
-        count as 1e-16), ``e`` itself is the component ``TaskError:error``
-        (:data:`~pik_mj.record.columns.ERROR_COMPONENT`) of the same rows.
+        """Log each task's error at ``errors/level_<k>/<task>`` and its ``log10``
+        at ``errors_log10/level_<k>/<task>`` (errors below 1e-16 count as 1e-16).
 
         Args:
             errors: ``{(level, task_name): error}``; the error is whatever scalar
@@ -855,15 +851,16 @@ class Recorder:
         paths = self._error_paths.get(keys)
         if paths is None:
             paths = self._error_paths[keys] = tuple(
-                self.paths.task_error(level, name) for level, name in keys
+                self.paths.task_error(level, name, log10=log10)
+                for log10 in (False, True)
+                for level, name in keys
             )
-            self._log_scale.update(level for level, _ in keys)
         values = np.fromiter(errors.values(), dtype=float, count=len(keys))
         if not np.isfinite(values).all():
             bad = int(np.flatnonzero(~np.isfinite(values))[0])
             raise InvalidInput(f"scalar {paths[bad]!r} must be finite, got {values[bad]}")
-        rows = np.column_stack([np.log10(np.maximum(np.abs(values), 1e-16)), values])
-        self._append(paths, rows, ERROR)
+        rows = np.concatenate([values, np.log10(np.maximum(np.abs(values), 1e-16))])
+        self._append(paths, rows.reshape(-1, 1), SCALAR)
 
     def log_text(self, message: str, level: str = "INFO") -> None:
         """Log ``message`` to the run's text log at the current time."""
