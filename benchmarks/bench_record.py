@@ -28,8 +28,10 @@ warm-up each):
 
 Also printed: the median of the paired ratios ``t_recorded,i / t_plain,i - 1`` of
 the two runs of each repetition (they run back to back, so it is less sensitive
-to the machine's load drifting during the benchmark), and the time spent inside
-the callback and in ``finish`` + ``close``.
+to the machine's load drifting during the benchmark), the same ratio in CPU time
+of the process (all threads, rerun's included: less sensitive to other
+processes competing for the cores), and the time spent inside the callback and
+in ``finish`` + ``close``.
 
 Run: ``python benchmarks/bench_record.py [--reps 20]``
 """
@@ -77,15 +79,19 @@ def solve(robot: Robot, target: np.ndarray, p_mid: np.ndarray, callback=None) ->
     )
 
 
-def time_plain(robot: Robot) -> tuple[float, SolveResult]:
+def time_plain(robot: Robot) -> tuple[float, float, SolveResult]:
+    """Returns (wall, CPU) times of the solve [s], result."""
     target, p_mid = start(robot)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     result = solve(robot, target, p_mid)
-    return time.perf_counter() - t0, result
+    return time.perf_counter() - t0, time.process_time() - c0, result
 
 
-def time_recorded(robot: Robot, path: Path) -> tuple[float, float, float, float, SolveResult]:
-    """Returns (setup, solve + finish/close, in the callback, finish/close) times [s], result."""
+def time_recorded(
+    robot: Robot, path: Path, cpu: list[float] | None = None
+) -> tuple[float, float, float, float, SolveResult]:
+    """Returns (setup, solve + finish/close, in the callback, finish/close) times [s],
+    result; appends the CPU time of the solve + finish/close (all threads) to ``cpu``."""
     target, p_mid = start(robot)
     t0 = time.perf_counter()
     rec = Recorder.to_file(path, "bench_record")
@@ -99,12 +105,14 @@ def time_recorded(robot: Robot, path: Path) -> tuple[float, float, float, float,
         callback(info)
         spent.append(time.perf_counter() - t)
 
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     result = solve(robot, target, p_mid, timed)
     t2 = time.perf_counter()
     callback.finish(result)
     rec.close()
-    t3 = time.perf_counter()
+    t3, c3 = time.perf_counter(), time.process_time()
+    if cpu is not None:
+        cpu.append(c3 - c1)
     return t1 - t0, t3 - t1, sum(spent), t3 - t2, result
 
 
@@ -117,18 +125,20 @@ def main(argv=None) -> dict:
 
     robot = Robot.load(MODEL)
     plain, recorded, setup, in_callback, closing = [], [], [], [], []
+    cpu_plain, cpu_recorded = [], []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench_record.rrd"
-        _, ref = time_plain(robot)  # warm-up
+        _, _, ref = time_plain(robot)  # warm-up
         time_recorded(robot, path)
         for i in range(args.reps):
             order = (0, 1) if i % 2 == 0 else (1, 0)
             for which in order:
                 if which == 0:
-                    t, result = time_plain(robot)
+                    t, c, result = time_plain(robot)
                     plain.append(t)
+                    cpu_plain.append(c)
                 else:
-                    s, t, cb, close, result = time_recorded(robot, path)
+                    s, t, cb, close, result = time_recorded(robot, path, cpu_recorded)
                     setup.append(s)
                     recorded.append(t)
                     in_callback.append(cb)
@@ -156,6 +166,7 @@ def main(argv=None) -> dict:
         "overhead_paired": float(np.median(np.array(recorded) / np.array(plain) - 1.0)),
         "overhead_in_callback": t_cb / t_plain,
         "overhead_with_setup": (t_rec + t_setup) / t_plain - 1.0,
+        "overhead_cpu_paired": float(np.median(np.array(cpu_recorded) / np.array(cpu_plain) - 1.0)),
         "rrd_bytes": rrd_bytes,
     }
     print(
@@ -166,6 +177,7 @@ def main(argv=None) -> dict:
     print(f"{'solve, recorded + finish/close [ms]':40}{1e3 * t_rec:>10.2f}")
     print(f"{'recording overhead':40}{figures['overhead']:>10.1%}   (target <= 30%)")
     print(f"{'  median of the paired ratios':40}{figures['overhead_paired']:>10.1%}")
+    print(f"{'  in CPU time (all threads), paired':40}{figures['overhead_cpu_paired']:>10.1%}")
     print(f"{'  of which in the callback [ms]':40}{1e3 * t_cb:>10.2f}")
     print(f"{'  of which finish + close [ms]':40}{1e3 * t_close:>10.2f}")
     print(f"{'overhead of the callback alone':40}{figures['overhead_in_callback']:>10.1%}")

@@ -171,7 +171,8 @@ class Recorder:
         # (entity paths, timelines, style) -> their buffered rows
         self._blocks: dict[tuple[Any, ...], Block] = {}
         self._outbox = Outbox()
-        self._error_paths: dict[tuple[tuple[int, str], ...], tuple[str, ...]] = {}
+        # task keys -> (their error paths, then the log10 ones; which are solved)
+        self._error_paths: dict[tuple[tuple[int, str], ...], tuple[tuple[str, ...], Any]] = {}
         # What was logged: entity path -> timelines of its rows (the blueprint's input)
         self._logged: dict[str, set[str]] = {}
         # Solves: the last tick of the iteration timeline, and the fixed targets
@@ -839,8 +840,10 @@ class Recorder:
         self._append((path,), np.array([[v]]), SCALAR)
 
     def log_task_errors(self, errors: Mapping[tuple[int, str], float]) -> None:
-        """Log each task's error at ``errors/level_<k>/<task>`` and its ``log10``
-        at ``errors_log10/level_<k>/<task>`` (errors below 1e-16 count as 1e-16).
+        """Log each task's error at ``errors/level_<k>/<task>`` and, for the
+        solved levels (k >= 1; level 0 holds the hard rows), its ``log10`` at
+        ``errors_log10/level_<k>/<task>`` (errors below 1e-16 count as 1e-16):
+        the plots' log scale.
 
         Args:
             errors: ``{(level, task_name): error}``; the error is whatever scalar
@@ -848,18 +851,22 @@ class Recorder:
                 keys every iteration keep the series in one buffer.
         """
         keys = tuple(errors)
-        paths = self._error_paths.get(keys)
-        if paths is None:
-            paths = self._error_paths[keys] = tuple(
-                self.paths.task_error(level, name, log10=log10)
-                for log10 in (False, True)
-                for level, name in keys
+        plan = self._error_paths.get(keys)
+        if plan is None:
+            solved = np.array([level >= 1 for level, _ in keys], dtype=bool)
+            paths = tuple(self.paths.task_error(level, name) for level, name in keys)
+            paths += tuple(
+                self.paths.task_error(level, name, log10=True)
+                for (level, name), s in zip(keys, solved, strict=True)
+                if s
             )
+            plan = self._error_paths[keys] = (paths, solved)
+        paths, solved = plan
         values = np.fromiter(errors.values(), dtype=float, count=len(keys))
         if not np.isfinite(values).all():
             bad = int(np.flatnonzero(~np.isfinite(values))[0])
             raise InvalidInput(f"scalar {paths[bad]!r} must be finite, got {values[bad]}")
-        rows = np.concatenate([values, np.log10(np.maximum(np.abs(values), 1e-16))])
+        rows = np.concatenate([values, np.log10(np.maximum(np.abs(values[solved]), 1e-16))])
         self._append(paths, rows.reshape(-1, 1), SCALAR)
 
     def log_text(self, message: str, level: str = "INFO") -> None:
