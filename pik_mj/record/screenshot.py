@@ -19,6 +19,7 @@ import argparse
 import contextlib
 import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -93,8 +94,15 @@ def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
         "--hide-welcome-screen",
     ]
     env = dict(os.environ, RERUN_ANALYTICS="0")
+    # its own process group: the `rerun` script starts the viewer binary as a
+    # child, which must stop with it
     process = subprocess.Popen(
-        command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env
+        command,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
     )
     started = time.monotonic()
     try:
@@ -118,12 +126,19 @@ def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
         time.sleep(max(0.0, started + NOTICE_SECONDS - time.monotonic()))
         yield client
     finally:
-        process.terminate()
+        _stop(process)
+
+
+def _stop(process: subprocess.Popen) -> None:
+    """Stop the viewer's process group (the script and the viewer binary)."""
+    for sig, wait in ((signal.SIGTERM, 10.0), (signal.SIGKILL, 5.0)):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, sig)
         try:
-            process.wait(timeout=10)
+            process.wait(timeout=wait)
+            break
         except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+            continue
 
 
 def _settled_png(client: Any, *, tries: int = 12) -> bytes:
