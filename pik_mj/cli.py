@@ -7,6 +7,8 @@
                --quiet, --model NAME, --headless, ...]
     pik-mj validate FILE.json [--environment ENV] [--duration SECONDS] [--json OUT]
                [--save FILE.rrd]
+    pik-mj screenshot FILE.rrd --out FILE.png [--timeline NAME] [--time T|last]
+               [--view NAME] [--tab NAME] [--size WxH] [--panels]
 
 ``run`` runs the ``main`` of scenario ``NAME`` (default ``fullbody_reach``;
 ``pik_mj.scenarios.<name>``) with the remaining options, saving its rerun
@@ -205,7 +207,7 @@ def _validate_parser() -> argparse.ArgumentParser:
 def _validate(argv: list[str]) -> int:
     from dataclasses import replace
 
-    from ._record_adapter import Recorder
+    from .record import Recorder
     from .robot import Robot
     from .scenario import balance_summary, jsonable
     from .sim import validate_pose
@@ -273,6 +275,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument("name", nargs="?", help="scenario name")
     sub.add_parser("validate", help="static check and physics hold of a pose", add_help=False)
+    sub.add_parser("screenshot", help="PNG of a recording (rerun's viewer)", add_help=False)
     return parser
 
 
@@ -289,6 +292,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _list()
         if command == "validate":
             return _validate(rest)
+        if command == "screenshot":
+            from .record import screenshot
+
+            shot = argparse.ArgumentParser(prog="pik-mj screenshot")
+            screenshot.add_arguments(shot)
+            return screenshot.run(shot.parse_args(rest))
         name = rest[0] if rest and not rest[0].startswith("-") else None
         return _run(name, rest[1:] if name is not None else rest)
     except PikError as exc:

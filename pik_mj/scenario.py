@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
-from ._record_adapter import Recorder
 from .balance import support_polygon
 from .ik import sole_polygons
+from .record import Recorder
 from .robot import Robot
 from .sim import HoldCriteria, HoldReport, Scene, StaticChecks, StaticReport, balance_report
 from .solve import SolveResult

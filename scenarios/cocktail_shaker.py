@@ -45,7 +45,7 @@ def run(
     def solve(label: str, *targets, **options) -> None:
         """``inverse_kinematics`` with the static checks, the logger and the progress."""
         checks = scene.static_checker()
-        log = recorder.solve_logger(label, checks=checks)
+        log = recorder.solve_logger(label, checks=checks, start=robot)
         progress = Progress(label, total=50, stream=err)
         res = inverse_kinematics(robot, *targets, callback=[checks, log, progress], **options)
         result.add_solve(label, res, checks, finish=[log, progress])

@@ -60,7 +60,7 @@ def run(
     target = p_root + np.array(HAND_OFFSETS.get(str(model), OTHER_MODELS))
 
     checks = scene.static_checker()
-    log = recorder.solve_logger("reach", checks=checks)
+    log = recorder.solve_logger("reach", checks=checks, start=robot)
     progress = Progress("reach", total=100, stream=None if quiet else sys.stderr)
     res = fullbody_inverse_kinematics(
         robot,
