@@ -32,7 +32,7 @@ import numpy as np
 from ..exceptions import InvalidInput, UnknownName
 from ..frames import Frame
 from .frame import AxisSpec, constrained_axes, skew
-from .task import Task, TaskRows, diagonal_weights
+from .task import EqualityTask, clamp_norm, diagonal_weights, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]
 
@@ -131,12 +131,7 @@ def frame_rotation_option(model: mujoco.MjModel, value: Any, frame_type: str | N
     )
 
 
-def _clamp(v: np.ndarray, limit: float) -> np.ndarray:
-    n = float(np.linalg.norm(v))
-    return v if n <= limit else v * (limit / n)
-
-
-class CentroidTask(Task):
+class CentroidTask(EqualityTask):
     """Bring the robot's CoM onto a target position (seed ``target-centroid-pos-task``).
 
     Args:
@@ -188,6 +183,8 @@ class CentroidTask(Task):
         self.rows = constrained_axes(translation_axis, "translation_axis")
         self.frame = frame_rotation_option(model, frame, frame_type)
         self.w = diagonal_weights(w, 3, "w")
+        self.k = self.rows.size
+        self.weights = self.w[self.rows]
         if not (np.isfinite(p_limit) and p_limit > 0):
             raise InvalidInput(f"p_limit must be a positive finite number [m], got {p_limit}")
         self.p_limit = float(p_limit)
@@ -246,19 +243,12 @@ class CentroidTask(Task):
             J = J + skew(self._error_world(configuration)) @ J_w
         return (self._R_WF(configuration).T @ J)[self.rows]
 
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        e = self.compute_error(configuration)
-        return TaskRows.equality(
-            self.compute_jacobian(configuration), -_clamp(e, self.p_limit), self.w[self.rows]
-        )
+    def clamp(self, e: np.ndarray) -> np.ndarray:
+        """``e`` scaled to norm ``p_limit`` if longer (a copy)."""
+        return clamp_norm(e.copy(), self.p_limit)
 
-    def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        e = self.compute_error(configuration)
-        if e.size == 0:
-            return True
-        if self.centroid_thre.ndim == 0:
-            return bool(np.linalg.norm(e) <= self.centroid_thre)
-        return bool(np.all(np.abs(e) <= self.centroid_thre[self.rows]))
+    def satisfied_by(self, e: np.ndarray) -> bool:
+        return within(e, self.centroid_thre, self.rows)
 
     def __repr__(self) -> str:
         frame = (

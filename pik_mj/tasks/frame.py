@@ -39,7 +39,7 @@ import numpy as np
 
 from ..exceptions import InvalidInput
 from ..frames import Frame
-from .task import Task, TaskRows, TaskState, diagonal_weights
+from .task import EqualityTask, clamp_norm, diagonal_weights, within
 
 AxisSpec = bool | str | None
 
@@ -149,7 +149,7 @@ def as_pose(value: Any, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
     return p, R
 
 
-class FrameTask(Task):
+class FrameTask(EqualityTask):
     """Bring a robot frame onto a target frame (seed ``move-target-task``).
 
     Args:
@@ -221,9 +221,9 @@ class FrameTask(Task):
             raise InvalidInput("thre and rthre must be >= 0")
         self.check = check
         self.name = name or f"frame:{move_target}"
-        self._weights = np.concatenate([self.w_trans[self.trans_rows], self.w_rot[self.rot_rows]])
+        self.weights = np.concatenate([self.w_trans[self.trans_rows], self.w_rot[self.rot_rows]])
         self._rows = np.concatenate([self.trans_rows, 3 + self.rot_rows])
-        self._empty = np.zeros(0)
+        self.k = self._rows.size
         self._both_local = all(
             isinstance(f, str) and f == "local"
             for f in (self.translation_frame, self.rotation_frame)
@@ -248,12 +248,27 @@ class FrameTask(Task):
             return value
         if isinstance(value, mink.SO3):
             return value.as_matrix()
-        arr = np.asarray(value, dtype=float)
-        if arr.shape == (4,):
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            arr = np.zeros(0)
+        if arr.shape == (4,) and np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0:
             return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
-        if arr.shape == (3, 3) and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6):
+        if arr.shape == (4,):
+            raise InvalidInput(
+                f"{what}: the quaternion {value!r} has zero length or is not finite; "
+                "give a non-zero wxyz quaternion"
+            )
+        if (
+            arr.shape == (3, 3)
+            and np.all(np.isfinite(arr))
+            and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
+        ):
             return arr
-        raise InvalidInput(f"{what} must be 'local', 'world', a quaternion or a rotation matrix")
+        raise InvalidInput(
+            f"{what} {value!r} is not valid; use 'local', 'world', a wxyz quaternion, "
+            "a rotation matrix or a mink.SO3"
+        )
 
     # -- geometry -----------------------------------------------------------
     def target_pose_now(self, configuration: mink.Configuration) -> tuple[np.ndarray, np.ndarray]:
@@ -293,9 +308,9 @@ class FrameTask(Task):
 
     def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
         """``d e / d q`` in the tangent space, shape (rows, nv)."""
-        return self._error_and_jacobian(configuration)[1]
+        return self.error_and_jacobian(configuration)[1]
 
-    def _error_and_jacobian(self, configuration: mink.Configuration):
+    def error_and_jacobian(self, configuration: mink.Configuration):
         """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
         data = configuration.data
         e_tW, e_rW, R_WM, R_e = self._errors_world(configuration)
@@ -339,33 +354,19 @@ class FrameTask(Task):
         return e, J
 
     # -- cascade contract -------------------------------------------------------
-    def _rows_from(self, e: np.ndarray, J: np.ndarray) -> TaskRows:
-        """``J x = -[clamp(e_t, p_limit); clamp(e_r, r_limit)]``."""
+    def clamp(self, e: np.ndarray) -> np.ndarray:
+        """``[clamp(e_t, p_limit); clamp(e_r, r_limit)]`` (a copy)."""
+        b = e.copy()
         n_t = self.trans_rows.size
-        b = -e
-        for part, limit in ((b[:n_t], self.p_limit), (b[n_t:], self.r_limit)):
-            norm = math.sqrt(float(part @ part))
-            if norm > limit:
-                part *= limit / norm
-        empty = self._empty
-        return TaskRows(J, b, self._weights, np.zeros((0, J.shape[1])), empty, empty, empty)
+        clamp_norm(b[:n_t], self.p_limit)
+        clamp_norm(b[n_t:], self.r_limit)
+        return b
 
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        return self._rows_from(*self._error_and_jacobian(configuration))
-
-    def _satisfied_by(self, e: np.ndarray) -> bool:
+    def satisfied_by(self, e: np.ndarray) -> bool:
         n_t = self.trans_rows.size
-        return _within(e[:n_t], self.thre, self.trans_rows) and _within(
+        return within(e[:n_t], self.thre, self.trans_rows) and within(
             e[n_t:], self.rthre, self.rot_rows
         )
-
-    def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        return self._satisfied_by(self.compute_error(configuration))
-
-    def evaluate(self, configuration: mink.Configuration) -> TaskState:
-        """Rows, error norm and stop test from one evaluation of the error."""
-        e, J = self._error_and_jacobian(configuration)
-        return TaskState(self._rows_from(e, J), math.sqrt(float(e @ e)), self._satisfied_by(e))
 
     def __repr__(self) -> str:
         target = (
@@ -378,12 +379,3 @@ class FrameTask(Task):
             f"rows={self.trans_rows.size}+{self.rot_rows.size}, p_limit={self.p_limit}, "
             f"r_limit={self.r_limit})"
         )
-
-
-def _within(e: np.ndarray, tol: np.ndarray, rows: np.ndarray) -> bool:
-    """Seed tolerance: a float bounds the norm, a vector bounds each matched axis."""
-    if e.size == 0:
-        return True
-    if tol.ndim == 0:
-        return math.sqrt(float(e @ e)) <= float(tol)
-    return bool(np.all(np.abs(e) <= tol[rows]))
