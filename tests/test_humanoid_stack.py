@@ -72,7 +72,7 @@ def test_revert_if_fail_restores_configuration(model):
     np.testing.assert_array_equal(cfg.q, q0)
     # The report still says how far it got before reverting.
     hand = next(t for t in result.tasks if t.level == 2)
-    assert not hand.satisfied and hand.error > 1.0
+    assert not hand.satisfied and hand.error > 0.5  # the target is 2 m away
 
 
 def test_min_loop_runs_at_least_that_many_iterations(model):

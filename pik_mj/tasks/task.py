@@ -120,11 +120,13 @@ class TaskRows(NamedTuple):
                 \\mathrm{dist}(C_i x, [d_{l,i}, d_{u,i}])^2
         """
         if x is None:
-            r_eq = -self.b
-            cx = np.zeros(self.n_in)
-        else:
-            r_eq = self.A @ x - self.b
-            cx = self.C @ x
+            e = float(self.b @ (self.w_A * self.b))
+            if self.n_in:
+                viol = np.maximum(self.d_lower, 0.0) + np.maximum(-self.d_upper, 0.0)
+                e += float(viol @ (self.w_C * viol))
+            return e
+        r_eq = self.A @ x - self.b
+        cx = self.C @ x
         viol = np.maximum(self.d_lower - cx, 0.0) + np.maximum(cx - self.d_upper, 0.0)
         return float(r_eq @ (self.w_A * r_eq) + viol @ (self.w_C * viol))
 
@@ -280,7 +282,7 @@ class EqualityTask(Task):
         """``J x = -clamp(e)`` with weights :attr:`weights`."""
         b = self.clamp(e)
         np.negative(b, out=b)
-        return TaskRows(J, b, self.weights, *_no_inequality(J.shape[1]))
+        return TaskRows(J, b, self.weights, *no_inequality(J.shape[1]))
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         return self.rows_from(*self.error_and_jacobian(configuration))
@@ -298,9 +300,18 @@ _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
 
 
-def _no_inequality(nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(C, d_lower, d_upper, w_C)`` of rows without inequalities."""
-    return np.zeros((0, nv)), _EMPTY, _EMPTY, _EMPTY
+_NO_INEQUALITY: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def no_inequality(nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(C, d_lower, d_upper, w_C)`` of rows without inequalities (shared,
+    read-only empty arrays)."""
+    empty = _NO_INEQUALITY.get(nv)
+    if empty is None:
+        C = np.zeros((0, nv))
+        C.flags.writeable = False
+        empty = _NO_INEQUALITY[nv] = (C, _EMPTY, _EMPTY, _EMPTY)
+    return empty
 
 
 def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
