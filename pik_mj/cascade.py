@@ -50,7 +50,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
-from .qp import HierarchicalProblem, LevelProblem, QPBackend, QPSolution
+from .qp import (
+    DAQPBackend,
+    HierarchicalProblem,
+    LevelProblem,
+    OSQPBackend,
+    QPBackend,
+    QPSolution,
+    QpsolversBackend,
+)
 from .tasks.task import TaskRows
 
 DEFAULT_RELAXATION = 1e-5
@@ -301,7 +309,8 @@ def solve_cascade(
         role: Tag of the problems (``"step"`` or ``"correction"``) for backends
             that cache per problem.
         closed_form: Solve a level in closed form when no inequality is active
-            (False: every level goes to the backend).
+            (False: every level goes to the backend). A backend given as an
+            object or a function (seed ``qp-solver``) always gets every level.
 
     Raises:
         InfeasibleHardConstraints: Level 1 is infeasible: only level 0's hard rows
@@ -321,6 +330,7 @@ def solve_cascade(
         reg.weight(e) + rows.damping
         for rows, reg, e in zip(levels, regularization, errors, strict=True)
     ]
+    closed_form = closed_form and isinstance(backend, (OSQPBackend, DAQPBackend, QpsolversBackend))
     cascade = NullSpaceCascade(hard, backend, relaxation, role)
     level_x: list[np.ndarray] = []
     problems: list[LevelProblem | HierarchicalProblem] = []

@@ -41,7 +41,7 @@ initial mismatch is removed (seed ``:calc-jacobian-for-interlocking-joints``).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import mink
@@ -49,7 +49,16 @@ import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput, UnknownName
-from .solve import IterationInfo, SolveResult, evaluate_levels, revert_unless_converged
+from .solve import (
+    Callback,
+    IterationInfo,
+    SolveResult,
+    callbacks_of,
+    check_configuration,
+    count_option,
+    evaluate_levels,
+    revert_unless_converged,
+)
 from .tasks.frame import ONE_DEGREE, FrameTask
 
 METHODS = ("sr-inverse", "pseudo-inverse")
@@ -207,7 +216,7 @@ def classic_inverse_kinematics(
     avoid_nspace_gain: float = 0.01,
     interlocking_pairs: Sequence[tuple[str, str]] = (),
     revert_if_fail: bool = True,
-    callback: Callable[[IterationInfo], None] | None = None,
+    callback: Callback | Sequence[Callback] | None = None,
 ) -> SolveResult:
     """Solve frame targets the irteus way (SR-inverse, weighted least norm, null space).
 
@@ -228,16 +237,19 @@ def classic_inverse_kinematics(
         interlocking_pairs: ``[(joint_a, joint_b), ...]`` hinge/slide joints kept
             at equal angles.
         revert_if_fail: Restore the initial configuration if not converged.
-        callback: Called after each iteration with an :class:`IterationInfo`
+        callback: One callable or a list of callables, each called in order
+            after every iteration with the same :class:`IterationInfo`
             (``step`` is None here).
 
     Returns:
         A :class:`pik_mj.solve.SolveResult` (``qp_times`` empty: no QP).
     """
+    check_configuration(configuration)
     if method not in METHODS:
         raise InvalidInput(f"method {method!r} is not one of {METHODS}")
-    if not isinstance(stop, int) or stop < 1:
-        raise InvalidInput(f"stop must be a positive integer, got {stop!r}")
+    stop = count_option("stop", stop, 1)
+    min_loop = count_option("min_loop", min_loop, 0)
+    callbacks = callbacks_of(callback)
     for label, v in (
         ("manipulability_limit", manipulability_limit),
         ("manipulability_gain", manipulability_gain),
@@ -289,8 +301,9 @@ def classic_inverse_kinematics(
             rows, reports = evaluate_levels(configuration, levels)
             converged = iteration >= min_loop and all(r.satisfied for r in reports if r.checked)
             times.append(time.perf_counter() - t0)
-            if callback is not None:
-                callback(IterationInfo(iteration, configuration, levels, None, times[-1], reports))
+            info = IterationInfo(iteration, configuration, levels, None, times[-1], reports)
+            for c in callbacks:
+                c(info)
             if converged:
                 break
     except BaseException:

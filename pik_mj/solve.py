@@ -8,14 +8,14 @@ satisfied. ``revert_if_fail`` restores the initial configuration when it ends
 unsatisfied; any exception (and Ctrl-C) restores it too.
 
 The step length ``α ∈ (0, 1]`` comes from a trust region on ``‖x‖_∞``
-(:class:`TrustRegion`): a step is accepted when no level satisfied before it
-drifted beyond ``drift`` (after the correction below) and the first
-unsatisfied level did not get worse; otherwise it is retried shorter. This
-bounds the step of *every* task (mink's tasks and user tasks included) so that
-a lower level never moves a higher one through linearization error.
+(:class:`TrustRegion`): a step is accepted when no level satisfied before it,
+and no hard row, ends more than ``drift`` (1e-4 in the task's units) worse
+than it was, after the correction below; otherwise it is retried shorter.
+This bounds the step of *every* task (mink's tasks and user tasks included)
+so that a lower level never moves a higher one through linearization error.
 
-The correction (``correct=True``): when a step made the satisfied levels drift,
-their rows at the new configuration are solved again alone (a Newton
+The correction (``correct=True``): when a step made the satisfied levels
+drift, their rows at the new configuration are solved again alone (a Newton
 projection back onto them) within the same iteration.
 
 Inputs are validated here, where they enter (configuration, options, every
@@ -159,23 +159,30 @@ class SolveResult:
 class TrustRegion:
     """The step rule: a trust region on ``‖Δq‖_∞`` with an acceptance test.
 
-    Each iteration takes ``α x`` with ``α = min(1, radius / ‖x‖_∞)``. The step is
-    accepted when, at the new configuration (after the correction):
+    Each iteration takes ``α x`` with ``α = min(1, radius / ‖x‖_∞)``. If the
+    levels satisfied before the step drifted, the correction (``correct``)
+    projects back onto them, up to :data:`MAX_CORRECTIONS` times, until each
+    of their checked tasks is within ``drift / 2``. The step is accepted when
+    every checked task of those levels and of level 0 (the hard rows, whose
+    linearization a long step can overshoot) has an error of at most
+    ``max(its error before, drift)``: a lower level never moves a higher one
+    by more than ``drift`` through linearization error. A rejected step is
+    retried with ``radius = shrink · α ‖x‖_∞`` (at most ``retries`` times; then
+    the iteration keeps its configuration).
 
-    * every task of the levels satisfied before the step has an error of at
-      most ``max(its error before, drift)`` (a lower level moved it by no more
-      than ``drift`` through linearization error), and
-    * the first unsatisfied level's error norm did not grow.
-
-    A rejected step is retried with ``radius = shrink · α ‖x‖_∞`` (at most
-    ``retries`` times; the iteration then keeps its configuration). An
-    accepted step lets the radius grow to ``2 α ‖x‖_∞`` (up to ``max_radius``).
+    The radius then adapts to the first unsatisfied level's error norm ``e``:
+    with ``ρ`` its decrease over the decrease its rows predicted, judged when
+    the step needed a correction or made ``e`` grow, ``ρ < 1/4`` shrinks the
+    radius to ``shrink · α ‖x‖_∞`` and ``ρ > 3/4`` lets it grow to
+    ``2 α ‖x‖_∞`` (up to ``max_radius``). Steps that reduce ``e`` without a
+    correction are not judged: a callable target's motion is not in its
+    task's Jacobian, and a task reporting a clamped error shows no change.
 
     Attributes:
         radius: Initial radius [rad or m, per coordinate of Δq].
         max_radius: Largest radius [rad or m].
         drift: Error a satisfied task may reach [its units: m, rad, ...].
-        shrink: Factor of a rejected step's length.
+        shrink: Factor of a rejected or poorly predicted step's length.
         retries: Rejections per iteration before it gives up.
     """
 
@@ -198,13 +205,13 @@ class TrustRegion:
             raise InvalidInput(
                 f"TrustRegion.radius {self.radius} exceeds max_radius {self.max_radius}"
             )
-        _count("TrustRegion.retries", self.retries, 0)
+        count_option("TrustRegion.retries", self.retries, 0)
 
 
 # -- validation where input enters --------------------------------------------------
 
 
-def _count(name: str, value: object, minimum: int) -> int:
+def count_option(name: str, value: object, minimum: int) -> int:
     """An integer option (numpy integers accepted, bools refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise InvalidInput(f"{name} must be an integer >= {minimum}, got {value!r}")
@@ -402,7 +409,12 @@ def evaluate_level(
     rows = []
     reports = []
     for task in level:
-        state = task.evaluate(configuration)
+        try:
+            state = task.evaluate(configuration)
+        except (TypeError, ValueError, IndexError) as exc:
+            if not validate or isinstance(exc, InvalidInput):
+                raise
+            raise InvalidInput(_foreign_task(task, configuration, exc)) from exc
         if validate:
             state.rows.validate(nv, task.name)
         rows.append(state.rows)
@@ -416,6 +428,21 @@ def evaluate_level(
             r.validate(nv, task.name)
         raise InvalidInput(f"level {k}: rows are not finite")  # pragma: no cover
     return stacked, reports
+
+
+def _foreign_task(task: Task, configuration: mink.Configuration, exc: Exception) -> str:
+    """What to say about a task that cannot be evaluated on ``configuration``."""
+    model = configuration.model
+    target = getattr(getattr(task, "task", None), "target_q", None)
+    if target is not None and np.shape(target) != (model.nq,):
+        return (
+            f"task {task.name}: its target configuration has {np.size(target)} entries but "
+            f"this model has nq = {model.nq}; was it made for another model?"
+        )
+    return (
+        f"task {task.name} cannot be evaluated on this configuration (nq = {model.nq}, "
+        f"nv = {model.nv}): {type(exc).__name__}: {exc}; was it made for another model?"
+    )
 
 
 def evaluate_levels(
@@ -623,8 +650,8 @@ def solve(
         RuntimeWarning: The start configuration is outside joint ranges.
     """
     check_configuration(configuration)
-    stop = _count("stop", stop, 1)
-    min_loop = _count("min_loop", min_loop, 0)
+    stop = count_option("stop", stop, 1)
+    min_loop = count_option("min_loop", min_loop, 0)
     if min_loop > stop:
         raise InvalidInput(f"min_loop ({min_loop}) must not exceed stop ({stop})")
     revert_if_fail = _flag("revert_if_fail", revert_if_fail)
@@ -668,8 +695,8 @@ def solve(
     radius = trust_region.radius if trust_region is not None else math.inf
     drift = trust_region.drift if trust_region is not None else math.inf
     retries = trust_region.retries if trust_region is not None else 0
-    # corrections bring satisfied levels back within a tenth of the drift bound
-    fix_above = 0.1 * drift if trust_region is not None else 1e-5
+    # corrections bring satisfied levels back within half the drift bound
+    fix_above = 0.5 * drift if trust_region is not None else 1e-5
 
     def point(q: np.ndarray) -> _Point:
         return _Point(q, configuration, task_levels, stacks)

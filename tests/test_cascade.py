@@ -27,7 +27,7 @@ from pik_mj import (
     TaskRows,
     solve_cascade,
 )
-from pik_mj.qp import DAQPBackend, HierarchicalBackend, QPSolution, QpsolversBackend
+from pik_mj.qp import DAQPBackend, HierarchicalBackend, QPSolution, QpsolversBackend, make_backend
 
 NV = 8
 # eps_prim_inf well below τ (1e-9): see OSQP_DEFAULTS.
@@ -289,6 +289,25 @@ def test_infeasible_hard_rows_raise():
         solve_cascade(hard, levels, [Regularization()], OSQPBackend())
 
 
+def test_a_user_backend_gets_every_level():
+    """A backend given as an object or function (seed qp-solver) solves every
+    level, even those the closed form would have taken."""
+    seen = []
+
+    def qp(problem):
+        seen.append(problem.level)
+        return DAQPBackend().solve(problem).z
+
+    levels = [
+        TaskRows.equality(np.eye(NV)[:3], np.ones(3)),
+        TaskRows.equality(np.eye(NV), np.zeros(NV)),
+    ]
+    regs = [Regularization(1e-9, 0.0, 1.0)] * 2
+    step = solve_cascade(TaskRows.empty(NV), levels, regs, make_backend(qp))
+    assert seen == [1, 2] and step.closed_form == 0
+    np.testing.assert_allclose(step.x[:3], np.ones(3), atol=1e-6)
+
+
 def test_failed_level_carries_level_and_problem():
     class Failing:
         def solve(self, problem):
@@ -309,13 +328,14 @@ def test_levels_without_active_constraint_are_solved_in_closed_form():
     closed form is the exact optimum (DAQP's active set on the same problem);
     an active hard row sends level 1 to the backend, which then respects it."""
 
-    class Counting:
+    class Counting(OSQPBackend):
         def __init__(self):
-            self.levels, self.inner = [], OSQPBackend(dict(TIGHT.settings))
+            super().__init__(dict(TIGHT.settings))
+            self.levels = []
 
         def solve(self, problem):
             self.levels.append(problem.level)
-            return self.inner.solve(problem)
+            return super().solve(problem)
 
     rng = np.random.default_rng(3)
     A1 = rng.normal(size=(3, NV))

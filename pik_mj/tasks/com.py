@@ -32,7 +32,7 @@ import numpy as np
 from ..exceptions import InvalidInput, UnknownName
 from ..frames import Frame
 from .frame import AxisSpec, constrained_axes, skew
-from .task import EqualityTask, clamp_norm, diagonal_weights, within
+from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]
 
@@ -115,9 +115,17 @@ def frame_rotation_option(model: mujoco.MjModel, value: Any, frame_type: str | N
         return None if value == "world" else Frame.find(model, value, frame_type)
     if isinstance(value, mink.SO3):
         return value.as_matrix()
-    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.zeros(0)
     if arr.shape == (4,) and np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0:
         return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
+    if arr.shape == (4,):
+        raise InvalidInput(
+            f"frame: the quaternion {value!r} has zero length or is not finite; "
+            "give a non-zero wxyz quaternion"
+        )
     if (
         arr.shape == (3, 3)
         and np.all(np.isfinite(arr))
@@ -188,11 +196,7 @@ class CentroidTask(EqualityTask):
         if not (np.isfinite(p_limit) and p_limit > 0):
             raise InvalidInput(f"p_limit must be a positive finite number [m], got {p_limit}")
         self.p_limit = float(p_limit)
-        self.centroid_thre = np.asarray(centroid_thre, dtype=float)
-        if self.centroid_thre.shape not in ((), (3,)) or not np.all(self.centroid_thre >= 0):
-            raise InvalidInput(
-                f"centroid_thre must be a float or 3-vector >= 0 [m], got {centroid_thre!r}"
-            )
+        self.centroid_thre = tolerance(centroid_thre, "centroid_thre", "m")
         if com_offset is not None and not callable(com_offset):
             raise InvalidInput("com_offset must be a callable f(configuration) -> 3-vector")
         self.com_offset = com_offset

@@ -42,7 +42,7 @@ import numpy as np
 
 from ..exceptions import InvalidInput
 from ..frames import Frame
-from .task import EqualityTask, clamp_norm, diagonal_weights, within
+from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 AxisSpec = bool | str | None
 
@@ -220,10 +220,8 @@ class FrameTask(EqualityTask):
         self.w_rot = diagonal_weights(w_rot, 3, "w_rot")
         self.p_limit = _limit("p_limit", p_limit)
         self.r_limit = _limit("r_limit", r_limit)
-        self.thre = np.asarray(thre, dtype=float)
-        self.rthre = np.asarray(rthre, dtype=float)
-        if np.any(self.thre < 0) or np.any(self.rthre < 0):
-            raise InvalidInput("thre and rthre must be >= 0")
+        self.thre = tolerance(thre, "thre", "m")
+        self.rthre = tolerance(rthre, "rthre", "rad")
         self.check = check
         self.name = name or f"frame:{move_target}"
         self.weights = np.concatenate([self.w_trans[self.trans_rows], self.w_rot[self.rot_rows]])

@@ -332,6 +332,21 @@ def within(e: np.ndarray, tol: np.ndarray, rows: np.ndarray) -> bool:
     return bool(np.all(np.abs(e) <= tol[rows]))
 
 
+def tolerance(value: object, what: str, unit: str) -> np.ndarray:
+    """A stop-test tolerance: a finite number >= 0, or a 3-vector of them (one
+    per axis), as an array of shape () or (3,)."""
+    valid = f"a finite number >= 0 or 3 of them [{unit}]"
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise InvalidInput(f"{what} must be {valid}, got {value!r}")
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{what} must be {valid}, got {value!r}") from None
+    if arr.shape not in ((), (3,)) or not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise InvalidInput(f"{what} must be {valid}, got {value!r}")
+    return arr
+
+
 MAX_WEIGHT = 1e12
 """Largest task weight accepted: the level's Hessian ``Jᵀ W J`` must stay far
 from overflow and its condition number within what a QP solver can use."""
