@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import io
 import os
 import sys
 import tempfile
@@ -764,17 +765,21 @@ def _new_backend(name: str, args: dict[str, Any]) -> Any:
 
 @contextlib.contextmanager
 def _captured_c_output() -> Iterator[list[str]]:
-    """What C code writes to stdout/stderr inside the block (file-descriptor level)."""
+    """What C code prints inside the block: through Python's ``sys.stdout`` /
+    ``sys.stderr`` (OSQP's extension prints with ``PySys_WriteStdout``) or
+    straight to file descriptors 1 and 2."""
     out: list[str] = []
     libc = ctypes.CDLL(None)
     sys.stdout.flush()
     sys.stderr.flush()
+    text = io.StringIO()
     with tempfile.TemporaryFile(mode="w+b") as tmp:
         saved = [os.dup(1), os.dup(2)]
         try:
             os.dup2(tmp.fileno(), 1)
             os.dup2(tmp.fileno(), 2)
-            yield out
+            with contextlib.redirect_stdout(text), contextlib.redirect_stderr(text):
+                yield out
         finally:
             libc.fflush(None)
             os.dup2(saved[0], 1)
@@ -782,7 +787,7 @@ def _captured_c_output() -> Iterator[list[str]]:
             for fd in saved:
                 os.close(fd)
             tmp.seek(0)
-            out.append(tmp.read().decode(errors="replace"))
+            out.append(text.getvalue() + tmp.read().decode(errors="replace"))
 
 
 def _probe_osqp(settings: dict[str, Any]) -> None:
@@ -796,5 +801,5 @@ def _probe_osqp(settings: dict[str, Any]) -> None:
     except (osqp.OSQPException, ValueError, TypeError, AssertionError) as exc:
         message = " ".join(line.strip() for line in "".join(text).splitlines() if line.strip())
         raise InvalidInput(
-            f"qp_args rejected by OSQP: {message or exc!r}; valid keys: {list(OSQP_SETTINGS)}"
+            f"qp_args rejected by OSQP: {message or repr(exc)}; valid keys: {list(OSQP_SETTINGS)}"
         ) from None
