@@ -22,6 +22,7 @@ from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.joint_coupling import JointCouplingTask
 from pik_mj.tasks.joint_limit import JointLimitTask
 from pik_mj.tasks.joint_velocity import JointVelocityTask
+from pik_mj.tasks.task import EqualityTask
 from pik_mj.virtual_root import solve_with_virtual_root, with_virtual_root
 
 EPS = 1e-6
@@ -205,6 +206,56 @@ def test_joint_coupling_fd_and_solve(humanoid):
     assert result.converged
     assert abs(task.compute_error(cfg)[0]) <= 1e-5
     assert cfg.data.joint("right_knee").qpos[0] == pytest.approx(-0.4, abs=1e-5)
+
+
+class SiteHeight(EqualityTask):
+    """A user task written against the base: the z of a site onto a height."""
+
+    k = 1
+
+    def __init__(self, site: str, height: float, limit: float | None = None):
+        self.site, self.height, self.limit = site, height, limit
+        self.weights = np.ones(1)
+        self.name = f"height:{site}"
+
+    def compute_error(self, configuration):
+        return np.array([configuration.data.site(self.site).xpos[2] - self.height])
+
+    def compute_jacobian(self, configuration):
+        model, data = configuration.model, configuration.data
+        jacp = np.zeros((3, model.nv))
+        mujoco.mj_jacSite(model, data, jacp, None, model.site(self.site).id)
+        return jacp[2:3]
+
+    def clamp(self, e):
+        return e.copy() if self.limit is None else np.clip(e, -self.limit, self.limit)
+
+    def satisfied_by(self, e):
+        return abs(e[0]) <= 1e-4
+
+
+def test_a_user_equality_task_gets_rows_clamp_and_stop_test_from_the_base(arm):
+    """Error and Jacobian in, everything else from EqualityTask: the rows are
+    ``J x = -clamp(e)``, the Jacobian matches finite differences, the stop test
+    reads the unclamped error, and the cascade solves it."""
+    q = np.array([0.2, 0.4, -0.3])
+    cfg = configured(arm, np.array([-0.1, 0.6, 0.2]))
+    height = float(cfg.data.site("end").xpos[2])  # reachable: where another posture puts it
+    cfg.update(q)
+    task = SiteHeight("end", height=height, limit=0.01)
+    e, J = task.error_and_jacobian(cfg)
+    rows = task.compute_rows(cfg)
+    np.testing.assert_array_equal(rows.A, J)
+    assert rows.b[0] == pytest.approx(-np.clip(e[0], -0.01, 0.01))
+    assert rows.n_in == 0 and list(rows.w_A) == [1.0]
+    state = task.evaluate(cfg)
+    assert state.error == pytest.approx(abs(e[0])) and state.satisfied is (abs(e[0]) <= 1e-4)
+    J_fd = fd_jacobian(arm, q, task.compute_error)
+    cfg.update(q)
+    assert np.max(np.abs(J_fd - task.compute_jacobian(cfg))) < TOL
+    result = pik_mj.solve(cfg, [[JointLimitTask.all_limited(cfg)], [task]], stop=60)
+    assert result.converged
+    assert abs(task.compute_error(cfg)[0]) <= 1e-4
 
 
 # --------------------------------------------------------------------------- centroid
