@@ -50,15 +50,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
-from .qp import (
-    DAQPBackend,
-    HierarchicalProblem,
-    LevelProblem,
-    OSQPBackend,
-    QPBackend,
-    QPSolution,
-    QpsolversBackend,
-)
+from .qp import LevelProblem, OSQPBackend, QPBackend, QPSolution, QpsolversBackend
+from .qp_daqp import DAQPBackend, HierarchicalProblem
 from .tasks.task import TaskRows
 
 DEFAULT_RELAXATION = 1e-5

@@ -48,17 +48,9 @@ import mink
 import mujoco
 import numpy as np
 
+from .checks import Callback, callbacks_of, check_configuration, count_option
 from .exceptions import InvalidInput, UnknownName
-from .solve import (
-    Callback,
-    IterationInfo,
-    SolveResult,
-    callbacks_of,
-    check_configuration,
-    count_option,
-    evaluate_levels,
-    revert_unless_converged,
-)
+from .solve import IterationInfo, SolveResult, evaluate_levels, revert_unless_converged
 from .tasks.frame import ONE_DEGREE, FrameTask
 
 METHODS = ("sr-inverse", "pseudo-inverse")

@@ -27,7 +27,8 @@ from pik_mj import (
     TaskRows,
     solve_cascade,
 )
-from pik_mj.qp import DAQPBackend, HierarchicalBackend, QPSolution, QpsolversBackend, make_backend
+from pik_mj.qp import QPSolution, QpsolversBackend, make_backend
+from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend
 
 NV = 8
 # eps_prim_inf well below τ (1e-9): see OSQP_DEFAULTS.
