@@ -32,11 +32,13 @@ from __future__ import annotations
 
 import argparse
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import mink
 import numpy as np
+from qpsolvers.warnings import SparseConversionWarning
 
 import pik_mj
 from pik_mj import cases
@@ -82,6 +84,10 @@ def run_mink(
     tasks = cases.mink_reach_tasks(cfg, target, feet_cost=feet_cost)
     checked = tasks[:3]  # feet and hand
     limits = [mink.ConfigurationLimit(model)]
+    # mink hands qpsolvers dense matrices, and qpsolvers calls OSQP's solve()
+    # without raise_error: both warn on every call
+    warnings.filterwarnings("ignore", category=SparseConversionWarning)
+    warnings.filterwarnings("ignore", "The default value of raise_error", PendingDeprecationWarning)
     converged, iterations = False, 0
     t0 = time.perf_counter()
     for iterations in range(1, stop + 1):  # noqa: B007 - used after the loop
