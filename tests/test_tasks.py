@@ -437,7 +437,7 @@ def test_bad_inputs_raise_clear_errors(arm, humanoid, ball_model):
         CentroidTask(cfg, [0, 0, 0], root_body="torso")
     with pytest.raises(InvalidInput, match="world body"):
         robot_root_body(arm, "world")
-    with pytest.raises(InvalidInput, match="frame must be"):
+    with pytest.raises(InvalidInput, match="is not valid; use 'world', a frame name"):
         CentroidTask(cfg, [0, 0, 0], frame=np.ones((3, 3)))
     bad_offset = CentroidTask(cfg, [0, 0, 0], com_offset=lambda c: [1.0, 2.0])
     with pytest.raises(InvalidInput, match="com_offset"):

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..exceptions import InvalidInput, UnknownName
 from ..frames import Frame
-from .frame import AxisSpec, constrained_axes, skew
+from .frame import AxisSpec, constrained_axes, rotation_matrix, skew
 from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]
@@ -113,30 +113,7 @@ def frame_rotation_option(model: mujoco.MjModel, value: Any, frame_type: str | N
     any other string → a :class:`Frame` of the robot."""
     if isinstance(value, str):
         return None if value == "world" else Frame.find(model, value, frame_type)
-    if isinstance(value, mink.SO3):
-        return value.as_matrix()
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        arr = np.zeros(0)
-    if arr.shape == (4,) and np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0:
-        return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
-    if arr.shape == (4,):
-        raise InvalidInput(
-            f"frame: the quaternion {value!r} has zero length or is not finite; "
-            "give a non-zero wxyz quaternion"
-        )
-    if (
-        arr.shape == (3, 3)
-        and np.all(np.isfinite(arr))
-        and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
-        and np.linalg.det(arr) > 0
-    ):
-        return arr
-    raise InvalidInput(
-        "frame must be 'world', a frame name, a wxyz quaternion, a rotation matrix or "
-        f"a mink.SO3; got {value!r}"
-    )
+    return rotation_matrix(value, "frame", "'world', a frame name")
 
 
 class CentroidTask(EqualityTask):

@@ -124,6 +124,38 @@ def ljacinv(e: np.ndarray) -> np.ndarray:
     )
 
 
+def rotation_matrix(value: Any, what: str, also: str = "") -> np.ndarray:
+    """A rotation ``R`` (3x3) from a ``mink.SO3``, a wxyz quaternion (normalized)
+    or a proper orthonormal 3x3 matrix; :class:`InvalidInput` naming ``what``
+    otherwise (a zero or non-finite quaternion named as such). ``also`` lists
+    the caller's other valid values for the message."""
+    if isinstance(value, mink.SO3):
+        return value.as_matrix()
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.zeros(0)
+    if arr.shape == (4,):
+        if not (np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0):
+            raise InvalidInput(
+                f"{what}: the quaternion {value!r} has zero length or is not finite; "
+                "give a non-zero wxyz quaternion"
+            )
+        return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
+    if (
+        arr.shape == (3, 3)
+        and np.all(np.isfinite(arr))
+        and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
+        and np.linalg.det(arr) > 0
+    ):
+        return arr
+    valid = f"{also}, " if also else ""
+    raise InvalidInput(
+        f"{what} {value!r} is not valid; use {valid}a wxyz quaternion, a rotation matrix "
+        "or a mink.SO3"
+    )
+
+
 def as_pose(value: Any, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
     """``(p_W (3,), R_W (3,3))`` from a ``mink.SE3``, a 4x4 matrix, or
     ``(position, quaternion wxyz)``."""
@@ -249,29 +281,7 @@ class FrameTask(EqualityTask):
             if value not in ("local", "world"):
                 raise InvalidInput(f"{what} {value!r}: use 'local', 'world' or a rotation")
             return value
-        if isinstance(value, mink.SO3):
-            return value.as_matrix()
-        try:
-            arr = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            arr = np.zeros(0)
-        if arr.shape == (4,) and np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0:
-            return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
-        if arr.shape == (4,):
-            raise InvalidInput(
-                f"{what}: the quaternion {value!r} has zero length or is not finite; "
-                "give a non-zero wxyz quaternion"
-            )
-        if (
-            arr.shape == (3, 3)
-            and np.all(np.isfinite(arr))
-            and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
-        ):
-            return arr
-        raise InvalidInput(
-            f"{what} {value!r} is not valid; use 'local', 'world', a wxyz quaternion, "
-            "a rotation matrix or a mink.SO3"
-        )
+        return rotation_matrix(value, what, "'local', 'world'")
 
     # -- geometry -----------------------------------------------------------
     def target_pose_now(self, configuration: mink.Configuration) -> tuple[np.ndarray, np.ndarray]:
