@@ -168,20 +168,22 @@ class TrustRegion:
     linearization a long step can overshoot) has an error of at most
     ``max(its error before, drift)``: a lower level never moves a higher one
     by more than ``drift`` through linearization error. A rejected step is
-    retried with ``radius = shrink · α ‖x‖_∞`` (at most ``retries`` times; then
-    the iteration keeps its configuration).
+    retried ``shrink`` times as long (at most ``retries`` times; then the
+    iteration keeps its configuration).
 
-    The radius then adapts to the first unsatisfied level's error norm ``e``:
-    with ``ρ`` its decrease over the decrease its rows predicted, judged when
-    the step needed a correction or made ``e`` grow, ``ρ < 1/4`` shrinks the
-    radius to ``shrink · α ‖x‖_∞`` and ``ρ > 3/4`` lets it grow to
-    ``2 α ‖x‖_∞`` (up to ``max_radius``). Steps that reduce ``e`` without a
-    correction are not judged: a callable target's motion is not in its
-    task's Jacobian, and a task reporting a clamped error shows no change.
+    The radius then adapts to the first unsatisfied level's error norm ``e``,
+    with ``ρ`` its decrease over the decrease its rows predicted: ``ρ > 3/4``
+    lets it grow to ``2 α ‖x‖_∞`` (up to ``max_radius``); ``ρ < 1/4`` shrinks
+    it to ``shrink · α ‖x‖_∞`` (not below ``min_radius``), but only when the
+    step needed a correction or made ``e`` grow: a callable target's motion is
+    not in its task's Jacobian, and a task reporting a clamped error shows no
+    change, so a small ``ρ`` alone is no verdict.
 
     Attributes:
         radius: Initial radius [rad or m, per coordinate of Δq].
         max_radius: Largest radius [rad or m].
+        min_radius: Smallest radius kept for the next iterations [rad or m]
+            (a rejected step is retried shorter than it, within its iteration).
         drift: Error a satisfied task may reach [its units: m, rad, ...].
         shrink: Factor of a rejected or poorly predicted step's length.
         retries: Rejections per iteration before it gives up.
@@ -189,12 +191,13 @@ class TrustRegion:
 
     radius: float = 1.0
     max_radius: float = 4.0
+    min_radius: float = 0.01
     drift: float = 1e-4
     shrink: float = 0.25
     retries: int = 6
 
     def __post_init__(self) -> None:
-        for name in ("radius", "max_radius", "drift"):
+        for name in ("radius", "max_radius", "min_radius", "drift"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float, np.number)) and np.isfinite(v) and v > 0):
                 raise InvalidInput(
@@ -202,9 +205,10 @@ class TrustRegion:
                 )
         if not 0 < self.shrink < 1:
             raise InvalidInput(f"TrustRegion.shrink must be in (0, 1), got {self.shrink!r}")
-        if self.radius > self.max_radius:
+        if not self.min_radius <= self.radius <= self.max_radius:
             raise InvalidInput(
-                f"TrustRegion.radius {self.radius} exceeds max_radius {self.max_radius}"
+                f"TrustRegion radii must satisfy min_radius <= radius <= max_radius, got "
+                f"{self.min_radius}, {self.radius}, {self.max_radius}"
             )
         count_option("TrustRegion.retries", self.retries, 0)
 
@@ -617,20 +621,20 @@ def solve(
                         # Otherwise the task's own model decides (a callable
                         # target's motion is not in its Jacobian; an error that
                         # did not change is a saturated clamp).
-                        if (
-                            (corrected or e1 > e0)
-                            and predicted > 1e-12
-                            and abs(e1 - e0) > 1e-9 * e0
-                        ):
+                        if predicted > 1e-12 and abs(e1 - e0) > 1e-9 * e0:
                             ratio = (e0 - e1) / predicted
+                            if ratio < 0.25 and not (corrected or e1 > e0):
+                                ratio = 0.5  # no verdict: keep the radius
                     if kept:
                         if ratio < 0.25:  # the linear model overpromised: shorter steps
-                            radius = trust_region.shrink * alpha * size
+                            radius = max(
+                                trust_region.min_radius, trust_region.shrink * alpha * size
+                            )
                         elif ratio > 0.75:
                             radius = min(trust_region.max_radius, max(radius, 2.0 * alpha * size))
                         break
-                    radius = trust_region.shrink * alpha * size
-                    alpha = radius / size
+                    alpha *= trust_region.shrink  # rejected: retry shorter
+                    radius = max(trust_region.min_radius, alpha * size)
                 else:  # no acceptable step: the iteration keeps its configuration
                     configuration.update(here.q)
                     there, alpha = here, 0.0

@@ -194,7 +194,7 @@ CASES = [
         "TrustRegion(radius>max)",
         lambda s: s.solve(trust_region=TrustRegion(radius=5.0, max_radius=1.0)),
         pik_mj.InvalidInput,
-        r"radius 5.0 exceeds max_radius",
+        r"min_radius <= radius <= max_radius",
     ),
     (
         "qp_solver='nope'",
