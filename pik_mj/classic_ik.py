@@ -186,7 +186,11 @@ def _as_tasks(
         if isinstance(t, FrameTask):
             tasks.append(t)
         elif isinstance(t, (tuple, list)) and len(t) == 2 and isinstance(t[0], str):
-            tasks.append(FrameTask(configuration, t[0], t[1], thre=thre, rthre=rthre))
+            tasks.append(
+                FrameTask(
+                    configuration, t[0], t[1], thre=thre, rthre=rthre, p_limit=0.1, r_limit=0.5
+                )
+            )
         else:
             raise InvalidInput(f"targets[{i}] must be a FrameTask or (move_target, pose)")
     return tasks
@@ -214,8 +218,10 @@ def classic_inverse_kinematics(
 
     Args:
         configuration: Robot state, updated in place.
-        targets: :class:`FrameTask`s (their own axes, tolerances and step limits),
-            or ``(move_target, pose)`` tuples made into full 6-D FrameTasks.
+        targets: :class:`FrameTask`s (their own axes, tolerances and step limits:
+            the SR-inverse has no trust region, so give them ``p_limit`` and
+            ``r_limit``), or ``(move_target, pose)`` tuples made into full 6-D
+            FrameTasks with the seed's limits (0.1 m, 0.5 rad).
         method: ``"sr-inverse"`` (seed default) or ``"pseudo-inverse"`` (``k = 0``).
         stop: Maximum iterations (seed ``stop``).
         min_loop: Iterations before the stop test may end the loop.
