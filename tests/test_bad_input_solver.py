@@ -518,12 +518,13 @@ def test_ctrl_c_always_stops_the_solve_and_restores_the_configuration(qp_solver)
         s = Setup()
         s.stack.hand.set_target(cases.unreachable_hand_target(s.cfg, 2.0))
         timer = threading.Timer(rng.uniform(0.005, 0.05), os.kill, (os.getpid(), signal.SIGINT))
-        timer.start()
         try:
             with pytest.raises(KeyboardInterrupt):
+                timer.start()  # inside: under load the timer may fire before the solve
                 s.solve(stop=2000, revert_if_fail=False, qp_solver=qp_solver)
         finally:
             timer.cancel()
+            timer.join()
         np.testing.assert_array_equal(s.cfg.q, s.q0)
         stopped += 1
     assert stopped == 10
