@@ -48,7 +48,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.chunk import Chunk
 
-from pik_mj import record_geometry
+from pik_mj import inputs, record_geometry
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.record_geometry import GeomGroup, InstancePoses
 
@@ -652,7 +652,7 @@ class Recorder:
         flushes and disconnects it, which writes the file's footer.
         """
         _check_flush_every(flush_every)
-        path = Path(path)
+        path = inputs.output_path(path, "recording")  # a file path that can be written
         if not path.parent.is_dir():
             raise InvalidInput(f"directory of the recording {str(path)!r} does not exist")
         stream = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
