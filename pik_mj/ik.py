@@ -166,21 +166,10 @@ def static_balance_point(
 
 
 def _parse_forces(robot: Robot, external_forces: Any) -> list[tuple[Frame, np.ndarray, np.ndarray]]:
-    if isinstance(external_forces, (str, bytes)) or not isinstance(external_forces, Sequence):
-        raise InvalidInput("external_forces must be a list of (frame, force(3), moment(3))")
-    out = []
-    for i, item in enumerate(external_forces):
-        if not isinstance(item, (tuple, list)) or len(item) != 3:
-            raise InvalidInput(f"external_forces[{i}] must be (frame, force(3), moment(3))")
-        name, f, n = item
-        out.append(
-            (
-                Frame.find(robot.model, name),
-                _vector3(f, f"external_forces[{i}] force [N]"),
-                _vector3(n, f"external_forces[{i}] moment [N·m]"),
-            )
-        )
-    return out
+    return [
+        (Frame.find(robot.model, name), f, n)
+        for name, f, n in inputs.wrenches(external_forces, "external_forces")
+    ]
 
 
 def sole_polygons(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> list[np.ndarray]:

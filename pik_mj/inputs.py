@@ -38,6 +38,7 @@ __all__ = [
     "quaternion",
     "real",
     "vector",
+    "wrenches",
 ]
 
 Q_LIMIT = 1e6
@@ -203,6 +204,33 @@ def options(
     for name in given:
         if name not in valid:
             raise UnknownName(what, name, valid)
+
+
+def wrenches(value: Any, what: str) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """``value`` as wrenches ``(frame name, force (3,) [N], moment (3,) [N·m])``.
+
+    Raises:
+        InvalidInput: Not a list of such triples, a frame that is not a name, or
+            a force or moment that is not 3 finite numbers.
+    """
+    form = "(frame, force (3,) [N], moment (3,) [N·m])"
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
+        raise InvalidInput(f"{what} must be a list of {form}, got {_show(value)}")
+    out = []
+    for i, item in enumerate(value):
+        if not isinstance(item, (tuple, list)) or len(item) != 3:
+            raise InvalidInput(f"{what}[{i}] must be {form}, got {_show(item)}")
+        frame, force, moment = item
+        if not isinstance(frame, str):
+            raise InvalidInput(f"{what}[{i}]: the frame must be a name, got {frame!r}")
+        out.append(
+            (
+                frame,
+                vector(force, 3, f"{what}[{i}] force at {frame!r}", unit="N"),
+                vector(moment, 3, f"{what}[{i}] moment at {frame!r}", unit="N·m"),
+            )
+        )
+    return out
 
 
 _JOINT_WIDTH = {

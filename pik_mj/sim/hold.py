@@ -225,8 +225,8 @@ def _external_wrench(scene: Scene, frame: str, force: ArrayLike, moment: ArrayLi
     """A function writing ``(force at the frame origin, moment)`` to
     ``xfrc_applied`` of the frame's body: torque about the body CoM
     ``n + (p_WF - p_WCoM) × f``."""
-    f = inputs.vector(force, 3, f"external force at {frame!r}", unit="N")
-    n = inputs.vector(moment, 3, f"external moment at {frame!r}", unit="N·m")
+    f = np.asarray(force, dtype=float)  # checked by inputs.wrenches
+    n = np.asarray(moment, dtype=float)
     target = Frame.find(scene.model, frame)
     body = target.body_id
 
@@ -365,13 +365,7 @@ def hold(
     duration = inputs.real(duration, "duration", unit="s", low=0, low_open=True)
     every = inputs.integer(every, "every", low=1)
     margin_every = inputs.integer(margin_every, "margin_every", low=1)
-    if isinstance(external, (str, bytes)) or not isinstance(external, Sequence):
-        raise InvalidInput(
-            f"external must be a list of (frame, force (3,), moment (3,)), got {external!r}"
-        )
-    for i, w in enumerate(external):
-        if not isinstance(w, (tuple, list)) or len(w) != 3:
-            raise InvalidInput(f"external[{i}] must be (frame, force (3,), moment (3,)), got {w!r}")
+    external = inputs.wrenches(external, "external")
     q = scene._qpos(q)[: scene.robot_nq]
     callbacks = as_callbacks(callback)
     allowed_names = (

@@ -690,17 +690,10 @@ class Scene:
     def _wrenches(self, data: mujoco.MjData, external: Sequence[External]) -> list:
         """``external`` as :class:`pik_mj.balance.ExternalWrench`\\ es at the frames'
         positions in ``data``."""
-        out = []
-        if isinstance(external, (str, bytes)) or not isinstance(external, Sequence):
-            raise InvalidInput(
-                f"external must be a list of (frame, force (3,), moment (3,)), got {external!r}"
-            )
-        for i, item in enumerate(external):
-            if not isinstance(item, (tuple, list)) or len(item) != 3:
-                raise InvalidInput(f"external[{i}] must be (frame, force (3,), moment (3,))")
-            frame, F, M = item
-            out.append(balance.ExternalWrench(Frame.find(self.model, frame).position(data), F, M))
-        return out
+        return [
+            balance.ExternalWrench(Frame.find(self.model, frame).position(data), F, M)
+            for frame, F, M in inputs.wrenches(external, "external")
+        ]
 
     # ------------------------------------------------------------ static check
     def static_check(self, q: ArrayLike, **options: Any) -> StaticReport:
