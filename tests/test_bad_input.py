@@ -28,6 +28,7 @@ from typing import Any
 import mink
 import numpy as np
 import pytest
+from tmp_scenarios import add_scenario
 
 from pik_mj import (
     HoldCriteria,
@@ -472,3 +473,34 @@ def test_validate_names_the_joints_outside_their_range(tmp_path, capsys):
     robot.set_angle_vector([-0.5, -0.5], ["larm_elbow_p", "rarm_elbow_p"])
     report = validate_pose("sample_humanoid", robot.configuration.q, 0.2)
     assert report["joint_limits"] == [] and report["passed"]
+
+
+BUGGY = '''
+    """A scenario whose own code passes pik_mj a bad argument."""
+    from pik_mj import Robot
+    from pik_mj.scenario import ScenarioResult, open_recorder, parser, report
+
+
+    def run(recorder):
+        Robot.from_model("sample_humanoid").limb("tail")  # the script's bug, not the user's
+        return ScenarioResult("buggy")
+
+
+    def main(argv=None):
+        args = parser(__doc__, hold=False).parse_args(argv)
+        with open_recorder(args, "buggy") as recorder:
+            result = run(recorder)
+        return report(result, args)
+'''
+
+
+def test_a_scenario_that_raises_is_not_a_usage_error(tmp_path, monkeypatch, capsys):
+    """Bad input from the scenario's own code (not from the command line) is the
+    scenario's failure: its traceback and exit 1, the recording up to the error."""
+    add_scenario(monkeypatch, tmp_path, "buggy", BUGGY)
+    rrd = tmp_path / "buggy.rrd"
+    assert cli.main(["run", "buggy", "--save", str(rrd)]) == 1
+    captured = capsys.readouterr()
+    assert "Traceback (most recent call last)" in captured.err
+    assert "pik-mj: scenario buggy raised UnknownName: limb 'tail' does not exist" in captured.err
+    assert f"recording (up to the error): {rrd}" in captured.out
