@@ -18,7 +18,7 @@ from __future__ import annotations
 import inspect
 import math
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence, Set
 from pathlib import Path
 from typing import Any
 
@@ -170,9 +170,9 @@ def names(value: Any, what: str) -> tuple[str, ...]:
     Raises:
         InvalidInput: Not a sequence of strings.
     """
-    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, set, frozenset)):
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, Set, np.ndarray)):
         raise InvalidInput(f"{what} must be a list of names, got {_show(value)}")
-    out = tuple(value)
+    out = tuple(str(x) if isinstance(x, np.str_) else x for x in value)
     for i, name in enumerate(out):
         if not isinstance(name, str):
             raise InvalidInput(f"{what}[{i}] must be a name (a string), got {name!r}")
