@@ -208,7 +208,9 @@ def test_sigint_stops_every_recorded_run_and_leaves_a_valid_recording(tmp_path):
             pool.map(lambda i: _interrupt_one_run(i, phases[i], 2024 + i, tmp_path), range(ROUNDS))
         )
     for r in runs:
-        detail = f"run {r['i']} (SIGINT {r['delay']:.2f} s into the {r['phase']}): "
+        detail = (
+            f"run {r['i']} (exit {r['code']}, SIGINT {r['delay']:.2f} s into the {r['phase']}): "
+        )
         detail += r["stderr"][-2000:]
         assert r["running"], f"{detail}\nthe run had already ended: shorten PHASES' delays"
         assert r["code"] == 130, detail  # stopped by the interrupt, not finished
@@ -216,8 +218,16 @@ def test_sigint_stops_every_recorded_run_and_leaves_a_valid_recording(tmp_path):
         assert "Traceback" not in r["stderr"], detail
         assert r["verify"].returncode == 0, f"{detail}\n{r['verify'].stderr}"
     latencies = [r["latency"] for r in runs]
+    landed = [
+        "hold"
+        if PHASES["hold"][0] in r["stderr"]
+        else "solve"
+        if "iteration " in r["stderr"]
+        else "set-up"
+        for r in runs
+    ]
     print(
-        f"{ROUNDS} SIGINTs ({', '.join(f'{phases.count(p)} in the {p}' for p in PHASES)}): "
+        f"{ROUNDS} SIGINTs (landed in: {', '.join(f'{landed.count(p)} {p}' for p in PHASES)}): "
         f"all stopped (exit 130), all recordings verified; from SIGINT to exit: median "
         f"{np.median(latencies):.2f} s, max {max(latencies):.2f} s"
     )
