@@ -1,8 +1,8 @@
 """Checks of what a solve is given, where it enters, in one message style:
 what was wrong, and what is valid.
 
-Options are checked by type (numpy scalars accepted, bools refused where a
-number is due) and range; the configuration for finite, meaningful values
+Options are checked by :mod:`pik_mj.inputs` (numpy scalars accepted, bools
+refused where a number is due); the configuration for finite, meaningful values
 (naming the joint); the levels for shape. Tasks' rows are checked once at the
 start of a solve (:func:`pik_mj.solve.evaluate_level`).
 """
@@ -17,45 +17,9 @@ import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput
+from .inputs import Q_LIMIT, joint_name
 from .tasks.mink_adapter import as_task
 from .tasks.task import Task
-
-"""A per-iteration callback: called with an :class:`~pik_mj.solve.IterationInfo`."""
-
-Q_LIMIT = 1e6
-"""Largest ``|q_i|`` [rad or m] accepted in a configuration: beyond it a value
-is an overflow or a units mistake, not a pose."""
-
-
-def count_option(name: str, value: object, minimum: int) -> int:
-    """An integer option (numpy integers accepted, bools refused)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise InvalidInput(f"{name} must be an integer >= {minimum}, got {value!r}")
-    if value < minimum:
-        raise InvalidInput(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def flag_option(name: str, value: object) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise InvalidInput(f"{name} must be True or False, got {value!r}")
-    return bool(value)
-
-
-def positive_number(name: str, value: object, allow_zero: bool = False) -> float:
-    """A finite number > 0 (or >= 0), numpy scalars accepted, strings and bools refused."""
-    valid = f"a finite number {'>=' if allow_zero else '>'} 0"
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
-        raise InvalidInput(f"{name} must be {valid}, got {value!r}")
-    v = float(value)
-    if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise InvalidInput(f"{name} must be {valid}, got {value!r}")
-    return v
-
-
-def _joint_of_qpos(model: mujoco.MjModel, i: int) -> str:
-    j = int(np.searchsorted(model.jnt_qposadr, i, side="right")) - 1
-    return model.joint(j).name or f"joint#{j}"
 
 
 def check_configuration(configuration: object) -> mink.Configuration:
@@ -84,9 +48,10 @@ def check_configuration(configuration: object) -> mink.Configuration:
     bad = ~np.isfinite(q) | (np.abs(q) > Q_LIMIT)
     if bad.any():
         i = int(np.argmax(bad))
+        j = int(np.searchsorted(model.jnt_qposadr, i, side="right")) - 1
         what = "NaN" if np.isnan(q[i]) else ("inf" if np.isinf(q[i]) else f"{q[i]:.3g}")
         raise InvalidInput(
-            f"configuration.q[{i}] (joint {_joint_of_qpos(model, i)!r}) is {what}; every "
+            f"configuration.q[{i}] (joint {joint_name(model, j)!r}) is {what}; every "
             f"entry must be finite with |q| <= {Q_LIMIT:g} (rad or m)"
         )
     free, ball = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL)

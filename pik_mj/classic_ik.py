@@ -48,8 +48,9 @@ import mink
 import mujoco
 import numpy as np
 
+from . import inputs
 from .callbacks import Callback, as_callbacks
-from .checks import check_configuration, count_option
+from .checks import check_configuration
 from .exceptions import InvalidInput, UnknownName
 from .solve import IterationInfo, SolveResult, evaluate_levels, revert_unless_converged
 from .tasks.frame import ONE_DEGREE, FrameTask
@@ -246,8 +247,8 @@ def classic_inverse_kinematics(
     check_configuration(configuration)
     if method not in METHODS:
         raise InvalidInput(f"method {method!r} is not one of {METHODS}")
-    stop = count_option("stop", stop, 1)
-    min_loop = count_option("min_loop", min_loop, 0)
+    stop = inputs.integer(stop, "stop", low=1)
+    min_loop = inputs.integer(min_loop, "min_loop", low=0)
     callbacks = as_callbacks(callback)
     for label, v in (
         ("manipulability_limit", manipulability_limit),

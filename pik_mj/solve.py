@@ -35,6 +35,7 @@ import mink
 import mujoco
 import numpy as np
 
+from . import inputs
 from .callbacks import Callback, as_callbacks
 from .cascade import (
     DEFAULT_RELAXATION,
@@ -45,10 +46,7 @@ from .cascade import (
 )
 from .checks import (
     check_configuration,
-    count_option,
-    flag_option,
     normalize_levels,
-    positive_number,
 )
 from .exceptions import InvalidInput, QPFailure
 from .qp import make_backend
@@ -209,7 +207,7 @@ class TrustRegion:
                 f"TrustRegion radii must satisfy min_radius <= radius <= max_radius, got "
                 f"{self.min_radius}, {self.radius}, {self.max_radius}"
             )
-        count_option("TrustRegion.retries", self.retries, 0)
+        inputs.integer(self.retries, "TrustRegion.retries", low=0)
 
 
 # -- evaluation ----------------------------------------------------------------------
@@ -510,13 +508,13 @@ def solve(
         RuntimeWarning: The start configuration is outside joint ranges.
     """
     check_configuration(configuration)
-    stop = count_option("stop", stop, 1)
-    min_loop = count_option("min_loop", min_loop, 0)
+    stop = inputs.integer(stop, "stop", low=1)
+    min_loop = inputs.integer(min_loop, "min_loop", low=0)
     if min_loop > stop:
         raise InvalidInput(f"min_loop ({min_loop}) must not exceed stop ({stop})")
-    revert_if_fail = flag_option("revert_if_fail", revert_if_fail)
-    correct = flag_option("correct", correct)
-    dt = positive_number("dt", dt)
+    revert_if_fail = inputs.flag(revert_if_fail, "revert_if_fail")
+    correct = inputs.flag(correct, "correct")
+    dt = inputs.real(dt, "dt", unit="s", low=0.0, low_open=True)
     if trust_region is not None and not isinstance(trust_region, TrustRegion):
         raise InvalidInput(f"trust_region must be a TrustRegion or None, got {trust_region!r}")
     callbacks = as_callbacks(callback)
@@ -535,9 +533,7 @@ def solve(
     values = [per_level(defaults[k] if v is None else v, n_solved, k) for k, v in options.items()]
     regs = [Regularization(w, wr, wm) for w, wr, wm in zip(*values, strict=True)]
     tau = (
-        DEFAULT_RELAXATION
-        if relaxation is None
-        else positive_number("relaxation", relaxation, True)
+        DEFAULT_RELAXATION if relaxation is None else inputs.real(relaxation, "relaxation", low=0.0)
     )
 
     if hasattr(backend, "start"):
