@@ -22,15 +22,16 @@ yellow zone 10 cm, orange zone 1 cm, in level 1 so above the hand) watches every
 pair of the robot's bodies and every body against the floor, less adjacent bodies
 and pairs touching in ``reset_pose`` (the soles on the floor)
 (:func:`pik_mj.tasks.collision.collision_pairs`). The IK robot is the sample
-humanoid on the scene's floor plane (:func:`pik_mj.models.compose_scene`, no
-degrees of freedom added), so that the floor is a geom it can keep clear of.
+humanoid standing on a floor plane (``Robot.from_model(..., environment=
+floor_environment())``, no degrees of freedom added), so that the floor is a geom
+it can keep clear of.
 
-Every final pose is held for ``--duration`` s in :class:`pik_mj.sim.Scene` (floor
-only, default servos and contacts). A case passes with the hold's own verdict:
-base drift < 1 cm, foot slip < 2 mm, no fall, no unexpected contact (a robot geom
-other than the soles touching the floor, or a self-contact). Failures are counted
-per cause; "balance pass" ignores unexpected contacts. Timings are wall-clock per
-case (IK solve, hold).
+Every final pose is held for ``--duration`` s in the robot's
+:class:`pik_mj.sim.Scene` (``Scene.from_robot``: default servos and contacts). A
+case passes with the hold's own verdict: base drift < 1 cm, foot slip < 2 mm, no
+fall, no unexpected contact (a robot geom other than the soles touching the
+floor, or a self-contact). Failures are counted per cause; "balance pass" ignores
+unexpected contacts. Timings are wall-clock per case (IK solve, hold).
 
 Run: ``python benchmarks/bench_balance.py [--n 100] [--seed 0]``
 """
@@ -44,10 +45,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from pik_mj.ik import fullbody_inverse_kinematics, sole_polygons
-from pik_mj.models import compose_scene
 from pik_mj.robot import Robot
-from pik_mj.scenarios import com_margin
-from pik_mj.sim import HoldReport, Scene
+from pik_mj.scenario import com_margin
+from pik_mj.sim import HoldReport, Scene, floor_environment
 from pik_mj.tasks.collision import CollisionAvoidanceTask, GeomPair, collision_pairs
 from pik_mj.tasks.support_polygon import SupportPolygonTask
 
@@ -59,7 +59,7 @@ Y_RANGE = (-0.5, 0.2)  # [m] beside the pelvis (right hand: mostly to the right)
 Z_RANGE = (0.2, 1.3)  # [m] above the floor
 MAX_DRIFT, MAX_SLIP = 0.01, 0.002  # [m] the hold's pass thresholds
 YELLOW, ORANGE = 0.1, 0.01  # [m] collision avoidance: watched below, kept above
-FLOOR = "floor"  # the floor plane of compose_scene(MODEL, None) and of the Scene
+FLOOR = "floor"  # the floor plane of floor_environment()
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 VARIANTS = ("balanced", "unbalanced")
 
@@ -98,7 +98,7 @@ def sample_targets(p_WP: np.ndarray, n: int, seed: int) -> np.ndarray:
 
 def load_robot() -> Robot:
     """The sample humanoid on a floor plane named ``floor`` (robot ``q`` unchanged)."""
-    return Robot(compose_scene(MODEL, None).compile())
+    return Robot.from_model(MODEL, environment=floor_environment())
 
 
 def avoidance_pairs(robot: Robot) -> list[GeomPair]:
@@ -270,7 +270,7 @@ def main(argv=None) -> dict:
     p_WP, _ = robot.root_pose()
     targets = sample_targets(p_WP, args.n, args.seed)
     gains = {k: v for k, v in (("kp", args.kp), ("kv", args.kv)) if v is not None}
-    scene = Scene(MODEL, **gains)
+    scene = Scene.from_robot(robot, **gains)
     cases = {
         v: [
             run_case(robot, scene, t, v == "balanced", args.duration, args.margin, pairs)

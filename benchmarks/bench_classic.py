@@ -4,7 +4,7 @@ full-body targets.
 Arm: targets are reachable by construction: the end pose of a random
 configuration inside the joint ranges (x, z and the pitch about y: the arm is
 planar). Full body: dm_control's humanoid with both feet and the right hand as
-targets (:mod:`pik_mj.cases`; the classic solver stacks all three in one
+targets (``benchmarks/cases.py``; the classic solver stacks all three in one
 SR-inverse, the cascade puts the feet above the hand, mink weighs them in one
 QP). Every solver starts from the same configuration and stops at ``--stop``
 iterations or when every target is within 1 mm and 1 degree.
@@ -18,10 +18,11 @@ import argparse
 import json
 import time
 
+import cases
 import mink
 import numpy as np
 
-from pik_mj import FrameTask, cases, solve
+from pik_mj import FrameTask, solve
 from pik_mj.classic_ik import classic_inverse_kinematics
 from pik_mj.models import load_model
 
@@ -35,8 +36,16 @@ def _arm_task(conf: mink.Configuration, target: mink.SE3) -> FrameTask:
     )
 
 
+def seed_clamped(tasks: list[FrameTask]) -> list[FrameTask]:
+    """The seed's per-iteration step limits (0.1 m, 0.5 rad) on ``tasks``: the
+    classic SR-inverse has no trust region and relies on them."""
+    for task in tasks:
+        task.p_limit, task.r_limit = 0.1, 0.5
+    return tasks
+
+
 def _run_classic(conf, target, stop):
-    r = classic_inverse_kinematics(conf, [_arm_task(conf, target)], stop=stop)
+    r = classic_inverse_kinematics(conf, seed_clamped([_arm_task(conf, target)]), stop=stop)
     return r.converged, r.iterations, float(np.sum(r.iteration_times))
 
 
@@ -106,7 +115,7 @@ def _fullbody_satisfied(stack, conf) -> bool:
 
 
 def _fullbody_classic(conf, stack, stop):
-    r = classic_inverse_kinematics(conf, [*stack.feet, stack.hand], stop=stop)
+    r = classic_inverse_kinematics(conf, seed_clamped([*stack.feet, stack.hand]), stop=stop)
     return r.converged, r.iterations, float(np.sum(r.iteration_times))
 
 

@@ -1,6 +1,17 @@
-"""pik_mj: prioritized inverse kinematics on MuJoCo, validated in simulation."""
+"""pik_mj: prioritized inverse kinematics on MuJoCo, validated in simulation.
 
-from .cascade import DEFAULT_RELAXATION, Regularization, solve_cascade
+What a script needs is here::
+
+    robot = Robot.from_model("sample_humanoid")           # owns its world
+    scene = Scene.from_robot(robot)                       # floor, servos, contacts
+    checks = scene.static_checker()
+    result = fullbody_inverse_kinematics(robot, targets, callback=[checks, Progress("reach")])
+    hold = scene.hold(robot.configuration.q, criteria=HoldCriteria())
+
+Internals (the cascade's QP problems and backends, the virtual root) are one
+import deeper: :mod:`pik_mj.cascade`, :mod:`pik_mj.qp`, :mod:`pik_mj.virtual_root`.
+"""
+
 from .exceptions import (
     InfeasibleHardConstraints,
     InvalidInput,
@@ -10,9 +21,24 @@ from .exceptions import (
     UnknownName,
 )
 from .ik import fullbody_inverse_kinematics, inverse_kinematics
-from .qp import LevelProblem, OSQPBackend, make_backend
-from .robot import Robot
-from .solve import SolveResult, TaskReport, solve
+from .models import load_model
+from .progress import Progress
+from .record import Recorder, read_recording
+from .robot import Limb, Robot, RobotSource
+from .sim import (
+    ContactParams,
+    HoldCriteria,
+    HoldReport,
+    HoldSample,
+    Scene,
+    StaticChecks,
+    StaticReport,
+    add_box,
+    add_wall,
+    floor_environment,
+    validate_pose,
+)
+from .solve import IterationInfo, SolveResult, TaskReport, solve
 from .tasks import (
     AttachedContact,
     CentroidTask,
@@ -30,42 +56,51 @@ from .tasks import (
     Task,
     TaskRows,
 )
-from .virtual_root import solve_with_virtual_root, with_virtual_root
 
 __all__ = [
-    "DEFAULT_RELAXATION",
     "AttachedContact",
     "CentroidTask",
     "CollisionAvoidanceTask",
+    "ContactParams",
     "FrameTask",
+    "HoldCriteria",
+    "HoldReport",
+    "HoldSample",
     "InfeasibleHardConstraints",
     "InvalidInput",
+    "IterationInfo",
     "JointCouplingTask",
     "JointLimitTask",
     "JointVelocityTask",
-    "LevelProblem",
+    "Limb",
     "LinearTask",
     "LookAtTask",
     "MinkLimit",
     "MinkTask",
-    "OSQPBackend",
     "PikError",
+    "Progress",
     "QPFailure",
-    "Regularization",
+    "Recorder",
     "Robot",
+    "RobotSource",
+    "Scene",
     "ScfrTask",
     "SimulationUnstable",
     "SolveResult",
+    "StaticChecks",
+    "StaticReport",
     "SupportPolygonTask",
     "Task",
     "TaskReport",
     "TaskRows",
     "UnknownName",
+    "add_box",
+    "add_wall",
+    "floor_environment",
     "fullbody_inverse_kinematics",
     "inverse_kinematics",
-    "make_backend",
+    "load_model",
+    "read_recording",
     "solve",
-    "solve_cascade",
-    "solve_with_virtual_root",
-    "with_virtual_root",
+    "validate_pose",
 ]

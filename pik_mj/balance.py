@@ -34,9 +34,11 @@ from scipy.optimize import linprog
 from scipy.spatial import HalfspaceIntersection
 
 from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.spatial import STANDARD_GRAVITY, rot_z, skew
 
-GRAVITY = (0.0, 0.0, -9.81)
-"""Default gravity vector [m/s²] (world frame, z up)."""
+GRAVITY = (0.0, 0.0, -STANDARD_GRAVITY)
+"""Gravity vector [m/s²] (world frame, z up) of the functions here, which take no
+model; pass ``model.opt.gravity`` when there is one."""
 
 _ROTATION_TOL = 1e-6
 
@@ -70,11 +72,6 @@ def _scalar(value: object, name: str, *, allow_inf: bool = False) -> float:
     if math.isnan(x) or (not allow_inf and math.isinf(x)):
         raise InvalidInput(f"{name} must be finite, got {x}")
     return x
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """Matrix ``[v]x`` such that ``[v]x u = v x u``."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def _cross2(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
@@ -367,18 +364,20 @@ class SupportRegion:
     """Support polygon in the plane orthogonal to a normal.
 
     Attributes:
-        vertices_2d: Hull vertices ``(m, 2)`` [m] in plane coordinates, ccw about n.
+        vertices_2d: Hull vertices ``(m, 2)`` [m] in plane coordinates, ccw about n
+            (1 or 2 rows for a degenerate region: a point or a segment).
         vertices_3d: The same vertices in the world ``(m, 3)`` [m], on the plane
             orthogonal to ``n`` at ``height`` (the mean height of the input points).
-        halfplanes: Half-planes in plane coordinates (distances in m).
+        halfplanes: Half-planes in plane coordinates (distances in m); None for a
+            degenerate region.
         R: Basis ``(3, 3)``, columns ``e1, e2, n`` (world frame).
         height: ``n · p`` of the plane holding ``vertices_3d`` [m].
-        area: Area [m²].
+        area: Area [m²] (0 when degenerate).
     """
 
     vertices_2d: np.ndarray
     vertices_3d: np.ndarray
-    halfplanes: HalfPlanes
+    halfplanes: HalfPlanes | None
     R: np.ndarray
     height: float
     area: float
@@ -393,12 +392,49 @@ class SupportRegion:
         return self.R @ np.array([u[0], u[1], self.height])
 
     def signed_distance(self, p_W: np.ndarray) -> float:
-        """Signed distance [m] of the projection of ``p_W`` (3,), positive inside."""
-        return signed_distance(self.halfplanes, self.to_plane(p_W))
+        """Signed distance [m] of the projection of ``p_W`` (3,), positive inside;
+        for a degenerate region (a point or a segment) minus the distance to it."""
+        c = self.to_plane(p_W)
+        if self.halfplanes is not None:
+            return signed_distance(self.halfplanes, c)
+        if len(self.vertices_2d) == 2:
+            a, b = self.vertices_2d
+            t = float(np.clip((c - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0))
+            return -float(np.linalg.norm(c - (a + t * (b - a))))
+        return -float(np.linalg.norm(c - self.vertices_2d[0]))
+
+    def shrunk(self, d: float) -> np.ndarray:
+        """World vertices ``(k, 3)`` [m] of the polygon with every edge moved inward
+        by ``d`` [m] (the iso-margin outline: where the margin is ``d``); ``(0, 3)``
+        when it vanishes or the region is degenerate.
+
+        Vertex ``i`` is where the moved edges ``i-1`` and ``i`` meet:
+        ``a_{i-1}^T v + b_{i-1} - d = 0 = a_i^T v + b_i - d``.
+        """
+        if self.halfplanes is None:
+            return np.zeros((0, 3))
+        try:
+            A, b = shrink(self.halfplanes, d)
+        except InvalidInput:  # near-degenerate hull
+            return np.zeros((0, 3))
+        out = []
+        for i in range(len(A)):
+            M = np.array([A[i - 1], A[i]])
+            if abs(np.linalg.det(M)) < 1e-12:
+                return np.zeros((0, 3))
+            out.append(np.linalg.solve(M, -np.array([b[i - 1], b[i]])))
+        uv = np.array(out)
+        if np.any(uv @ A.T + b < -1e-9):  # shrunk past a vertex: not the true offset
+            return np.zeros((0, 3))
+        return uv @ self.R[:, :2].T + self.height * self.R[:, 2]
 
 
 def support_polygon(
-    polygons: Sequence[np.ndarray], normal: np.ndarray = (0.0, 0.0, 1.0)
+    polygons: Sequence[np.ndarray],
+    normal: np.ndarray = (0.0, 0.0, 1.0),
+    *,
+    allow_degenerate: bool = False,
+    tol: float | None = None,
 ) -> SupportRegion:
     """Convex hull of contact polygons projected along ``normal``.
 
@@ -408,15 +444,20 @@ def support_polygon(
         \\mathcal{S} = \\operatorname{conv}\\{{}^0p_{ij}\\}
 
     Args:
-        polygons: Contact polygons, each ``(k_i, 3)`` world points [m].
+        polygons: Contact polygons (or contact points), each ``(k_i, 3)`` world
+            points [m].
         normal: Up direction ``(3,)``; the hull lives in the plane orthogonal to it.
+        allow_degenerate: Return a region of 1 or 2 vertices (a point or a
+            segment) instead of raising when the points span no area.
+        tol: Distance [m] below which hull vertices merge (see
+            :func:`convex_hull_2d`).
 
     Returns:
         :class:`SupportRegion`.
 
     Raises:
-        InvalidInput: Empty list, wrong shapes, non-finite values, or projected
-            points that span no area.
+        InvalidInput: Empty list, wrong shapes, non-finite values, or (unless
+            ``allow_degenerate``) projected points that span no area.
     """
     if isinstance(polygons, np.ndarray) and polygons.ndim == 2:
         raise InvalidInput("polygons must be a list of (k, 3) arrays, not one array")
@@ -429,7 +470,7 @@ def support_polygon(
     R = plane_basis(normal)
     uv = pts @ R[:, :2]
     try:
-        hull = convex_hull_2d(uv)
+        hull = convex_hull_2d(uv, allow_degenerate=allow_degenerate, tol=tol)
     except InvalidInput as exc:
         raise InvalidInput(
             f"degenerate support polygon: the contact points projected along the "
@@ -437,13 +478,14 @@ def support_polygon(
         ) from exc
     height = float(np.mean(pts @ R[:, 2]))
     v3 = hull @ R[:, :2].T + height * R[:, 2]
+    area = len(hull) >= 3
     return SupportRegion(
         vertices_2d=hull,
         vertices_3d=v3,
-        halfplanes=halfplanes_from_polygon(hull),
+        halfplanes=halfplanes_from_polygon(hull) if area else None,
         R=R,
         height=height,
-        area=polygon_area(hull),
+        area=polygon_area(hull) if area else 0.0,
     )
 
 
@@ -568,12 +610,9 @@ def foot_contact(
         torsion: See :class:`ContactConstraint`.
         pyramid: See :class:`ContactConstraint`.
     """
-    yaw = _scalar(yaw, "yaw")
-    c, s = math.cos(yaw), math.sin(yaw)
-    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     return ContactConstraint(
         p_WC=p_W,
-        R_WC=R,
+        R_WC=rot_z(_scalar(yaw, "yaw")),
         half_x=half_x,
         half_y=half_y,
         mu=mu,
@@ -775,7 +814,7 @@ def _wrench_lp(contacts: list[ContactConstraint]) -> _WrenchLP:
     r = 0
     for i, (c, (Ci, _)) in enumerate(zip(contacts, blocks, strict=True)):
         G[:3, 6 * i : 6 * i + 3] = np.eye(3)
-        G[3:, 6 * i : 6 * i + 3] = _skew(c.p_WC)
+        G[3:, 6 * i : 6 * i + 3] = skew(c.p_WC)
         G[3:, 6 * i + 3 : 6 * i + 6] = np.eye(3)
         C[r : r + len(Ci), 6 * i : 6 * i + 6] = Ci
         r += len(Ci)
@@ -956,7 +995,7 @@ def scfr(
     lp = _wrench_lp(cs)
     nv = 2 + 6 * lp.n
     # Moment of gravity: m c x g = -m [g]x c, linear in (cx, cy).
-    Sg = _skew(g)
+    Sg = skew(g)
     A_eq = np.zeros((6, nv))
     A_eq[3:, :2] = -m * Sg[:, :2]
     A_eq[:, 2:] = lp.G

@@ -3,141 +3,167 @@
 ::
 
     pik-mj list
-    pik-mj run [NAME] [--out FILE.rrd] [--json FILE.json] [--model NAME] [--no-record]
-               [--hold SECONDS] [--quiet]
+    pik-mj run [NAME] [scenario options: --save FILE.rrd, --json FILE, --hold SECONDS,
+               --quiet, --model NAME, --headless, ...]
     pik-mj validate FILE.json [--environment ENV] [--duration SECONDS] [--json OUT]
-               [--out FILE.rrd]
+               [--save FILE.rrd]
+    pik-mj screenshot FILE.rrd --out FILE.png [--timeline NAME] [--time T|last]
+               [--view NAME] [--tab NAME] [--size WxH] [--panels]
+    pik-mj sweep OUT [--grid NAME=A:B:N ... | --random N --range NAME=LO:HI ...]
+               [--robot NAME] [--stack NAME] [--workers N] [--address HOST:PORT]
+               [--resume] ...
 
-``run`` without a name runs ``fullbody_reach``: it solves, validates in
-simulation and writes a recording. For a robot with a floating base every IK
-iteration is checked statically in a MuJoCo scene, and the final pose is held in
-physics for ``--hold`` seconds (default 3; 0 = no hold) into the same recording
-(``sim_time`` timeline); the JSON summary gets the report under ``balance`` and
-the final configuration under ``robot``. ``run`` prints a summary (an iteration
-counter on stderr while solving), writes a rerun recording (default
-``out/NAME.rrd``; its path is printed last) and, with ``--json``, a JSON summary.
+``run`` runs the ``main`` of scenario ``NAME`` (default ``fullbody_reach``;
+``pik_mj.scenarios.<name>``) with the remaining options, saving its rerun
+recording to ``out/NAME.rrd`` unless a recording option (``--save``,
+``--connect``, ``--serve``, ``--stdout``, ``--headless``) says otherwise; see
+``pik-mj run NAME --help``. It prints the scenario's summary (progress on
+stderr), with ``--json`` a JSON summary whose ``robot`` entry is the final pose
+and what rebuilds its scene.
 
 ``validate`` reads a JSON summary written by ``run --json`` (its ``robot``
 entry) or a JSON ``{"model": NAME, "q": [...]}`` (optional ``environment``,
-``robot_pos``, ``allowed_contacts``), checks the pose's static equilibrium and
-holds it in physics (:func:`pik_mj.sim.validate_pose`).
+``at``, ``keyframe``, ``allowed_contacts``, ``grasps``, ``external``), checks
+the pose's joint limits and static equilibrium and holds it in physics
+(:func:`pik_mj.sim.validate_pose`); a joint outside its range fails the verdict,
+named with its excess.
+
+``sweep`` solves, checks and holds many hand targets on Ray into a Parquet
+dataset (:mod:`pik_mj.sweep.cli`; ``pik-mj sweep --help``); it exits 0 when
+every case ran, whatever its verdict, and 1 when a case raised.
 
 Exit status: 0 when every check holds (for ``run``: the scenario's checks and the
-hold; for ``validate``: the verdict), 1 when one fails or the scenario raised,
-2 for bad usage (unknown scenario, a scenario still waiting for a module, a model
-the scenario does not take, an unreadable pose file).
+hold; for ``validate``: the verdict), 1 when one fails or the scenario raised
+(its traceback shown), 2 for bad usage, reported in one line without a traceback
+(unknown command, scenario or option, a bad number, an unknown model or a file
+that is not MJCF, an output file that cannot be written — checked before any
+work starts —, an unreadable pose file or a pose of another model, a scenario
+still waiting for a module), 130 when interrupted (Ctrl-C; a recording in
+progress is closed and readable).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
+import inspect
 import json
-import math
 import sys
 import traceback
 from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
 from typing import Any
 
-from .exceptions import InvalidInput, PikError, SimulationUnstable
-from .scenarios import (
-    DEFAULT_HOLD,
-    DEFAULT_SCENARIO,
-    REGISTRY,
-    balance_summary,
-    check_runnable,
-    jsonable,
-    run_scenario,
-)
-from .sweep import cli as sweep_cli
+from . import inputs
+from .exceptions import InvalidInput, PikError, SimulationUnstable, UnknownName
 
-EXIT_PASSED, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_PASSED, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+_RECORDING_OPTIONS = ("--save", "--connect", "--serve", "--stdout", "--headless")
 
 
-def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="pik-mj", description="Prioritized IK on MuJoCo: run the seed's scenarios."
-    )
-    sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="list the scenarios")
-    run = sub.add_parser("run", help=f"run a scenario (default: {DEFAULT_SCENARIO})")
-    run.add_argument("name", nargs="?", default=DEFAULT_SCENARIO, help="scenario name")
-    run.add_argument("--out", help="rerun recording to write (default: out/NAME.rrd)")
-    run.add_argument("--no-record", action="store_true", help="write no recording")
-    run.add_argument("--json", help="JSON summary to write")
-    run.add_argument("--model", help="robot model (scenarios that take one)")
-    run.add_argument(
-        "--hold",
-        type=float,
-        default=DEFAULT_HOLD,
-        help=f"physics hold of the final pose [s] (default {DEFAULT_HOLD:g}; 0: none)",
-    )
-    run.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    val = sub.add_parser("validate", help="static check and physics hold of a pose")
-    val.add_argument("file", help="JSON summary of `pik-mj run --json`, or {model, q}")
-    val.add_argument(
-        "--environment",
-        help="environment model (default: the file's; 'none' for a floor only)",
-    )
-    val.add_argument("--duration", type=float, default=DEFAULT_HOLD, help="hold duration [s]")
-    val.add_argument("--json", help="JSON report to write")
-    val.add_argument("--out", help="rerun recording of the hold (.rrd)")
-    sweep_cli.add_parser(sub)
-    return parser
+def _scenarios() -> ModuleType:
+    import pik_mj.scenarios
+
+    return pik_mj.scenarios
+
+
+class ScenarioWaiting(PikError):
+    """A scenario needs a pik_mj module that does not exist yet.
+
+    Attributes:
+        missing: Name of that module.
+    """
+
+    def __init__(self, name: str, missing: str):
+        super().__init__(f"scenario {name!r} is waiting for {missing} (not available yet)")
+        self.missing = missing
+
+
+def load_scenario(name: str) -> ModuleType:
+    """The module of scenario ``name``.
+
+    Raises:
+        UnknownName: Not a scenario of :data:`pik_mj.scenarios.SCENARIOS`.
+        ScenarioWaiting: The scenario needs a pik_mj module that does not exist yet.
+    """
+    names = _scenarios().SCENARIOS
+    if name not in names:
+        raise UnknownName("scenario", name, names)
+    try:
+        return importlib.import_module(f"pik_mj.scenarios.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name and exc.name.startswith("pik_mj") and exc.name != f"pik_mj.scenarios.{name}":
+            raise ScenarioWaiting(name, exc.name) from exc
+        raise
+
+
+def describe(name: str) -> tuple[str, list[str]]:
+    """``(first line of the scenario's docstring, flags)`` for ``pik-mj list``."""
+    scenarios = _scenarios()
+    flags = ["default"] if name == scenarios.DEFAULT else []
+    try:
+        module = load_scenario(name)
+    except ScenarioWaiting as exc:
+        return "", [*flags, f"waiting for {exc.missing}"]
+    if "model" in inspect.signature(module.run).parameters:
+        flags.append("--model")
+    doc = (module.__doc__ or "").strip().splitlines()
+    return (doc[0] if doc else ""), flags
 
 
 def _list() -> int:
-    width = max(len(n) for n in REGISTRY)
-    for name, entry in REGISTRY.items():
-        missing = entry.missing()
-        flags = []
-        if name == DEFAULT_SCENARIO:
-            flags.append("default")
-        if entry.accepts_model:
-            flags.append("--model")
-        if missing:
-            flags.append(f"waiting for {', '.join(missing)}")
+    names = _scenarios().SCENARIOS
+    width = max(len(n) for n in names)
+    for name in names:
+        text, flags = describe(name)
         tail = f"  [{'; '.join(flags)}]" if flags else ""
-        print(f"{name:<{width}}  {entry.description}{tail}")
+        print(f"{name:<{width}}  {text}{tail}")
     return EXIT_PASSED
 
 
-def _write_json(path: str, data: Any) -> Path:
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(jsonable(data), indent=2))
-    return p
+def _run(name: str | None, argv: list[str]) -> int:
+    name = _scenarios().DEFAULT if name is None else name
+    module = load_scenario(name)  # usage errors: exit 2
+    from .scenario import OptionError
 
-
-def _run(args: argparse.Namespace) -> int:
-    if not (math.isfinite(args.hold) and args.hold >= 0):
-        raise InvalidInput(f"--hold must be a duration >= 0 [s], got {args.hold}")
-    entry = check_runnable(args.name, args.model)  # usage errors: exit 2
-    out: Path | None = None
-    if not args.no_record:
-        out = Path(args.out) if args.out else Path("out") / f"{entry.name}.rrd"
-        out.parent.mkdir(parents=True, exist_ok=True)
-    print(f"running {entry.name}: {entry.description}", file=sys.stderr)
+    if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
+        argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
+    print(f"running {name}: {describe(name)[0]}", file=sys.stderr)
     try:
-        result = run_scenario(
-            entry.name,
-            out,
-            progress=not args.quiet,
-            model=args.model,
-            hold=args.hold if args.hold > 0 else None,
-        )
-    except Exception as exc:
+        return int(module.main(argv))
+    except SystemExit as exc:  # the scenario's argparse: --help (0) or bad options (2)
+        return _exit_code(exc)
+    except OptionError as exc:  # an option the user gave cannot be used: exit 2
+        print(f"pik-mj: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        _recording_note(argv, "up to the interrupt")
+        raise
+    except Exception as exc:  # the scenario raised: its traceback, exit 1
         traceback.print_exc(file=sys.stderr)
-        print(f"pik-mj: scenario {entry.name} raised {type(exc).__name__}: {exc}", file=sys.stderr)
-        if out is not None and out.is_file():
-            print(f"recording (up to the error): {out}")
+        print(f"pik-mj: scenario {name} raised {type(exc).__name__}: {exc}", file=sys.stderr)
+        _recording_note(argv, "up to the error")
         return EXIT_FAILED
-    print(result.summary(recording=False))
-    if args.json:
-        print(f"JSON summary: {_write_json(args.json, result.to_dict())}")
-    if result.recording:
-        print(f"recording: {result.recording}  (view with: rerun {result.recording})")
-    return EXIT_PASSED if result.passed else EXIT_FAILED
+
+
+def _recording_note(argv: list[str], when: str) -> None:
+    """Say where the recording of an unfinished run is, if it was started."""
+    save = None
+    for i, arg in enumerate(argv):
+        if arg == "--save" and i + 1 < len(argv):
+            save = argv[i + 1]
+        elif arg.startswith("--save="):
+            save = arg.removeprefix("--save=")
+    if save and Path(save).is_file():
+        print(f"recording ({when}): {save}")
+
+
+def _exit_code(exc: SystemExit) -> int:
+    """The exit status of argparse's SystemExit (--help: 0, a usage error: 2)."""
+    if exc.code is None:
+        return EXIT_PASSED
+    return exc.code if isinstance(exc.code, int) else EXIT_USAGE
 
 
 def read_pose_file(path: str | Path) -> dict[str, Any]:
@@ -145,18 +171,28 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
     summary, or the file itself when it has ``model`` and ``q``.
 
     Returns:
-        ``{"model", "q", "environment", "robot_pos", "allowed_contacts", "grasps"}``
-        (missing optional entries are None; ``grasps`` is a list of
-        ``(frame, body, p_FO, R_FO)``, empty when nothing is held).
+        ``{"source": RobotSource dict, "q", "allowed_contacts", "grasps",
+        "external"}`` (``grasps``: ``(frame, body, p_FO, R_FO)`` tuples; missing
+        optional entries are None or empty).
 
     Raises:
         InvalidInput: Missing or unreadable file, or no pose in it.
     """
+    from .robot import RobotSource
+
     p = Path(path)
     try:
-        data = json.loads(p.read_text())
+        data = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise InvalidInput(f"pose file {str(p)!r} does not exist") from None
+    except IsADirectoryError:
+        raise InvalidInput(f"pose file {str(p)!r} is a directory; give a JSON file") from None
+    except UnicodeDecodeError:
+        raise InvalidInput(
+            f"pose file {str(p)!r} is not text (a binary file?); give a JSON file"
+        ) from None
+    except OSError as exc:
+        raise InvalidInput(f"pose file {str(p)!r} cannot be read: {exc.strerror}") from None
     except json.JSONDecodeError as exc:
         raise InvalidInput(f"pose file {str(p)!r} is not JSON: {exc}") from None
     src = data
@@ -168,8 +204,10 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
             'of a floating-base scenario (its "robot" entry) or {"model": ..., "q": [...]}'
         )
     q = src["q"]
-    if not isinstance(q, list) or not all(isinstance(x, (int, float)) for x in q):
-        raise InvalidInput(f'pose file {str(p)!r}: "q" must be a list of numbers')
+    if not isinstance(q, list) or not all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) for x in q
+    ):
+        raise InvalidInput(f'pose file {str(p)!r}: "q" must be a list of numbers, got {q!r}')
     grasps = src.get("grasps") or []
     keys = ("frame", "body", "p_FO", "R_FO")
     if not isinstance(grasps, list) or not all(
@@ -178,41 +216,84 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
         raise InvalidInput(
             f'pose file {str(p)!r}: "grasps" must be a list of {{"frame", "body", "p_FO", "R_FO"}}'
         )
+    external = src.get("external") or []
+    if not isinstance(external, list) or not all(
+        isinstance(w, list) and len(w) == 3 and isinstance(w[0], str) for w in external
+    ):
+        raise InvalidInput(
+            f'pose file {str(p)!r}: "external" must be a list of [frame, force, moment]'
+        )
     return {
-        "model": src["model"],
+        "source": RobotSource.from_dict(src),
         "q": [float(x) for x in q],
-        "environment": src.get("environment"),
-        "robot_pos": src.get("robot_pos"),
         "allowed_contacts": src.get("allowed_contacts"),
         "grasps": [tuple(g[k] for k in keys) for g in grasps],
+        "external": [tuple(w) for w in external],
     }
 
 
-def _validate(args: argparse.Namespace) -> int:
+def _validate_parser() -> argparse.ArgumentParser:
+    val = argparse.ArgumentParser(
+        prog="pik-mj validate", description="static check and physics hold of a pose"
+    )
+    val.add_argument("file", help="JSON summary of `pik-mj run --json`, or {model, q}")
+    val.add_argument(
+        "--environment",
+        help="environment model (default: the file's; 'none' for a floor only)",
+    )
+    val.add_argument("--duration", default="3.0", help="hold duration [s] (default 3)")
+    val.add_argument("--json", help="JSON report to write")
+    val.add_argument("--save", help="rerun recording of the hold (.rrd)")
+    return val
+
+
+def _validate(argv: list[str]) -> int:
+    from dataclasses import replace
+
+    from .record import Recorder
+    from .robot import Robot
+    from .scenario import balance_summary, jsonable, positive
     from .sim import validate_pose
 
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        raise InvalidInput(f"--duration must be > 0 [s], got {args.duration}")
-    pose = read_pose_file(args.file)
-    env = pose["environment"] if args.environment is None else args.environment
-    if isinstance(env, str) and env.lower() == "none":
-        env = None
-    recorder = None
-    if args.out:
-        from .record import Recorder
-
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        recorder = Recorder.to_file(args.out, application_id="pik_mj validate")
+    args = _validate_parser().parse_args(argv)
     try:
+        duration = positive(args.duration)
+    except argparse.ArgumentTypeError as exc:
+        raise InvalidInput(f"--duration [s]: {exc}") from None
+    # Where the results go, checked before any work.
+    outputs = {
+        option: inputs.output_path(value, option)
+        for option, value in (("--json", args.json), ("--save", args.save))
+        if value
+    }
+    if len(outputs) == 2 and len({p.resolve() for p in outputs.values()}) == 1:
+        raise InvalidInput(f"--json and --save name the same file {args.json!r}; give two files")
+    pose = read_pose_file(args.file)
+    source, q = pose["source"], pose["q"]
+    if args.environment is not None:  # another world: the robot keeps its pose
+        env = None if args.environment.lower() == "none" else args.environment
+        original = Robot.from_source(source)
+        at = source.at
+        if isinstance(at, str) and env is None:  # no site to stand at: its coordinates
+            at = original.placement
+        source = replace(source, environment=env, at=at)
+        q = q[: original.own_nq]
+    recorder = None
+    if args.save:
+        Path(args.save).parent.mkdir(parents=True, exist_ok=True)
+        recorder = Recorder.to_file(args.save, application_id="pik_mj_validate")
+    try:
+        if recorder is not None:
+            robot = Robot.from_source(source)
+            recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
         report = validate_pose(
-            pose["model"],
-            pose["q"],
-            env,
-            args.duration,
-            robot_pos=pose["robot_pos"] if pose["robot_pos"] is not None else (0.0, 0.0, 0.0),
+            source,
+            q,
+            duration,
             allowed=pose["allowed_contacts"],
             grasps=pose["grasps"],
-            recorder=recorder,
+            external=pose["external"],
+            callback=None if recorder is None else recorder.hold_logger(),
         )
     except SimulationUnstable as exc:
         print(f"validate {args.file}: FAILED, the simulation went unstable: {exc}")
@@ -221,30 +302,77 @@ def _validate(args: argparse.Namespace) -> int:
         if recorder is not None:
             recorder.close()
     held = "".join(f", {body} held in {frame}" for frame, body, _, _ in pose["grasps"])
-    print(f"validate {args.file}: model {pose['model']}, environment {env}{held}")
+    print(f"validate {args.file}: model {source.model}, environment {source.environment}{held}")
     print(balance_summary(report))
     print("PASSED" if report["passed"] else "FAILED")
     if args.json:
-        print(f"JSON report: {_write_json(args.json, report)}")
-    if args.out:
-        print(f"recording: {args.out}")
+        out = Path(args.json)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(jsonable(report), indent=2))
+        print(f"JSON report: {out}")
+    if args.save:
+        print(f"recording: {args.save}")
     return EXIT_PASSED if report["passed"] else EXIT_FAILED
 
 
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pik-mj", description="Prioritized IK on MuJoCo: run the seed's scenarios."
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="list the scenarios")
+    run = sub.add_parser(
+        "run",
+        help="run a scenario (default: fullbody_reach); other options go to its main",
+        add_help=False,
+    )
+    run.add_argument("name", nargs="?", help="scenario name")
+    sub.add_parser("validate", help="static check and physics hold of a pose", add_help=False)
+    sub.add_parser("screenshot", help="PNG of a recording (rerun's viewer)", add_help=False)
+    sub.add_parser(
+        "sweep", help="solve, check and hold many hand targets on Ray (reach map)", add_help=False
+    )
+    return parser
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``pik-mj``; returns the exit status."""
-    args = _parser().parse_args(argv)
+    """Entry point of ``pik-mj``; returns the exit status (see the module docstring).
+
+    Usage errors (argparse's, and :class:`~pik_mj.exceptions.PikError` raised by
+    the command itself, not by a scenario) print one line on stderr and return 2;
+    Ctrl-C returns 130 once the run has unwound (recordings closed).
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        if args.command == "list":
+        # `run` and `validate` hand their options on: only the command is parsed here.
+        command = _parser().parse_args(argv[:1]).command
+        rest = argv[1:]
+        if command == "list":
+            if rest:
+                _parser().error(f"unrecognized arguments: {' '.join(rest)}")
             return _list()
-        if args.command == "validate":
-            return _validate(args)
-        if args.command == "sweep":
-            return sweep_cli.run(args)
-        return _run(args)
+        if command == "validate":
+            return _validate(rest)
+        if command == "screenshot":
+            from .record import screenshot
+
+            shot = argparse.ArgumentParser(prog="pik-mj screenshot")
+            screenshot.add_arguments(shot)
+            return screenshot.run(shot.parse_args(rest))
+        if command == "sweep":
+            from .sweep import cli as sweep_cli
+
+            return sweep_cli.main(rest)
+        name = rest[0] if rest and not rest[0].startswith("-") else None
+        return _run(name, rest[1:] if name is not None else rest)
+    except SystemExit as exc:  # argparse: --help (0) or a usage error (2), printed
+        return _exit_code(exc)
     except PikError as exc:
         print(f"pik-mj: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("pik-mj: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -32,9 +32,12 @@ import mujoco
 import numpy as np
 import qpsolvers
 
+from . import inputs
 from .balance import ContactConstraint, wrench_constraints
 from .exceptions import InvalidInput, PikError, UnknownName
 from .frames import Frame
+from .robot import robot_root_body
+from .spatial import STANDARD_GRAVITY, skew
 
 _ANGLE_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
@@ -52,15 +55,12 @@ at the frame's origin."""
 
 
 def _vector(value: object, size: int, what: str) -> np.ndarray:
+    """``value`` flattened, as :func:`pik_mj.inputs.vector` of ``size``."""
     try:
-        arr = np.array(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"{what} must be {size} numbers") from exc
-    if arr.shape != (size,):
-        raise InvalidInput(f"{what} must have {size} entries, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInput(f"{what} holds NaN or inf: {arr}")
-    return arr
+        flat: object = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        flat = value  # refused by inputs.vector, which names it
+    return inputs.vector(flat, size, what)
 
 
 def _state(model: mujoco.MjModel, q: object, qvel: object, qacc: object):
@@ -163,22 +163,15 @@ def joint_torques(
 
 
 def free_root_body(model: mujoco.MjModel, root_body: str | None = None) -> int:
-    """Id of the floating-base body: ``root_body``, or the free-joint body whose
-    subtree has the most degrees of freedom."""
-    free = [
-        int(model.jnt_bodyid[j])
-        for j in range(model.njnt)
-        if int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_FREE)
-    ]
-    names = [model.body(b).name for b in free]
-    if root_body is not None:
-        if root_body not in names:
-            raise UnknownName("free-joint body", root_body, names)
-        return free[names.index(root_body)]
-    if not free:
-        raise InvalidInput("the model has no free joint: a floating base is needed here")
-    dofs = [int(model.body_dofnum[model.body_rootid == b].sum()) for b in free]
-    return free[int(np.argmax(dofs))]
+    """Id of the floating-base body: the robot's root body
+    (:func:`pik_mj.robot.robot_root_body`), which must have a free joint."""
+    b = robot_root_body(model, root_body)
+    j = int(model.body_jntadr[b])
+    if j < 0 or int(model.jnt_type[j]) != int(mujoco.mjtJoint.mjJNT_FREE):
+        raise InvalidInput(
+            f"body {model.body(b).name!r} has no free joint: a floating base is needed here"
+        )
+    return b
 
 
 def _root_dofs(model: mujoco.MjModel, body: int) -> np.ndarray:
@@ -388,20 +381,19 @@ def static_torques(
 ) -> StaticTorques:
     """Joint torques of a static pose standing on ``contacts`` (irteus ``:torque-vector``).
 
-    The contact wrenches ``w = (w_1, ..., w_n)`` are the least-norm split of the
-    wrench the floating base needs, with each centre of pressure inside its sole
-    and each force inside its (inscribed) friction pyramid
-    (:func:`pik_mj.balance.wrench_constraints`), solved as a QP (DAQP):
+    The contact wrenches ``w = (w_1, ..., w_n)`` are the least-norm split
+    (:func:`contact_wrenches`, each centre of pressure inside its sole and each
+    force inside its inscribed friction pyramid) of the wrench the floating base
+    needs: with ``g = qfrc_inverse`` at zero velocity and acceleration minus the
+    external wrenches' ``J_extᵀ w_ext``, and ``root`` the free joint's rows,
 
     .. math::
 
-        \\min_w \\sum_i \\|f_i\\|^2 + \\rho \\|n_i\\|^2
-        \\quad\\text{s.t.}\\quad J_{c,root}^T w = g_{root} - J_{ext,root}^T w_{ext},
-        \\quad C_i w_i + d_i \\ge 0
+        J_{c,root}^T w = g_{root}
+        \\;\\Leftrightarrow\\; \\sum_i w_i = J_B^{-T} g_{root}
+        \\quad (\\text{about one point, :func:`root_wrench`})
 
-    where ``g = qfrc_inverse`` at zero velocity and acceleration and ``root`` are
-    the free joint's rows. Then ``τ = g − J_extᵀ w_ext − J_cᵀ w``, whose free-joint
-    rows vanish.
+    Then ``τ = g − J_cᵀ w``, whose free-joint rows vanish.
 
     Args:
         model: Model with a free joint.
@@ -423,43 +415,106 @@ def static_torques(
     for i, c in enumerate(contacts):
         if not isinstance(c, SoleContact):
             raise InvalidInput(f"contacts[{i}] must be a SoleContact, got {type(c).__name__}")
-    if not (np.isfinite(moment_weight) and moment_weight > 0):
-        raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
     gravity = joint_torques(model, data, q, 0.0, 0.0, external)
-    dofs = _root_dofs(model, free_root_body(model, root_body))
-    n = len(contacts)
-    J_c = np.vstack(
-        [frame_jacobian(model, data, Frame.find(model, c.frame, c.frame_type)) for c in contacts]
-    )
-    blocks = [wrench_constraints(c.constraint(model, data)) for c in contacts]
-    C = np.zeros((sum(len(d) for _, d in blocks), 6 * n))
-    r = 0
-    for i, (Ci, di) in enumerate(blocks):
-        C[r : r + len(di), 6 * i : 6 * i + 6] = Ci
-        r += len(di)
-    d = np.concatenate([di for _, di in blocks])
-    P = np.diag(np.tile([1.0, 1.0, 1.0, moment_weight, moment_weight, moment_weight], n))
-    w = qpsolvers.solve_qp(
-        P,
-        np.zeros(6 * n),
-        G=-C,
-        h=d,
-        A=J_c[:, dofs].T,
-        b=gravity[dofs],
-        solver="daqp",
-    )
-    if w is None:
+    # the wrench (about the world origin) the contacts must apply: what the free
+    # joint's rows of g - J_ext^T w_ext stand for
+    w_B, p_WB = root_wrench(model, data, gravity, root_body)
+    total = np.concatenate([w_B[:3], w_B[3:] + np.cross(p_WB, w_B[:3])])
+    constraints = [c.constraint(model, data) for c in contacts]
+    wrenches = contact_wrenches(constraints, total, moment_weight=moment_weight)
+    if wrenches is None:
         raise PikError(
             f"no contact wrenches on {[c.frame for c in contacts]} within the sole and "
             "friction limits hold this pose (the centre of mass or the external wrenches "
             "are outside what the contacts can balance)"
         )
-    wrenches = w.reshape(n, 6)
-    tau = gravity - J_c.T @ w
-    cops = np.array(
-        [_cop(c.constraint(model, data), wr) for c, wr in zip(contacts, wrenches, strict=True)]
+    J_c = np.vstack(
+        [frame_jacobian(model, data, Frame.find(model, c.frame, c.frame_type)) for c in contacts]
     )
+    tau = gravity - J_c.T @ wrenches.reshape(-1)
+    cops = np.array([_cop(c, w) for c, w in zip(constraints, wrenches, strict=True)])
     return StaticTorques(tau, gravity, wrenches, cops, J_c)
+
+
+def contact_wrenches(
+    contacts: Sequence[ContactConstraint],
+    total: Sequence[float] | np.ndarray,
+    *,
+    moment_weight: float = 100.0,
+) -> np.ndarray | None:
+    """Least-norm contact wrenches inside their limits that sum to ``total``.
+
+    Each contact ``i`` applies ``w_i = (f_i, n_i)`` at ``p_i`` (moment about
+    ``p_i``), inside its limits ``C_i w_i + d_i >= 0``
+    (:func:`pik_mj.balance.wrench_constraints`: friction pyramid, centre of
+    pressure inside the rectangle, torsion); a point contact (zero half sizes)
+    carries no moment, so only its force is unknown. The QP (DAQP)
+
+    .. math::
+
+        \\min_w \\sum_i \\|f_i\\|^2 + \\rho \\|n_i\\|^2
+        \\quad\\text{s.t.}\\quad
+        \\sum_i \\begin{bmatrix} f_i \\\\ n_i + p_i \\times f_i \\end{bmatrix} = w_{total},
+        \\quad C_i w_i + d_i \\ge 0
+
+    is solved in units of ``|f_total|`` (an O(1) problem whatever the robot's weight).
+    The least-norm split keeps forces away from the edges of the cones, where a
+    feed-forward would push a foot to slip (an LP's solution sits on an edge).
+
+    Args:
+        contacts: The contacts.
+        total: The wrench ``(f, n about the world origin)`` (6,) [N, N·m] the
+            contacts must apply together (e.g. minus gravity and the external wrenches).
+        moment_weight: ``ρ`` [1/m²]: the larger, the closer each CoP to its centre.
+
+    Returns:
+        Wrenches ``(n, 6)`` [N, N·m], or None when no wrenches within the limits exist.
+    """
+    total = _vector(total, 6, "total")
+    if not (np.isfinite(moment_weight) and moment_weight > 0):
+        raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
+    cols, weights, A, G, h = [], [], [], [], []
+    n = 0
+    for c in contacts:
+        C, d = wrench_constraints(c)
+        point = c.half_x == 0.0 and c.half_y == 0.0
+        if point:  # rows on the force alone; the moment rows pin n = 0
+            keep = ~np.any(C[:, 3:] != 0.0, axis=1)
+            C, d = C[keep, :3], d[keep]
+        k = 3 if point else 6
+        cols.append((n, k))
+        weights += [1.0] * 3 + ([] if point else [moment_weight] * 3)
+        block = np.zeros((6, k))
+        block[:3, :3] = np.eye(3)
+        block[3:, :3] = skew(c.p_WC)
+        if not point:
+            block[3:, 3:] = np.eye(3)
+        A.append(block)
+        G.append((n, C))
+        h.append(d)
+        n += k
+    A_eq = np.hstack(A) if A else np.zeros((6, 0))
+    G_in = np.zeros((sum(len(d) for d in h), n))
+    r = 0
+    for start, C in G:
+        G_in[r : r + len(C), start : start + C.shape[1]] = C
+        r += len(C)
+    scale = float(np.linalg.norm(total[:3])) or 1.0
+    x = qpsolvers.solve_qp(
+        np.diag(weights),
+        np.zeros(n),
+        G=-G_in,
+        h=np.concatenate(h) / scale if h else np.zeros(0),
+        A=A_eq,
+        b=total / scale,
+        solver="daqp",
+    )
+    if x is None:
+        return None
+    out = np.zeros((len(contacts), 6))
+    for i, (start, k) in enumerate(cols):
+        out[i, :k] = scale * x[start : start + k]
+    return out
 
 
 def _cop(contact: ContactConstraint, w: np.ndarray) -> np.ndarray:
@@ -486,7 +541,7 @@ def static_balance_point(
     external_moments: Sequence[Sequence[float]] | np.ndarray = (),
     points: Sequence[Sequence[float]] | np.ndarray = (),
     z: float = 0.0,
-    gravity: float = 9.81,
+    gravity: float = STANDARD_GRAVITY,
 ) -> np.ndarray:
     """Static balance point (irteus ``:calc-static-balance-point``, static extended ZMP).
 
@@ -508,7 +563,7 @@ def static_balance_point(
         external_moments: Moments (k, 3) [N·m] (empty: zeros).
         points: Application points (k, 3) [m].
         z: Height of the balance point [m] (seed ``static-balance-point-height``).
-        gravity: Gravitational acceleration [m/s²].
+        gravity: Gravitational acceleration [m/s²] (``|model.opt.gravity|``).
 
     Returns:
         ``(s_x, s_y, z)`` [m].

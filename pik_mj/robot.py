@@ -1,11 +1,20 @@
 """The robot data layer: irteus' cascaded-link / robot-model on a MuJoCo model.
 
-A :class:`Robot` wraps an :class:`mujoco.MjModel` (a robot alone, or a scene
-from :func:`pik_mj.models.compose_scene`) and a :class:`mink.Configuration`
-holding its state. It knows which top-level body is the robot (its *root
-body*), the robot's joints and limbs, and gives irteus-style accessors:
-``angle_vector``, ``link_list``, end-effector frames, mass, centroid and
-centroid Jacobian. MuJoCo computes all kinematics.
+A :class:`Robot` is built from its model with :meth:`Robot.from_model` (a model
+name, an MJCF path or an :class:`mujoco.MjSpec`, optionally placed in an
+environment) and OWNS its kinematic world: ``robot.spec`` (the robot, or the
+robot with the environment attached into it, so the robot's ``qpos`` is a prefix
+of every model built from it), ``robot.model``, ``robot.configuration`` (a
+:class:`mink.Configuration` holding its state) and ``robot.source`` (a
+:class:`RobotSource`: what rebuilds it). It knows which top-level body is the
+robot (its *root body*, :func:`robot_root_body`), the robot's joints and limbs,
+and gives irteus-style accessors: ``angle_vector``, ``link_list``,
+end-effector frames, mass, centroid and centroid Jacobian. MuJoCo computes all
+kinematics.
+
+A floating-base robot's start pose stands on the floor z = 0: its lowest sole
+(or foot) collision geom touches the plane (dm_control's humanoids start 0.2 m
+up; they are lowered), so the IK's world and the physics' world are the same.
 
 Limbs are found by name:
 
@@ -20,18 +29,23 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Any
 
 import mink
 import mujoco
 import numpy as np
 
+from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import load_model
+from pik_mj.models import model_path
 
 FRAME_TYPES = ("site", "body", "geom")
 LIMB_NAMES = ("rarm", "larm", "rleg", "lleg", "torso", "head")
 RESET_KEYFRAME = "reset_pose"
+GROUND_TOLERANCE = 1e-6
+"""[m] A floating-base robot whose soles are farther than this from the floor
+(above or below) at its start pose is moved onto it by :meth:`Robot.from_model`."""
 
 _FRAME_OBJ = {
     "site": mujoco.mjtObj.mjOBJ_SITE,
@@ -185,18 +199,192 @@ def _id(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:
     return mujoco.mj_name2id(model, obj, name)
 
 
+def robot_root_body(
+    model: mujoco.MjModel, root_body: str | None = None, *, limb_bodies: Sequence[int] = ()
+) -> int:
+    """Id of the robot's top-level body: the one choice every part of pik_mj makes.
+
+    Args:
+        model: The model (a robot alone, or with an environment).
+        root_body: A body name (any body but the world; its subtree is the
+            robot). None picks among the top-level bodies (children of the
+            world): the one holding ``limb_bodies`` if they share one; else those
+            with a free joint if any, then the one with the most degrees of
+            freedom in its subtree.
+        limb_bodies: Ids of bodies known to be the robot's (e.g. its limbs').
+
+    Raises:
+        UnknownName: No body ``root_body``.
+        InvalidInput: ``root_body`` is the world, or the default is ambiguous.
+    """
+    top = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
+    names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in top]
+    if root_body is not None:
+        if not isinstance(root_body, str):
+            raise InvalidInput(f"root_body must be a body name, got {type(root_body).__name__}")
+        b = _id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
+        if b < 0:
+            all_names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(model.nbody)]
+            raise UnknownName("body", root_body, all_names)
+        if b == 0:
+            raise InvalidInput(
+                f"root_body {root_body!r} is the world body, whose subtree holds the "
+                f"environment too; give the robot's top-level body, one of {names}"
+            )
+        return int(b)
+    if not top:
+        raise InvalidInput("the model has no body besides the world")
+    roots = {int(model.body_rootid[b]) for b in limb_bodies}
+    if len(roots) == 1:
+        return roots.pop()
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    floating = [
+        b for b in top if model.body_jntnum[b] > 0 and model.jnt_type[model.body_jntadr[b]] == free
+    ]
+    candidates = floating or top
+    dofs = [int(model.body_dofnum[model.body_rootid == b].sum()) for b in candidates]
+    best = max(dofs)
+    if dofs.count(best) > 1:
+        raise InvalidInput(
+            f"cannot tell which top-level body is the robot among {names}; pass root_body"
+        )
+    return int(candidates[dofs.index(best)])
+
+
+def sole_geoms(model: mujoco.MjModel, bodies: np.ndarray) -> list[int]:
+    """The robot's sole collision geoms: the named collision geoms of ``bodies``
+    (a mask over ``model``'s bodies) whose name contains ``sole``; without any,
+    those on bodies whose name contains ``foot``."""
+    geoms = [
+        g
+        for g in range(model.ngeom)
+        if bodies[model.geom_bodyid[g]]
+        and (model.geom_contype[g] or model.geom_conaffinity[g])
+        and _name(model, mujoco.mjtObj.mjOBJ_GEOM, g)
+    ]
+    soles = [g for g in geoms if "sole" in _name(model, mujoco.mjtObj.mjOBJ_GEOM, g)]
+    if soles:
+        return soles
+    return [
+        g
+        for g in geoms
+        if "foot" in _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g]))
+    ]
+
+
+ModelLike = str | os.PathLike[str] | mujoco.MjSpec
+
+
+@dataclass(frozen=True)
+class RobotSource:
+    """What builds a robot's world: :meth:`Robot.from_model`'s arguments.
+
+    Attributes:
+        model: Model name (``"sample_humanoid"``), absolute MJCF path, or an
+            :class:`mujoco.MjSpec`.
+        environment: Environment name, path or spec, or None.
+        at: Placement: a site of the environment, ``(x, y, yaw)`` or
+            ``(x, y, z, yaw)`` [m, rad], or None.
+        keyframe: The start pose's keyframe, or None (``reset_pose`` if the model
+            has one, else ``qpos0``).
+        root_body: The robot's top-level body, or None (:func:`robot_root_body`).
+    """
+
+    model: ModelLike
+    environment: ModelLike | None = None
+    at: str | tuple[float, ...] | None = None
+    keyframe: str | None = None
+    root_body: str | None = None
+
+    @property
+    def serializable(self) -> bool:
+        """Whether the source is names and paths only (no spec), so JSON can hold it."""
+        return not any(isinstance(x, mujoco.MjSpec) for x in (self.model, self.environment))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready ``{"model", "environment", "at", "keyframe", "root_body"}``.
+
+        Raises:
+            InvalidInput: The model or the environment was given as an MjSpec.
+        """
+        if not self.serializable:
+            which = "model" if isinstance(self.model, mujoco.MjSpec) else "environment"
+            raise InvalidInput(
+                f"this robot's {which} was given as an MjSpec, which JSON cannot hold: "
+                "build the robot from a model name or an MJCF path (e.g. save the spec "
+                "with spec.to_xml() and pass the file) to write its source"
+            )
+        return {
+            "model": str(self.model),
+            "environment": None if self.environment is None else str(self.environment),
+            "at": self.at if self.at is None or isinstance(self.at, str) else list(self.at),
+            "keyframe": self.keyframe,
+            "root_body": self.root_body,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> RobotSource:
+        """The source written by :meth:`to_dict` (extra keys are ignored).
+
+        Raises:
+            InvalidInput: No ``model``, or entries of the wrong type.
+        """
+        if not isinstance(data, Mapping) or not isinstance(data.get("model"), str):
+            raise InvalidInput(
+                f'a robot source needs "model" (a name or an MJCF path), got {data!r}'
+            )
+        values = {f.name: data.get(f.name) for f in fields(cls)}
+        for key in ("environment", "keyframe", "root_body"):
+            if values[key] is not None and not isinstance(values[key], str):
+                raise InvalidInput(f"robot source {key!r} must be a string or null")
+        at = values["at"]
+        if at is not None and not isinstance(at, str):
+            if not isinstance(at, (list, tuple)) or not all(
+                isinstance(x, (int, float)) for x in at
+            ):
+                raise InvalidInput(f'robot source "at" must be a site name or numbers, got {at!r}')
+            values["at"] = tuple(float(x) for x in at)
+        return cls(**values)
+
+
+def _source_name(model: ModelLike) -> ModelLike:
+    """A model name as given; a path made absolute (it is then found from anywhere)."""
+    if isinstance(model, mujoco.MjSpec):
+        return model
+    name = os.fspath(model)
+    if isinstance(model, os.PathLike) or name.endswith(".xml") or "/" in name or os.sep in name:
+        return str(model_path(name))
+    return name
+
+
 class Robot:
     """A robot in a MuJoCo model, with its state in a :class:`mink.Configuration`.
 
+    Build one with :meth:`Robot.from_model` (it then owns its world: ``spec``,
+    ``source``). ``Robot(model)`` wraps a compiled model as it is (no source: no
+    :class:`pik_mj.sim.Scene` can be made from it).
+
     Args:
-        model: The compiled model (a robot alone or a composed scene).
+        model: The compiled model (a robot alone or with an environment).
         root_body: Name of the robot's top-level body. By default the top-level
-            body holding the joints of the detected limbs, or, without limbs, the
-            one with the most degrees of freedom.
+            body holding the joints of the detected limbs, or, without limbs, as
+            :func:`robot_root_body`.
         limbs: Explicit limb table ``{name: Limb}``; detected from names if None.
+        keyframe: Keyframe of the start pose (:meth:`reset_pose`); default
+            ``reset_pose`` if the model has one, else ``qpos0``.
+
+    Attributes:
+        model: The compiled model.
+        configuration: The robot's state.
+        spec: The robot's world as an :class:`mujoco.MjSpec` (never modified; a
+            scene copies it), or None for ``Robot(model)``.
+        source: The :class:`RobotSource` that rebuilds it, or None.
+        placement: ``(x, y, z, yaw)`` [m, rad] where the robot's model frame was
+            put (``at``), or None.
+        keyframe: The start pose's keyframe (:meth:`reset_pose`), or None for ``qpos0``.
 
     Raises:
-        UnknownName: ``root_body`` or a limb's joint/frame does not exist.
+        UnknownName: ``root_body``, ``keyframe`` or a limb's joint/frame does not exist.
         InvalidInput: ``root_body`` is not a top-level body, or the robot's top
             level body cannot be chosen.
     """
@@ -207,14 +395,45 @@ class Robot:
         *,
         root_body: str | None = None,
         limbs: Mapping[str, Limb] | None = None,
+        keyframe: str | None = None,
     ):
+        if not isinstance(model, mujoco.MjModel):
+            raise InvalidInput(
+                f"Robot(model) takes a compiled mujoco.MjModel, got {type(model).__name__}; "
+                "use Robot.from_model(name, path or MjSpec)"
+            )
         self.model = model
         self.configuration = mink.Configuration(model)
+        self.spec: mujoco.MjSpec | None = None
+        self.source: RobotSource | None = None
+        self.placement: tuple[float, float, float, float] | None = None
         top_level = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
         if not top_level:
             raise InvalidInput("the model has no body besides the world")
+        if limbs is not None and not (
+            isinstance(limbs, Mapping) and all(isinstance(x, Limb) for x in limbs.values())
+        ):
+            raise InvalidInput(f"limbs must be a mapping of names to Limb, got {limbs!r}")
+        if keyframe is not None and not isinstance(keyframe, str):
+            raise InvalidInput(f"keyframe must be a keyframe name (a string), got {keyframe!r}")
         detected = self._detect_limbs() if limbs is None else dict(limbs)
-        self._root_id = self._choose_root(root_body, top_level, detected)
+        self._root_id = robot_root_body(
+            model,
+            root_body,
+            limb_bodies=[
+                b
+                for b in (
+                    _id(model, mujoco.mjtObj.mjOBJ_BODY, x.root_body) for x in detected.values()
+                )
+                if b >= 0
+            ],
+        )
+        if self._root_id not in top_level:
+            names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in top_level]
+            raise InvalidInput(
+                f"root_body {root_body!r} is not a top-level body (a child of "
+                f"the world). Top-level bodies: {names}"
+            )
         in_robot = model.body_rootid[model.jnt_bodyid] == self._root_id
         self._robot_joint_ids = np.flatnonzero(in_robot)
         angle = np.isin(model.jnt_type, _ANGLE_JOINTS)
@@ -231,12 +450,140 @@ class Robot:
             for name, limb in detected.items()
             if model.body_rootid[model.body(limb.root_body).id] == self._root_id
         }
+        keys = [_name(model, mujoco.mjtObj.mjOBJ_KEY, k) for k in range(model.nkey)]
+        if keyframe is not None and keyframe not in keys:
+            raise UnknownName("keyframe", keyframe, keys)
+        self.keyframe = (
+            keyframe
+            if keyframe is not None
+            else (RESET_KEYFRAME if RESET_KEYFRAME in keys else None)
+        )
         self.reset_pose()
 
     @classmethod
-    def load(cls, name_or_path: str | os.PathLike[str], **kwargs) -> Robot:
-        """Load a model by name or path (see :func:`pik_mj.models.model_path`)."""
-        return cls(load_model(name_or_path), **kwargs)
+    def from_model(
+        cls,
+        model: ModelLike,
+        *,
+        environment: ModelLike | None = None,
+        at: str | Sequence[float] | None = None,
+        keyframe: str | None = None,
+        root_body: str | None = None,
+        limbs: Mapping[str, Limb] | None = None,
+    ) -> Robot:
+        """The robot of ``model``, standing in its world.
+
+        The robot's spec is the host of its world: the robot's top-level body is
+        placed at ``at`` (:func:`pik_mj.sim.environment.place_root`), and the
+        environment is attached into the spec
+        (:func:`pik_mj.sim.environment.attach_environment`), so the robot's
+        ``qpos`` is a prefix of the world's and the robot and the environment's
+        objects (e.g. the room's ``kettle_handle`` site) share one world frame. A
+        floating-base robot is first moved along z so that its lowest sole geom
+        (:func:`sole_geoms`) touches z = 0 at its start pose (when it is farther
+        than :data:`GROUND_TOLERANCE`), in its qpos0 and its keyframes.
+
+        Args:
+            model: Model name (:func:`pik_mj.models.available_models`), MJCF path,
+                or an :class:`mujoco.MjSpec` (copied; its source cannot be
+                written to JSON).
+            environment: Environment name, path or spec, or None (the robot alone).
+            at: A site of the environment (its position and heading), or
+                ``(x, y, yaw)`` / ``(x, y, z, yaw)`` [m, rad]: where the robot's model
+                frame goes.
+            keyframe: Keyframe of the start pose (default ``reset_pose`` if any).
+            root_body: The robot's top-level body (default: see
+                :func:`robot_root_body`).
+            limbs: Explicit limb table (default: detected from names).
+
+        Raises:
+            UnknownName: Unknown model name, site, keyframe or body.
+            InvalidInput: A model that does not load or compile, a bad placement.
+        """
+        from pik_mj.sim.environment import as_spec, attach_environment, place_root, placement
+
+        for what, value in (("model", model), ("environment", environment)):
+            if not isinstance(value, (str, os.PathLike, mujoco.MjSpec)) and (
+                value is not None or what == "model"
+            ):
+                raise InvalidInput(
+                    f"{what} must be a model name, an MJCF path or a mujoco.MjSpec, got {value!r}"
+                )
+        spec = as_spec(model)
+        try:
+            alone = spec.compile()
+        except ValueError as err:
+            raise InvalidInput(f"model {spec.modelname!r} does not compile: {err}") from err
+        robot = cls(alone, root_body=root_body, limbs=limbs, keyframe=keyframe)
+        env_spec = None if environment is None else as_spec(environment)
+        env_model = None
+        if env_spec is not None:
+            try:
+                env_model = env_spec.copy().compile()
+            except ValueError as err:
+                raise InvalidInput(
+                    f"environment {env_spec.modelname!r} does not compile: {err}"
+                ) from err
+        p_WR, yaw = (np.zeros(3), 0.0) if at is None else placement(at, env_model)
+        dz = -robot._ground_gap(spec) if robot.has_floating_base else 0.0
+        if abs(dz) <= GROUND_TOLERANCE:
+            dz = 0.0
+        world = alone
+        if at is not None or dz != 0.0 or env_spec is not None:
+            if at is not None or dz != 0.0:
+                place_root(spec, alone, robot.root_body_id, p_WR + np.array([0.0, 0.0, dz]), yaw)
+            if env_spec is not None:
+                spec = attach_environment(spec, env_spec)
+            try:
+                world = spec.compile()
+            except ValueError as err:
+                raise InvalidInput(f"the robot's world does not compile: {err}") from err
+        out = cls(world, root_body=robot.root_body, limbs=limbs, keyframe=keyframe)
+        out.spec = spec
+        out.source = RobotSource(
+            _source_name(model),
+            None if environment is None else _source_name(environment),
+            at if at is None or isinstance(at, str) else tuple(float(x) for x in at),
+            keyframe,
+            root_body,
+        )
+        if at is not None:
+            out.placement = (float(p_WR[0]), float(p_WR[1]), float(p_WR[2]), float(yaw))
+        return out
+
+    @classmethod
+    def from_source(cls, source: RobotSource | Mapping[str, Any]) -> Robot:
+        """:meth:`from_model` of a :class:`RobotSource` (or its ``to_dict()``)."""
+        if not isinstance(source, RobotSource):
+            source = RobotSource.from_dict(source)
+        return cls.from_model(
+            source.model,
+            environment=source.environment,
+            at=source.at,
+            keyframe=source.keyframe,
+            root_body=source.root_body,
+        )
+
+    def _ground_gap(self, spec: mujoco.MjSpec) -> float:
+        """Smallest distance [m] of the sole geoms to the plane z = 0 at the start
+        pose (``mj_geomDistance``; negative: they sink into it); 0 without soles.
+
+        ``spec`` is the robot's spec (``self.model`` compiled); a plane is added to
+        a copy of it.
+        """
+        probe = spec.copy()
+        probe.worldbody.add_geom(
+            name="pik_mj_ground_probe", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.0, 1.0, 0.1]
+        )
+        m = probe.compile()
+        soles = sole_geoms(m, np.asarray(m.body_rootid) == self._root_id)
+        if not soles:
+            return 0.0
+        d = mujoco.MjData(m)
+        d.qpos[:] = self.configuration.q
+        mujoco.mj_kinematics(m, d)
+        ground = m.geom("pik_mj_ground_probe").id
+        return min(mujoco.mj_geomDistance(m, d, g, ground, 10.0, None) for g in soles)
 
     # ------------------------------------------------------------------ limbs
     def _detect_limbs(self) -> dict[str, Limb]:
@@ -284,33 +631,6 @@ class Robot:
             if self.model.body_rootid[self._frame_body_id(frame, kind)] != self._root_id:
                 raise InvalidInput(f"limb {limb.name!r}: {kind} {frame!r} is not on the robot")
 
-    def _choose_root(
-        self, root_body: str | None, top_level: list[int], limbs: Mapping[str, Limb]
-    ) -> int:
-        model = self.model
-        names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in top_level]
-        if root_body is not None:
-            b = _id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-            if b < 0:
-                raise UnknownName("body", root_body, names)
-            if b not in top_level:
-                raise InvalidInput(
-                    f"root_body {root_body!r} is not a top-level body (a child of "
-                    f"the world). Top-level bodies: {names}"
-                )
-            return b
-        if limbs:
-            ids = [_id(model, mujoco.mjtObj.mjOBJ_BODY, x.root_body) for x in limbs.values()]
-            roots = {int(model.body_rootid[b]) for b in ids if b >= 0}
-            if len(roots) == 1:
-                return roots.pop()
-        dofs = np.array([model.body_dofnum[model.body_rootid == b].sum() for b in top_level])
-        if (dofs == dofs.max()).sum() > 1:
-            raise InvalidInput(
-                f"cannot tell which top-level body is the robot among {names}; pass root_body"
-            )
-        return top_level[int(dofs.argmax())]
-
     def limb(self, name: str) -> Limb:
         """The limb called ``name`` (irteus ``(send robot :rarm)``)."""
         try:
@@ -333,6 +653,13 @@ class Robot:
     def root_body_id(self) -> int:
         """Id of the robot's top-level body."""
         return int(self._root_id)
+
+    @property
+    def own_nq(self) -> int:
+        """Length of the robot's own part of ``q``: its joints come first, the
+        environment's (e.g. the room's kettle) after them."""
+        k = len(self._robot_joint_ids)
+        return int(self.model.nq if k == self.model.njnt else self.model.jnt_qposadr[k])
 
     @property
     def has_floating_base(self) -> bool:
@@ -362,8 +689,7 @@ class Robot:
     def _qposadr(self, names: Sequence[str] | None) -> np.ndarray:
         if names is None:
             return self.model.jnt_qposadr[self._angle_joint_ids]
-        if isinstance(names, str):
-            raise InvalidInput(f"names must be a sequence of joint names, got {names!r}")
+        names = inputs.names(names, "names (of joints)")
         return np.array([self.model.jnt_qposadr[self._angle_joint_id(n)] for n in names], dtype=int)
 
     def angle_vector(self, names: Sequence[str] | None = None) -> np.ndarray:
@@ -383,24 +709,26 @@ class Robot:
         """Set joint positions [rad or m] and update the kinematics.
 
         Values are written as given (limits are not enforced; see
-        :meth:`joint_limits`).
+        :meth:`joint_limits`), within ``±``:data:`pik_mj.inputs.Q_LIMIT`.
 
         Args:
             values: One value per joint.
             names: Hinge/slide joint names; all of :attr:`joint_names` if None.
 
         Raises:
-            InvalidInput: Wrong length, non-finite values, or a ball/free joint.
+            InvalidInput: Not numbers, wrong length, non-finite values or beyond
+                ``Q_LIMIT``, or a ball/free joint.
             UnknownName: A joint name the robot does not have.
         """
         adr = self._qposadr(names)
-        v = np.asarray(values, dtype=float)
-        if v.shape != adr.shape:
+        v = inputs.vector(values, adr.size, f"angle vector (one value per joint, {adr.size})")
+        far = np.flatnonzero(np.abs(v) > inputs.Q_LIMIT)
+        if far.size:
+            joint = (self.joint_names if names is None else list(names))[far[0]]
             raise InvalidInput(
-                f"angle vector has shape {v.shape}, expected ({adr.size},) for {adr.size} joints"
+                f"angle vector: joint {joint!r} at {v[far[0]]:g} is beyond "
+                f"{inputs.Q_LIMIT:g} [rad or m]: an overflow or a units mistake"
             )
-        if not np.all(np.isfinite(v)):
-            raise InvalidInput(f"angle vector holds NaN or inf: {v}")
         q = self.configuration.q
         q[adr] = v
         self.configuration.update(q)
@@ -432,31 +760,27 @@ class Robot:
             raise InvalidInput(
                 f"robot root body {self.root_body!r} has no free joint; its pose is fixed"
             )
-        p = np.asarray(p_WB, dtype=float)
-        quat = np.asarray(quat_WB, dtype=float)
-        if p.shape != (3,) or quat.shape != (4,):
+        p = inputs.vector(p_WB, 3, "p_WB (the root position)", unit="m")
+        if np.any(np.abs(p) > inputs.Q_LIMIT):
             raise InvalidInput(
-                f"expected p_WB of shape (3,) and quat_WB of shape (4,), got "
-                f"{p.shape} and {quat.shape}"
+                f"p_WB {p.tolist()} is beyond {inputs.Q_LIMIT:g} m: an overflow or a units mistake"
             )
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(quat))):
-            raise InvalidInput(f"root pose holds NaN or inf: {p}, {quat}")
-        norm = np.linalg.norm(quat)
-        if norm < 1e-9:
-            raise InvalidInput(f"quat_WB {quat} has (near) zero norm")
+        quat = inputs.quaternion(quat_WB, "quat_WB")
         q = self.configuration.q
         q[adr : adr + 3] = p
-        q[adr + 3 : adr + 7] = quat / norm
+        q[adr + 3 : adr + 7] = quat
         self.configuration.update(q)
 
     def reset_pose(self) -> None:
-        """Go to keyframe ``reset_pose`` if the model has one, else to ``qpos0``."""
-        k = _id(self.model, mujoco.mjtObj.mjOBJ_KEY, RESET_KEYFRAME)
+        """Go to the start pose: keyframe :attr:`keyframe`, or ``qpos0`` without one."""
+        k = -1 if self.keyframe is None else _id(self.model, mujoco.mjtObj.mjOBJ_KEY, self.keyframe)
         q = self.model.key_qpos[k] if k >= 0 else self.model.qpos0
         self.configuration.update(q.copy())
 
     # ------------------------------------------------------------- frames
     def _frame_body_id(self, name: str, frame_type: str) -> int:
+        if not isinstance(name, str):
+            raise InvalidInput(f"a frame name must be a string, got {name!r}")
         if frame_type not in _FRAME_OBJ:
             raise InvalidInput(f"frame_type {frame_type!r} is not one of {list(FRAME_TYPES)}")
         i = _id(self.model, _FRAME_OBJ[frame_type], name)
@@ -545,9 +869,8 @@ class Robot:
         """
         if names is None:
             ids = self._angle_joint_ids
-        elif isinstance(names, str):
-            raise InvalidInput(f"names must be a sequence of joint names, got {names!r}")
         else:
+            names = inputs.names(names, "names (of joints)")
             ids = np.array([self._angle_joint_id(n) for n in names], dtype=int)
         limited = self.model.jnt_limited[ids].astype(bool)
         lower = np.where(limited, self.model.jnt_range[ids, 0], -np.inf)

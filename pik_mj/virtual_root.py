@@ -31,7 +31,8 @@ import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput
-from .models import _mujoco_warnings_as_python, load_spec
+from .models import load_spec
+from .sim.guard import ATTACH_WARNINGS, mujoco_warnings
 from .solve import SolveResult, solve
 from .tasks.com import robot_root_body
 
@@ -58,7 +59,7 @@ def _spec_of(source: Any) -> mujoco.MjSpec:
 
 def _compile(spec: mujoco.MjSpec, what: str) -> mujoco.MjModel:
     # Attaching with an empty prefix keeps every name; MuJoCo warns about it.
-    with _mujoco_warnings_as_python(), warnings.catch_warnings():
+    with mujoco_warnings(expected=ATTACH_WARNINGS), warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=".*empty prefix.*")
         try:
             return spec.compile()
@@ -185,7 +186,7 @@ def with_virtual_root(
             name=joint_name, mass=_WRAPPER_MASS, inertia=[_WRAPPER_MASS] * 3
         )
         wrapper.add_freejoint(name=joint_name)
-        with _mujoco_warnings_as_python():
+        with mujoco_warnings(expected=ATTACH_WARNINGS):
             wrapper.add_frame().attach_body(source_copy.body(name), "", "")
     floating = _compile(spec, "the model with a virtual root")
     jf = mujoco.mj_name2id(floating, mujoco.mjtObj.mjOBJ_JOINT, joint_name)

@@ -7,25 +7,33 @@ the shaker axis free, orientation free; the right hand's target is a *function*
 evaluated every iteration: the left hand's current pose moved 0.1 m along the
 shaker axis, rotation about that axis free. The seed's shaker axis is the
 hand's z; on the sample humanoid the grasp axis (across the palm) is the
-hand's x, so x is the axis named here.
+hand's x, so x is the axis named here. Every iteration is checked statically in
+the robot's scene; the final pose is held in physics.
 """
 
 from __future__ import annotations
 
+import sys
+
 import mink
 import numpy as np
 
-from pik_mj.ik import inverse_kinematics
-from pik_mj.robot import Robot
-from pik_mj.scenarios import ScenarioRecorder, ScenarioResult, main_for
+from pik_mj import HoldCriteria, Progress, Recorder, Robot, Scene, inverse_kinematics
+from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, count, open_recorder, parser, report
 
+NAME = "cocktail_shaker"
 SHAKER = 0.1  # [m] between the hands along the shaker axis
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 
-def run(out=None, *, progress: bool = False, steps: int = 32) -> ScenarioResult:
-    result = ScenarioResult("cocktail_shaker")
-    robot = Robot.load("sample_humanoid")
+def run(
+    recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True, steps: int = 32
+) -> ScenarioResult:
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
+    err = None if quiet else sys.stderr
     waist = robot.root_pose()[0] + np.array([0.0, 0.0, 0.3])  # [m] shaker height: chest
 
     def left_hand() -> mink.SE3:
@@ -34,49 +42,59 @@ def run(out=None, *, progress: bool = False, steps: int = 32) -> ScenarioResult:
     def right_target() -> mink.SE3:  # seed: (send (larm end-coords copy) :translate 100 local)
         return left_hand() @ mink.SE3.from_translation(np.array([SHAKER, 0.0, 0.0]))
 
-    rel_errors, left_errors, iterations = [], [], []
-    with ScenarioRecorder(out, robot, progress=progress, name="cocktail_shaker") as rec:
-        res = inverse_kinematics(
-            robot,
-            (waist + np.array([0.4, 0.0, 0.0]), IDENTITY),
-            limbs="larm",
-            rotation_axis=None,
-            callback=rec.callback("left hand to start"),
-        )
-        rec.record("left hand to start", res)
-        for k in range(steps):
-            t = 0.1 * (k + 1)
-            p_left = waist + np.array([0.4 + 0.1 * np.sin(t), 0.05 * np.cos(t), 0.0])
-            label = f"shake {k:02d}"
-            res = inverse_kinematics(
-                robot,
-                [(p_left, IDENTITY), right_target],
-                limbs=["larm", "rarm"],
-                translation_axis=["x", True],
-                rotation_axis=[None, "x"],
-                callback=rec.callback(label),
-            )
-            rec.record(label, res)
-            iterations.append(res.iterations)
-            X_RL = right_target().inverse() @ robot.frame_pose("rarm_end")
-            rel = X_RL.translation()
-            rel_rot = X_RL.rotation().as_matrix()
-            # position error, and the shaker axis (x) of both hands aligned
-            rel_errors.append(
-                (float(np.linalg.norm(rel)), float(np.arccos(np.clip(rel_rot[0, 0], -1, 1))))
-            )
-            R_WL = left_hand().rotation().as_matrix()
-            left_errors.append(
-                float(np.linalg.norm((R_WL.T @ (left_hand().translation() - p_left))[1:]))
-            )
+    def solve(label: str, *targets, **options) -> None:
+        """``inverse_kinematics`` with the static checks, the logger and the progress."""
+        checks = scene.static_checker()
+        log = recorder.solve_logger(label, checks=checks, start=robot)
+        progress = Progress(label, total=50, stream=err)
+        res = inverse_kinematics(robot, *targets, callback=[checks, log, progress], **options)
+        result.add_solve(label, res, checks, finish=[log, progress])
 
-    solves = rec.results
+    solve(
+        "left hand to start",
+        (waist + np.array([0.4, 0.0, 0.0]), IDENTITY),
+        limbs="larm",
+        rotation_axis=None,
+    )
+    rel_errors, left_errors = [], []
+    for k in range(steps):
+        t = 0.1 * (k + 1)
+        p_left = waist + np.array([0.4 + 0.1 * np.sin(t), 0.05 * np.cos(t), 0.0])
+        solve(
+            f"shake {k:02d}",
+            [(p_left, IDENTITY), right_target],
+            limbs=["larm", "rarm"],
+            translation_axis=["x", True],
+            rotation_axis=[None, "x"],
+        )
+        X_RL = right_target().inverse() @ robot.frame_pose("rarm_end")
+        rel_rot = X_RL.rotation().as_matrix()
+        # position error, and the shaker axis (x) of both hands aligned
+        rel_errors.append(
+            (
+                float(np.linalg.norm(X_RL.translation())),
+                float(np.arccos(np.clip(rel_rot[0, 0], -1, 1))),
+            )
+        )
+        R_WL = left_hand().rotation().as_matrix()
+        left_errors.append(
+            float(np.linalg.norm((R_WL.T @ (left_hand().translation() - p_left))[1:]))
+        )
+
+    # The final pose in physics; the contacts the solves made are intended.
+    q = robot.configuration.q.copy()
+    static = scene.static_check(q)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
+
+    solves = result.solves
     shakes = [r for k, r in solves.items() if k.startswith("shake")]
-    rec.fill(result, main=list(solves)[-1])
+    result.main = list(solves)[-1]
     result.figures = {
         "steps": steps,
         "converged_steps": sum(r.converged for r in shakes),
-        "iterations_per_step_max": max(iterations),
+        "iterations_per_step_max": max(r.iterations for r in shakes),
         "right_hand_position_error_max_m": max(e[0] for e in rel_errors),
         "shaker_axis_misalignment_max_rad": max(e[1] for e in rel_errors),
         "left_hand_error_yz_max_m": max(left_errors),
@@ -100,8 +118,13 @@ def run(out=None, *, progress: bool = False, steps: int = 32) -> ScenarioResult:
     return result
 
 
-def main(argv=None) -> int:
-    return main_for(run, argv, __doc__)
+def main(argv: list[str] | None = None) -> int:
+    p = parser(__doc__)
+    p.add_argument("--steps", type=count, default=32, help="shaking steps")
+    args = p.parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(recorder, hold=args.hold, quiet=args.quiet, steps=args.steps)
+    return report(result, args)
 
 
 if __name__ == "__main__":

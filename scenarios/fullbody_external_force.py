@@ -1,5 +1,5 @@
-"""Fullbody IK with external forces on both hands (seed 001, ``:centroid-offset-func``
-with ``:calc-static-balance-point``).
+"""Fullbody IK with forces on both hands: the static balance point between the feet
+(seed 001, ``:centroid-offset-func`` with ``:calc-static-balance-point``).
 
 Both hands receive the seed's force (-20, 0, 0) N and moment (10, 0, 0) N·m; the
 feet stay, the hands go to the seed's ``#f(400 ∓300 0)`` mm from the waist
@@ -7,17 +7,21 @@ feet stay, the hands go to the seed's ``#f(400 ∓300 0)`` mm from the waist
 balances gravity and the hand wrenches — is brought over the midpoint of the
 feet instead of the centroid. The check is independent of the formula used in
 the solve: the total moment of gravity and the hand wrenches about the feet
-midpoint has no horizontal component (a pure vertical ground force there balances).
+midpoint has no horizontal component (a pure vertical ground force there
+balances). The physics hold applies the same hand wrenches.
 """
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
-from pik_mj.ik import fullbody_inverse_kinematics, static_balance_point
-from pik_mj.robot import Robot
-from pik_mj.scenarios import ScenarioRecorder, ScenarioResult, com_margin, main_for
+from pik_mj import HoldCriteria, Progress, Recorder, Robot, Scene, fullbody_inverse_kinematics
+from pik_mj.ik import static_balance_point
+from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, com_margin, open_recorder, parser, report
 
+NAME = "fullbody_external_force"
 FORCE = np.array([-20.0, 0.0, 0.0])  # [N] on each hand
 MOMENT = np.array([10.0, 0.0, 0.0])  # [N·m] on each hand
 HANDS = ("rarm", "larm")
@@ -28,29 +32,40 @@ def frame_of(robot: Robot, limb: str):
     return robot.frame_pose(robot.limb(limb).end_frame, robot.limb(limb).end_frame_type)
 
 
-def run(out=None, *, progress: bool = False) -> ScenarioResult:
-    result = ScenarioResult("fullbody_external_force")
-    robot = Robot.load("sample_humanoid")
+def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -> ScenarioResult:
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
     feet0 = [frame_of(robot, x) for x in FEET]
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     p_root, _ = robot.root_pose()
     targets = [p_root + np.array([0.4, -0.3, 0.0]), p_root + np.array([0.4, 0.3, 0.0])]
     forces = [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
 
-    with ScenarioRecorder(out, robot, progress=progress, name="fullbody_external_force") as rec:
-        rec.hold_external(forces)  # the physics hold applies the same hand wrenches
-        res = fullbody_inverse_kinematics(
-            robot,
-            [(p, np.array([1.0, 0.0, 0.0, 0.0])) for p in targets],
-            limbs=list(HANDS),
-            rotation_axis=None,
-            external_forces=forces,
-            target_centroid_pos=p_mid,
-            centroid_axes="z",
-            stop=100,
-            callback=rec.callback("reach with forces"),
-        )
-        rec.record("reach with forces", res)
+    checks = scene.static_checker()
+    log = recorder.solve_logger("reach with forces", checks=checks, start=robot)
+    progress = Progress("reach with forces", total=100, stream=None if quiet else sys.stderr)
+    res = fullbody_inverse_kinematics(
+        robot,
+        [(p, np.array([1.0, 0.0, 0.0, 0.0])) for p in targets],
+        limbs=list(HANDS),
+        rotation_axis=None,
+        external_forces=forces,
+        target_centroid_pos=p_mid,
+        centroid_axes="z",
+        stop=100,
+        callback=[checks, log, progress],
+    )
+    result.add_solve("reach with forces", res, checks, finish=[log, progress])
+
+    # The final pose in physics, with the hand wrenches it was solved for.
+    q = robot.configuration.q.copy()
+    static = scene.static_check(q, external=forces)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    log = recorder.hold_logger()
+    held = scene.hold(q, hold, criteria=criteria, external=forces, callback=log) if hold else None
+    result.add_balance(scene, static, held, criteria, external=forces)
 
     # Independent check: moments about the feet midpoint (3D cross products), where
     # a pure vertical ground force must balance gravity and the hand wrenches.
@@ -65,7 +80,7 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
         float(np.linalg.norm(frame_of(robot, h).translation() - t))
         for h, t in zip(HANDS, targets, strict=True)
     ]
-    rec.fill(result, main="reach with forces")
+    result.main = "reach with forces"
     result.figures = {
         "balance_point_m": p,
         "balance_point_xy_error_m": float(np.linalg.norm(p[:2] - p_mid[:2])),
@@ -81,6 +96,7 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
         "median_iteration_ms": res.median_iteration_ms,
     }
     f = result.figures
+    weight = robot.mass * float(np.linalg.norm(robot.model.opt.gravity))  # [N]
     result.check("converged", res.converged, f"{res.iterations} iterations")
     result.check("hands on target (1 mm)", max(hand_errors) <= 1e-3)
     result.check("feet did not move (0.1 mm)", f["feet_moved_m"] <= 1e-4)
@@ -89,7 +105,7 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     )
     result.check(
         "no horizontal moment about the feet midpoint (M g · 1 mm)",
-        float(np.abs(moment[:2]).max()) <= robot.mass * 9.81 * 1e-3,
+        float(np.abs(moment[:2]).max()) <= weight * 1e-3,
         f"{moment[:2]}",
     )
     result.check("balance point inside the support polygon", f["balance_point_margin_m"] > 0)
@@ -100,8 +116,11 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     return result
 
 
-def main(argv=None) -> int:
-    return main_for(run, argv, __doc__)
+def main(argv: list[str] | None = None) -> int:
+    args = parser(__doc__).parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(recorder, hold=args.hold, quiet=args.quiet)
+    return report(result, args)
 
 
 if __name__ == "__main__":

@@ -7,16 +7,27 @@ the floating base moves within the seed's root-link bounds. The seed first bends
 the waist by 10° (done where the robot has ``torso_waist_p``). dm_control's
 humanoid has its root at the chest, not the waist, and cannot crouch as deep
 within the root bounds: its hand target is (0.3, 0.1, -0.5) m from its root.
+Every iteration is checked statically in the robot's scene; the final pose is
+held in physics.
 """
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
-from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.robot import Robot
-from pik_mj.scenarios import ScenarioRecorder, ScenarioResult, com_margin, main_for
+from pik_mj import (
+    HoldCriteria,
+    Progress,
+    Recorder,
+    Robot,
+    Scene,
+    fullbody_inverse_kinematics,
+)
+from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, com_margin, open_recorder, parser, report
 
+NAME = "fullbody_reach"
 HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
     "sample_humanoid": (0.4, 0.1, -0.6),  # the seed's #f(400 100 -600) mm
     "dm_humanoid_cmu": (0.4, 0.1, -0.6),
@@ -30,33 +41,50 @@ def foot_poses(robot: Robot) -> list:
     return [robot.frame_pose(robot.limb(x).end_frame, robot.limb(x).end_frame_type) for x in FEET]
 
 
-def run(out=None, *, progress: bool = False, model: str = "sample_humanoid") -> ScenarioResult:
-    result = ScenarioResult("fullbody_reach")
-    robot = Robot.load(model)
+def run(
+    recorder: Recorder,
+    *,
+    model: str = "sample_humanoid",
+    hold: float = DEFAULT_HOLD,
+    quiet: bool = True,
+) -> ScenarioResult:
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model(model)
     if "torso_waist_p" in robot.joint_names:  # seed: (send *robot* :torso :waist-p :joint-angle 10)
         robot.set_angle_vector([np.deg2rad(10.0)], ["torso_waist_p"])
+    scene = Scene.from_robot(robot)
+    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
     feet0 = foot_poses(robot)
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     p_root, _ = robot.root_pose()
     target = p_root + np.array(HAND_OFFSETS.get(str(model), OTHER_MODELS))
 
-    with ScenarioRecorder(out, robot, progress=progress, name="fullbody_reach") as rec:
-        res = fullbody_inverse_kinematics(
-            robot,
-            [(target, np.array([1.0, 0.0, 0.0, 0.0]))],
-            limbs=["larm"],
-            rotation_axis=[None],
-            target_centroid_pos=p_mid,
-            centroid_axes="z",
-            stop=100,
-            callback=rec.callback("reach"),
-        )
-        rec.record("reach", res)
+    checks = scene.static_checker()
+    log = recorder.solve_logger("reach", checks=checks, start=robot)
+    progress = Progress("reach", total=100, stream=None if quiet else sys.stderr)
+    res = fullbody_inverse_kinematics(
+        robot,
+        [(target, np.array([1.0, 0.0, 0.0, 0.0]))],
+        limbs=["larm"],
+        rotation_axis=[None],
+        target_centroid_pos=p_mid,
+        centroid_axes="z",
+        stop=100,
+        callback=[checks, log, progress],
+    )
+    result.add_solve("reach", res, checks, finish=[log, progress])
+
+    # The final pose in physics; the contacts the solve made are intended.
+    q = robot.configuration.q.copy()
+    static = scene.static_check(q)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
 
     feet1 = foot_poses(robot)
     hand = robot.frame_pose(robot.limb("larm").end_frame, robot.limb("larm").end_frame_type)
     com = robot.com()
-    rec.fill(result, main="reach")
+    result.main = "reach"
     result.figures = {
         "model": model,
         "hand_target_m": target,
@@ -89,8 +117,12 @@ def run(out=None, *, progress: bool = False, model: str = "sample_humanoid") -> 
     return result
 
 
-def main(argv=None) -> int:
-    return main_for(run, argv, __doc__)
+def main(argv: list[str] | None = None) -> int:
+    p = parser(__doc__, model="sample_humanoid", limbs=(*FEET, "larm"), floating_base=True)
+    args = p.parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(recorder, model=args.model, hold=args.hold, quiet=args.quiet)
+    return report(result, args)
 
 
 if __name__ == "__main__":

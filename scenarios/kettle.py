@@ -1,4 +1,4 @@
-"""The kettle in the room (seed 001, room73b2 and the kettle).
+"""The kettle in the room: look at it, grasp the handle, lift it 0.1 m (seed 001, room73b2).
 
 The robot stands at ``spot_counter_front`` (no walking: it is placed there), looks
 at the kettle (``:head :look-at``), reaches the handle with the right hand
@@ -10,17 +10,21 @@ up 0.1 m keeping the grasp while the head keeps looking at the kettle, which
 moves with the hand. The kettle is an object: the IK moves only the robot; after
 the lift the kettle's free joint is set to its grasp-time pose relative to the
 hand carried to the lifted hand, ``X_WO = X_WH(lift) X_WH(grasp)^-1 X_WO(0)``,
-and the physics hold holds it in the hand (a weld, :meth:`ScenarioScene.grasp`):
-its weight loads the arm and the balance.
+and the physics hold holds it in the hand (a weld: ``Scene.from_robot(robot,
+grasps=[("rarm_end", "kettle")])``): its weight loads the arm and the balance.
 """
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
-from pik_mj.ik import gaze_angle, inverse_kinematics
-from pik_mj.scenarios import ScenarioRecorder, ScenarioResult, com_margin, main_for, robot_at_spot
+from pik_mj import HoldCriteria, Progress, Recorder, Robot, Scene, inverse_kinematics
+from pik_mj.ik import gaze_angle
+from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, com_margin, open_recorder, parser, report
 
+NAME = "kettle"
 LIFT = 0.1  # [m]
 
 
@@ -32,9 +36,12 @@ def grasp_rotation(R_W_handle: np.ndarray) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def run(out=None, *, progress: bool = False) -> ScenarioResult:
-    result = ScenarioResult("kettle")
-    robot = robot_at_spot("sample_humanoid", "spot_counter_front")
+def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -> ScenarioResult:
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_counter_front")
+    scene = Scene.from_robot(robot)
+    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
+    err = None if quiet else sys.stderr
     handle = robot.frame_pose("kettle_handle")
     p_handle = handle.translation()
     p_kettle = robot.frame_pose("kettle_center").translation()
@@ -44,47 +51,67 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     kettle_q = robot.configuration.q[kettle_adr : kettle_adr + 7].copy()
     X_kettle0 = robot.frame_pose("kettle", "body")
 
-    with ScenarioRecorder(out, robot, progress=progress, name="kettle") as rec:
-        look = inverse_kinematics(
-            robot, [], look_at=p_kettle, joints="chain", callback=rec.callback("look")
-        )
-        rec.record("look", look)
-        gaze_look = gaze_angle(robot, p_kettle)
+    checks = scene.static_checker()
+    log, progress = (
+        recorder.solve_logger("look", checks=checks, start=robot),
+        Progress("look", stream=err),
+    )
+    look = inverse_kinematics(
+        robot, [], look_at=p_kettle, joints="chain", callback=[checks, log, progress]
+    )
+    result.add_solve("look", look, checks, finish=[log, progress])
+    gaze_look = gaze_angle(robot, p_kettle)
 
-        grasp = inverse_kinematics(
-            robot,
-            (p_handle, R_grasp),
-            move_targets="rarm_end",
-            rotation_axis="x",
-            look_at=p_kettle,
-            stop=100,
-            callback=rec.callback("grasp"),
-        )
-        rec.record("grasp", grasp)
-        X_grasp = robot.frame_pose("rarm_end")
-        gaze_grasp = gaze_angle(robot, p_kettle)
+    checks = scene.static_checker()
+    log, progress = (
+        recorder.solve_logger("grasp", checks=checks, start=robot),
+        Progress("grasp", stream=err),
+    )
+    grasp = inverse_kinematics(
+        robot,
+        (p_handle, R_grasp),
+        move_targets="rarm_end",
+        rotation_axis="x",
+        look_at=p_kettle,
+        stop=100,
+        callback=[checks, log, progress],
+    )
+    result.add_solve("grasp", grasp, checks, finish=[log, progress])
+    X_grasp = robot.frame_pose("rarm_end")
+    gaze_grasp = gaze_angle(robot, p_kettle)
 
-        def kettle_now(r) -> np.ndarray:  # the kettle moves with the hand
-            return p_kettle + r.frame_pose("rarm_end").translation() - X_grasp.translation()
+    def kettle_now(r) -> np.ndarray:  # the kettle moves with the hand
+        return p_kettle + r.frame_pose("rarm_end").translation() - X_grasp.translation()
 
-        lift = inverse_kinematics(
-            robot,
-            (p_handle + np.array([0.0, 0.0, LIFT]), R_grasp),
-            move_targets="rarm_end",
-            rotation_axis="x",
-            look_at=kettle_now,
-            stop=100,
-            callback=rec.callback("lift"),
-        )
-        # The IK left the kettle alone; now it is carried with the hand.
-        q_ik_kettle = robot.configuration.q[kettle_adr : kettle_adr + 7].copy()
-        X_carried = robot.frame_pose("rarm_end") @ X_grasp.inverse() @ X_kettle0
-        q = robot.configuration.q.copy()
-        q[kettle_adr : kettle_adr + 7] = np.r_[X_carried.translation(), X_carried.rotation().wxyz]
-        robot.configuration.update(q)
-        rec.record("lift", lift)
-        if rec.scene is not None:  # the hold holds the kettle in the hand
-            rec.scene.grasp([("rarm_end", "kettle")])
+    checks = scene.static_checker()
+    log, progress = (
+        recorder.solve_logger("lift", checks=checks, start=robot),
+        Progress("lift", stream=err),
+    )
+    lift = inverse_kinematics(
+        robot,
+        # the grasped hand's whole pose, lifted: the kettle hangs from it
+        (p_handle + np.array([0.0, 0.0, LIFT]), X_grasp.rotation().wxyz),
+        move_targets="rarm_end",
+        rotation_axis=True,
+        look_at=kettle_now,
+        stop=100,
+        callback=[checks, log, progress],
+    )
+    # The IK left the kettle alone; now it is carried with the hand.
+    q_ik_kettle = robot.configuration.q[kettle_adr : kettle_adr + 7].copy()
+    X_carried = robot.frame_pose("rarm_end") @ X_grasp.inverse() @ X_kettle0
+    q = robot.configuration.q.copy()
+    q[kettle_adr : kettle_adr + 7] = np.r_[X_carried.translation(), X_carried.rotation().wxyz]
+    robot.configuration.update(q)
+    result.add_solve("lift", lift, checks, finish=[log, progress])
+
+    # The final pose in physics, the kettle held in the hand by a weld.
+    scene = Scene.from_robot(robot, grasps=[("rarm_end", "kettle")])
+    static = scene.static_check(q)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
 
     X_lift = robot.frame_pose("rarm_end")
     d = X_lift.translation() - X_grasp.translation()
@@ -93,7 +120,7 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     feet1 = [robot.frame_pose(f).translation() for f in ("rleg_end", "lleg_end")]
     X_kettle1 = robot.frame_pose("kettle", "body")
     X_hand_kettle = [X.inverse() @ Y for X, Y in ((X_grasp, X_kettle0), (X_lift, X_kettle1))]
-    rec.fill(result, main="lift")
+    result.main = "lift"
     result.figures = {
         "handle_m": p_handle,
         "grasp_error_m": float(np.linalg.norm(X_grasp.translation() - p_handle)),
@@ -117,7 +144,7 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     }
     f = result.figures
     for label in ("look", "grasp", "lift"):
-        result.check(f"{label} converged", rec.results[label].converged)
+        result.check(f"{label} converged", result.solves[label].converged)
     result.check("hand at the handle (1 mm)", f["grasp_error_m"] <= 1e-3)
     result.check(
         "hand's grasp axis along the bar (1°)",
@@ -158,8 +185,11 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     return result
 
 
-def main(argv=None) -> int:
-    return main_for(run, argv, __doc__)
+def main(argv: list[str] | None = None) -> int:
+    args = parser(__doc__).parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(recorder, hold=args.hold, quiet=args.quiet)
+    return report(result, args)
 
 
 if __name__ == "__main__":

@@ -1,54 +1,57 @@
-"""Walk forward (seed 001 ``:calc-walk-pattern-from-footstep-list``): 4 steps of 0.12 m.
+"""Walk forward: 4 steps of 0.12 m by preview control + whole-body IK, played in physics.
 
-The seed's first walking example on the sample humanoid: footsteps straight
-ahead (left first), preview control of the cart-table model for the CoM, one
-whole-body IK per tick (feet, CoM and upright pelvis, posture), then two
-checks of the pattern: the ZMP of its inverse dynamics stays inside the
-support polygon at every tick, and played with joint servos on a floor in
-MuJoCo it walks without falling and ends where planned.
+Seed 001 ``:calc-walk-pattern-from-footstep-list``, its first walking example on
+the sample humanoid: footsteps straight ahead (left first), preview control of
+the cart-table model for the CoM, one whole-body IK per tick (feet, CoM and
+upright pelvis, posture), then two checks of the pattern: the ZMP of its
+inverse dynamics stays inside the support polygon at every tick, and played
+with joint servos on a floor in MuJoCo it walks without falling and ends where
+planned.
 """
 
 from __future__ import annotations
 
-from pik_mj.record import Recorder
-from pik_mj.robot import Robot
-from pik_mj.scenarios import ScenarioResult, main_for
-from pik_mj.walking import GaitParameters
-from pik_mj.walking.playback import evaluate_walk, play_walk_pattern
-from pik_mj.walking.wholebody import straight_walk
+from pik_mj import Recorder, Robot, Scene
+from pik_mj.scenario import ScenarioResult, count, open_recorder, parser, positive, report
+from pik_mj.walking import GaitParameters, straight_steps
+from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern
+from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
 
-MODEL = "sample_humanoid"
+NAME = "walk_forward"
 
 
 def run(
-    out=None,
+    recorder: Recorder,
     *,
-    progress: bool = False,
+    quiet: bool = True,
     n_steps: int = 4,
     stride: float = 0.12,  # [m]
     dt: float = 0.01,  # [s]
 ) -> ScenarioResult:
-    result = ScenarioResult("walk_forward")
-    robot = Robot.load(MODEL)
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model("sample_humanoid")
     params = GaitParameters(dt=dt, step_time=1.0, step_height=0.05, double_support_ratio=0.2)
-    pattern = straight_walk(robot, n_steps, stride, params)
-    if progress:
+    steps = straight_steps(n_steps, stride, feet_from_robot(robot), first_limb="lleg")
+    pattern = calc_walk_pattern(robot, steps, params)
+    if not quiet:
         print(pattern)
-    recorder = None if out is None else Recorder.to_file(out, application_id="walk_forward")
-    try:
-        report = play_walk_pattern(pattern, MODEL, recorder=recorder)
-    finally:
-        if recorder is not None:
-            recorder.close()
-    result.recording = None if out is None else str(out)
-    result.figures, checks = evaluate_walk(pattern, report)
+    scene = Scene.from_robot(robot, contact=WALK_CONTACT)
+    walk = play_walk_pattern(pattern, scene, recorder=recorder)
+    result.robot = robot
+    result.figures, checks = evaluate_walk(pattern, walk)
     for label, ok, detail in checks:
         result.check(label, ok, detail)
     return result
 
 
-def main(argv=None) -> int:
-    return main_for(run, argv, __doc__)
+def main(argv: list[str] | None = None) -> int:
+    p = parser(__doc__, hold=False)
+    p.add_argument("--steps", type=count, default=4, help="number of steps")
+    p.add_argument("--dt", type=positive, default=0.01, help="pattern tick [s]")
+    args = p.parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(recorder, quiet=args.quiet, n_steps=args.steps, dt=args.dt)
+    return report(result, args)
 
 
 if __name__ == "__main__":

@@ -1,62 +1,69 @@
-"""Walk to a pose (seed 001 ``:go-pos-params->footstep-list``): go_pos(0.5, 0.15, 45°).
+"""Walk to a pose: go_pos(0.5 m, 0.15 m, 45°) footsteps, the pattern played in physics.
 
-Footsteps from the sample humanoid's feet to a goal 0.5 m ahead, 0.15 m left
-and turned 45° left (the left leg leads, at most 0.15 m / 30° per step), the
-walking pattern by preview control and whole-body IK per tick, then the same
-checks as ``walk_forward``: ZMP of the inverse dynamics inside the support
-polygon at every tick; in physics no fall and the feet end where planned.
+Seed 001 ``:go-pos-params->footstep-list``: footsteps from the sample humanoid's
+feet to a goal 0.5 m ahead, 0.15 m left and turned 45° left (the left leg
+leads, at most 0.15 m / 30° per step), the walking pattern by preview control
+and whole-body IK per tick, then the same checks as ``walk_forward``: ZMP of the
+inverse dynamics inside the support polygon at every tick; in physics no fall
+and the feet end where planned.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from pik_mj.record import Recorder
-from pik_mj.robot import Robot
-from pik_mj.scenarios import ScenarioResult, main_for
-from pik_mj.walking import GaitParameters
-from pik_mj.walking.playback import evaluate_walk, play_walk_pattern
-from pik_mj.walking.wholebody import go_pos
+from pik_mj import Recorder, Robot, Scene
+from pik_mj.scenario import ScenarioResult, finite, open_recorder, parser, positive, report
+from pik_mj.walking import GaitParameters, go_pos
+from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern
+from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
 
-MODEL = "sample_humanoid"
+NAME = "walk_go_pos"
 
 
 def run(
-    out=None,
+    recorder: Recorder,
     *,
-    progress: bool = False,
+    quiet: bool = True,
     x: float = 0.5,  # [m]
     y: float = 0.15,  # [m]
     theta_deg: float = 45.0,  # [deg]
     dt: float = 0.01,  # [s]
 ) -> ScenarioResult:
-    result = ScenarioResult("walk_go_pos")
-    robot = Robot.load(MODEL)
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model("sample_humanoid")
     params = GaitParameters(dt=dt, step_time=1.0, step_height=0.05, double_support_ratio=0.2)
-    pattern = go_pos(robot, x, y, np.deg2rad(theta_deg), params)
-    if progress:
+    steps = go_pos(x, y, np.deg2rad(theta_deg), feet_from_robot(robot))
+    pattern = calc_walk_pattern(robot, steps, params)
+    if not quiet:
         print(pattern)
-    recorder = None if out is None else Recorder.to_file(out, application_id="walk_go_pos")
-    try:
-        report = play_walk_pattern(pattern, MODEL, recorder=recorder)
-    finally:
-        if recorder is not None:
-            recorder.close()
-    result.recording = None if out is None else str(out)
-    result.figures, checks = evaluate_walk(pattern, report)
-    result.figures["sim_final_yaw_error_deg"] = float(np.rad2deg(report.final_yaw_error))
+    scene = Scene.from_robot(robot, contact=WALK_CONTACT)
+    walk = play_walk_pattern(pattern, scene, recorder=recorder)
+    result.robot = robot
+    result.figures, checks = evaluate_walk(pattern, walk)
+    result.figures["sim_final_yaw_error_deg"] = float(np.rad2deg(walk.final_yaw_error))
     for label, ok, detail in checks:
         result.check(label, ok, detail)
     result.check(
         "physics playback: final heading within 5 deg of the plan",
-        report.final_yaw_error <= np.deg2rad(5.0),
-        f"{np.rad2deg(report.final_yaw_error):.2f} deg",
+        walk.final_yaw_error <= np.deg2rad(5.0),
+        f"{np.rad2deg(walk.final_yaw_error):.2f} deg",
     )
     return result
 
 
-def main(argv=None) -> int:
-    return main_for(run, argv, __doc__)
+def main(argv: list[str] | None = None) -> int:
+    p = parser(__doc__, hold=False)
+    p.add_argument("--x", type=finite, default=0.5, help="goal ahead [m]")
+    p.add_argument("--y", type=finite, default=0.15, help="goal to the left [m]")
+    p.add_argument("--theta", type=finite, default=45.0, help="goal heading change [deg]")
+    p.add_argument("--dt", type=positive, default=0.01, help="pattern tick [s]")
+    args = p.parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(
+            recorder, quiet=args.quiet, x=args.x, y=args.y, theta_deg=args.theta, dt=args.dt
+        )
+    return report(result, args)
 
 
 if __name__ == "__main__":

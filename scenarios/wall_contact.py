@@ -12,23 +12,36 @@ their friction cones and CoP limits hold the robot.
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
+from pik_mj import (
+    CentroidTask,
+    HoldCriteria,
+    Progress,
+    Recorder,
+    Robot,
+    Scene,
+    ScfrTask,
+    fullbody_inverse_kinematics,
+)
 from pik_mj.balance import contact_from_normal, foot_contact, static_equilibrium
-from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.scenarios import ScenarioRecorder, ScenarioResult, com_margin, main_for, robot_at_spot
-from pik_mj.tasks.com import CentroidTask
-from pik_mj.tasks.scfr import ScfrTask
+from pik_mj.ik import sole_size
+from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, com_margin, open_recorder, parser, report
+from pik_mj.spatial import yaw_of
 
-SOLE = (0.11, 0.06)  # [m] half sizes of the sample humanoid's soles
+NAME = "wall_contact"
 PALM = (0.045, 0.06)  # [m] half sizes of the palm (hand box x, z)
 PALM_OFFSET = 0.02  # [m] from the hand site to the palm face (hand box half thickness)
 LEAN = 0.1  # [m] CoM target past the toes
 
 
-def run(out=None, *, progress: bool = False) -> ScenarioResult:
-    result = ScenarioResult("wall_contact")
-    robot = robot_at_spot("sample_humanoid", "spot_wall")
+def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -> ScenarioResult:
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_wall")
+    scene = Scene.from_robot(robot)
+    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
     wall = robot.frame_pose("wall", "geom")
     y_wall = wall.translation()[1] - robot.model.geom("wall").size[1]  # wall face [m]
     n_wall = np.array([0.0, -1.0, 0.0])  # the wall pushes the robot back
@@ -38,35 +51,43 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     R_hand = np.column_stack([np.cross([0.0, 1.0, 0.0], [0.0, 0.0, -1.0]), [0, 1, 0], [0, 0, -1]])
     p_site = p_palm + PALM_OFFSET * n_wall
     feet = [robot.frame_pose(f) for f in ("rleg_end", "lleg_end")]
-    yaw = float(
-        np.arctan2(feet[0].rotation().as_matrix()[1, 0], feet[0].rotation().as_matrix()[0, 0])
-    )
-    contacts = [foot_contact(f.translation(), yaw, *SOLE, mu=0.8) for f in feet]
+    yaw = yaw_of(feet[0].rotation().as_matrix())
+    sole = 0.5 * np.array(sole_size(robot))  # [m] half length and width
+    contacts = [foot_contact(f.translation(), yaw, *sole, mu=0.8) for f in feet]
     contacts.append(contact_from_normal(p_palm, n_wall, *PALM, mu=0.5))
-    toes = max(f.translation()[1] for f in feet) + SOLE[0]  # the sites are the sole centres
+    toes = max(f.translation()[1] for f in feet) + sole[0]  # the sites are the sole centres
     lean = np.array([0.5 * (feet[0].translation()[0] + feet[1].translation()[0]), toes + LEAN, 0.0])
 
     scfr_task = ScfrTask(robot.configuration, contacts, root_body=robot.root_body, margin=0.01)
     lean_task = CentroidTask(robot.configuration, lean, root_body=robot.root_body, check=False)
-    with ScenarioRecorder(out, robot, progress=progress, name="wall_contact") as rec:
-        res = fullbody_inverse_kinematics(
-            robot,
-            [(p_site, R_hand)],
-            limbs=["rarm"],
-            rotation_axis=["y"],
-            balance=[scfr_task],
-            extra_levels=[[lean_task]],
-            stop=100,
-            callback=rec.callback("hand on the wall"),
-        )
-        rec.record("hand on the wall", res)
+    checks = scene.static_checker()
+    log = recorder.solve_logger("hand on the wall", checks=checks, start=robot)
+    progress = Progress("hand on the wall", total=100, stream=None if quiet else sys.stderr)
+    res = fullbody_inverse_kinematics(
+        robot,
+        [(p_site, R_hand)],
+        limbs=["rarm"],
+        rotation_axis=["y"],
+        balance=[scfr_task],
+        extra_levels=[[lean_task]],
+        stop=100,
+        callback=[checks, log, progress],
+    )
+    result.add_solve("hand on the wall", res, checks, finish=[log, progress])
+
+    # The final pose in physics; the palm on the wall is an intended contact.
+    q = robot.configuration.q.copy()
+    static = scene.static_check(q)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
 
     com = robot.com()
     region = scfr_task.region(robot.configuration)
     eq = static_equilibrium(contacts, robot.mass, com, gravity=robot.model.opt.gravity)
     eq_feet = static_equilibrium(contacts[:2], robot.mass, com, gravity=robot.model.opt.gravity)
     hand = robot.frame_pose("rarm_end")
-    rec.fill(result, main="hand on the wall")
+    result.main = "hand on the wall"
     result.figures = {
         "palm_target_m": p_palm,
         "hand_error_m": float(np.linalg.norm(hand.translation() - p_site)),
@@ -96,8 +117,11 @@ def run(out=None, *, progress: bool = False) -> ScenarioResult:
     return result
 
 
-def main(argv=None) -> int:
-    return main_for(run, argv, __doc__)
+def main(argv: list[str] | None = None) -> int:
+    args = parser(__doc__).parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(recorder, hold=args.hold, quiet=args.quiet)
+    return report(result, args)
 
 
 if __name__ == "__main__":

@@ -204,7 +204,7 @@ def test_bad_input():
 
 @pytest.mark.parametrize("target", [np.array([1.0, -0.6, 1.8]), "rarm_end"])
 def test_look_at_jacobian_finite_differences(target):
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.reset_pose()
     robot.set_angle_vector(
         [0.3, -0.2, -0.9, -0.4], ["head_neck_y", "head_neck_p", "rarm_shoulder_p", "rarm_elbow_p"]
@@ -219,7 +219,7 @@ def test_look_at_jacobian_finite_differences(target):
 
 
 def test_look_at_converges_to_a_point():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.reset_pose()
     conf = robot.configuration
     point = np.array([1.5, 0.8, 0.6])

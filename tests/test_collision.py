@@ -17,7 +17,12 @@ from pik_mj import FrameTask, solve
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.models import load_spec
 from pik_mj.robot import Robot
-from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs, pair_distance
+from pik_mj.tasks.collision import (
+    CollisionAvoidanceTask,
+    collision_pairs,
+    moving_pairs,
+    pair_distance,
+)
 
 YELLOW, ORANGE = 0.05, 0.01
 Q_START = np.array([0.2, 0.1, 0.1])
@@ -88,7 +93,7 @@ def test_avoidance_below_target_gives_way():
 
 def _fd_check(conf: mink.Configuration, task: CollisionAvoidanceTask, rng) -> None:
     rows = task.compute_rows(conf)
-    d0 = task.distances(conf)
+    d0 = task.distances(conf)[task.row_pairs]  # row r is pair row_pairs[r]
     q0 = conf.q.copy()
     eps = 1e-6
     active = np.isfinite(rows.d_lower) & np.any(rows.C != 0, axis=1)
@@ -96,7 +101,7 @@ def _fd_check(conf: mink.Configuration, task: CollisionAvoidanceTask, rng) -> No
     for _ in range(3):
         x = rng.normal(size=conf.model.nv)
         conf.integrate_inplace(eps * x, 1.0)
-        fd = (task.distances(conf) - d0) / eps
+        fd = (task.distances(conf)[task.row_pairs] - d0) / eps
         conf.update(q0)
         np.testing.assert_allclose((rows.C @ x)[active], fd[active], rtol=1e-3, atol=1e-5)
 
@@ -118,25 +123,120 @@ def test_rows_match_finite_differences_separated_and_penetrating():
     assert not task.is_satisfied(conf)
 
 
-def test_yellow_zone_inactive_rows():
+def test_yellow_zone_rows():
+    """A pair outside the yellow zone gives no row; once it has come inside, it
+    keeps a row, inactive (0·x >= -d_y) whenever it is outside again."""
     model = _arm_with_obstacle(pos=(0.0, 0.5, 0.1))  # far from the arm
     conf = mink.Configuration(model)
     conf.update(Q_START)
     task = CollisionAvoidanceTask(conf, [("l3_box", "obstacle")], yellow=0.05)
-    rows = task.compute_rows(conf)
-    assert np.all(rows.C == 0.0)  # 0·x >= lower always holds
-    assert rows.d_lower[0] < 0.0 and rows.d_upper[0] == np.inf
+    assert task.compute_rows(conf).C.shape == (0, 3)
     assert task.is_satisfied(conf)
     # Independent distance: box centre-to-centre minus half sizes along y.
     d = task.distances(conf)[0]
-    data = conf.data
-    gap = data.geom_xpos[model.geom("obstacle").id][1] - 0.05 - 0.005
+    gap = conf.data.geom_xpos[model.geom("obstacle").id][1] - 0.05 - 0.005
     assert d == pytest.approx(gap, abs=1e-3)
+    assert task.distances(conf, distmax=0.05)[0] == 0.05  # capped
+    # an obstacle 13 mm from l3: inside the yellow zone
+    model2 = _arm_with_obstacle(pos=(0.075, 0.0, 0.15))
+    conf2 = mink.Configuration(model2)
+    conf2.update(Q_START)
+    near = CollisionAvoidanceTask(conf2, [("l3_box", "obstacle")], yellow=0.05)
+    rows = near.compute_rows(conf2)
+    assert rows.C.shape == (1, 3) and np.any(rows.C != 0) and rows.d_lower[0] < 0.0
+    conf2.update(np.array([-1.5, 0.0, 0.0]))  # the arm swung away from the obstacle
+    assert near.distances(conf2, 0.05)[0] == 0.05
+    rows = near.compute_rows(conf2)
+    assert rows.C.shape == (1, 3) and np.all(rows.C == 0.0) and rows.d_lower[0] == -0.05
+
+
+def test_pair_inside_the_orange_zone_keeps_its_start_distance():
+    """The obstacle 3.6 mm from l3 at the start (orange zone 1 cm): the pair's bound
+    is its start distance, the task is satisfied at the start, and a target that
+    pulls the arm towards the obstacle is given up at that distance, not pushed
+    out to 1 cm (which the old bound did, never satisfied)."""
+    model = _arm_with_obstacle(pos=(0.065, 0.0, 0.15))
+    conf = mink.Configuration(model)
+    conf.update(Q_START)
+    task = CollisionAvoidanceTask(conf, [("l3_box", "obstacle")], yellow=0.05, orange=0.01)
+    d0 = task.distances(conf)[0]
+    assert 0.0 < d0 < 0.01
+    assert task.bounds[0] == pytest.approx(d0)
+    assert task.is_satisfied(conf) and task.compute_error(conf)[0] == 0.0
+    assert task.compute_rows(conf).d_lower[0] == pytest.approx(0.0)  # may not come closer
+    start_tip = conf.data.site("end").xpos.copy()
+    toward = (start_tip + np.array([0.1, 0.0, 0.0]), np.eye(3))  # through the obstacle
+    hand = FrameTask(conf, "end", toward, rotation_axis=None)
+    seen = [d0]
+    solve(
+        conf,
+        [[mink.ConfigurationLimit(model)], [task], [hand]],
+        stop=30,
+        revert_if_fail=False,
+        callback=lambda info: seen.append(task.distances(info.configuration)[0]),
+    )
+    assert min(seen) >= d0 - 1e-4
+
+
+def _brute_force(model: mujoco.MjModel, data: mujoco.MjData, pairs, distmax: float):
+    return np.array(
+        [mujoco.mj_geomDistance(model, data, p.geom1, p.geom2, distmax, None) for p in pairs]
+    )
+
+
+def test_prefilter_never_drops_a_near_pair_and_evaluate_agrees():
+    """Random poses of the sample humanoid, every pair of its bodies: the pairs
+    the bounding spheres/boxes let through include every pair nearer than the
+    yellow zone (brute force over all pairs with mj_geomDistance), and the
+    distances equal the brute force ones; evaluate() gives compute_rows'
+    rows, compute_error's norm and is_satisfied's verdict."""
+    robot = Robot.from_model("sample_humanoid")
+    m = robot.model
+    bodies = [m.body(b).name for b in range(1, m.nbody) if m.body_geomnum[b] > 0]
+    pairs = collision_pairs(m, robot.data, bodies)
+    task = CollisionAvoidanceTask(robot.configuration, pairs, yellow=0.1, orange=0.01)
+    rng = np.random.default_rng(5)
+    lo, hi = robot.joint_limits()
+    skipped = []
+    for _ in range(10):
+        robot.set_angle_vector(rng.uniform(lo, hi))
+        data = robot.data
+        brute = _brute_force(m, data, pairs, 0.1)
+        near = task.near_pairs(data, 0.1)
+        assert set(np.flatnonzero(brute < 0.1)) <= set(near.tolist())
+        assert np.array_equal(task.distances(robot.configuration, 0.1), brute)
+        skipped.append(1 - len(near) / len(pairs))
+        state = task.evaluate(robot.configuration)
+        rows = task.compute_rows(robot.configuration)
+        assert np.array_equal(state.rows.C, rows.C)
+        assert np.array_equal(state.rows.d_lower, rows.d_lower)
+        assert state.error == pytest.approx(np.linalg.norm(task.compute_error(robot.configuration)))
+        assert state.satisfied == task.is_satisfied(robot.configuration)
+    assert np.mean(skipped) > 0.5  # most pairs are never measured
+
+
+def test_moving_pairs_are_those_whose_distance_changes():
+    """Pairs kept for the right arm's joints are exactly those whose distance
+    changes when those joints (and only those) move at random."""
+    robot = Robot.from_model("sample_humanoid")
+    m = robot.model
+    bodies = [m.body(b).name for b in range(1, m.nbody) if m.body_geomnum[b] > 0]
+    pairs = collision_pairs(m, robot.data, bodies)
+    arm = list(robot.limb("rarm").joints)
+    kept = set(moving_pairs(m, pairs, arm))
+    before = _brute_force(m, robot.data, pairs, 10.0)
+    rng = np.random.default_rng(2)
+    robot.set_angle_vector(robot.angle_vector(arm) + rng.uniform(-0.5, 0.5, len(arm)), arm)
+    changed = np.abs(_brute_force(m, robot.data, pairs, 10.0) - before) > 1e-9
+    assert {p for p, c in zip(pairs, changed, strict=True) if c} == kept
+    assert 0 < len(kept) < len(pairs)
+    with pytest.raises(UnknownName):
+        moving_pairs(m, pairs, ["rarm_elbow"])
 
 
 def test_pair_list_like_the_seed_example():
     """Seed: forearm, upper arm, torso, base → forearm–torso, forearm–base, upper–base."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.reset_pose()
     model, data = robot.model, robot.data
     links = ["rarm_lower", "rarm_upper", "torso_chest", "pelvis"]

@@ -25,7 +25,7 @@ SOLES = [dy.SoleContact("rleg_end", 0.11, 0.06), dy.SoleContact("lleg_end", 0.11
 
 def _humanoid_pose() -> Robot:
     """An asymmetric standing pose: both soles flat on z = 0, arms and waist moved."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.reset_pose()
     robot.set_angle_vector(
         [-0.9, -0.5, 0.3, -0.8, 0.2, 0.3, 0.1, 1.5],

@@ -24,7 +24,7 @@ IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 @pytest.fixture
 def arm() -> Robot:
-    robot = Robot.load("three_dof_arm")
+    robot = Robot.from_model("three_dof_arm")
     robot.set_angle_vector(np.deg2rad([30.0, 30.0, 30.0]))
     return robot
 
@@ -105,7 +105,7 @@ def test_callable_target_is_evaluated_every_iteration(arm):
 
 @pytest.mark.parametrize("model", ["sample_humanoid", "dm_humanoid"])
 def test_fullbody_reach_feet_fixed_com_between_feet(model):
-    robot = Robot.load(model)
+    robot = Robot.from_model(model)
     feet = [robot.limb(x) for x in ("rleg", "lleg")]
     X0 = [robot.frame_pose(f.end_frame, f.end_frame_type) for f in feet]
     mid = 0.5 * (X0[0].translation() + X0[1].translation())
@@ -136,7 +136,7 @@ def test_fullbody_reach_feet_fixed_com_between_feet(model):
 
 
 def test_inverse_kinematics_freezes_floating_base_and_other_limbs():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     p0, quat0 = robot.root_pose()
     legs0 = robot.angle_vector(robot.limb("rleg").joints)
     hand = robot.frame_pose("rarm_end").translation()
@@ -150,7 +150,7 @@ def test_inverse_kinematics_freezes_floating_base_and_other_limbs():
 
 
 def test_look_at_points_the_head_at_the_target():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     point = robot.frame_pose("head_end").translation() + np.array([0.6, -0.3, -0.5])
     res = inverse_kinematics(robot, [], look_at=point)
     assert res.converged
@@ -163,7 +163,7 @@ def test_look_at_points_the_head_at_the_target():
 
 
 def test_static_balance_point_balances_moments():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     rng = np.random.default_rng(3)
     forces = [
         ("rarm_end", rng.normal(0, 20, 3), rng.normal(0, 5, 3)),
@@ -181,7 +181,7 @@ def test_static_balance_point_balances_moments():
 
 
 def test_fullbody_external_forces_move_the_com_by_the_static_formula():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     f, n = np.array([-20.0, 0.0, 0.0]), np.array([10.0, 0.0, 0.0])
     forces = [("rarm_end", f, n), ("larm_end", f, n)]
     res = fullbody_inverse_kinematics(robot, [], external_forces=forces, stop=100)
@@ -200,7 +200,7 @@ def test_fullbody_external_forces_move_the_com_by_the_static_formula():
 
 
 def test_support_polygon_balance_option_keeps_com_inside():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     p_root, _ = robot.root_pose()
     res = fullbody_inverse_kinematics(
         robot,
@@ -234,7 +234,7 @@ def test_fullbody_collision_avoidance_keeps_the_forearm_off_the_body():
     # Right hand to a point just ahead of the belly, slightly left: the plain
     # solution pushes the forearm 8 cm into the pelvis; with avoidance (level 1,
     # above the hand) the arm keeps the 1 cm orange zone and still reaches.
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     arm, body = ["rarm_upper", "rarm_lower", "rarm_hand"], ["pelvis", "torso_chest"]
     pairs = collision_pairs(robot.model, robot.data, arm + body)
     target = np.array([0.22, 0.01, 0.88])
@@ -265,7 +265,7 @@ def test_fullbody_collision_avoidance_keeps_the_forearm_off_the_body():
 
 # ---------------------------------------------------------------- bad input
 def test_unknown_limb_lists_valid_limbs():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     with pytest.raises(UnknownName) as err:
         inverse_kinematics(robot, (np.zeros(3), IDENTITY), limbs="tail")
     assert "rarm" in str(err.value) and "tail" in str(err.value)
@@ -296,7 +296,7 @@ def test_bad_targets_raise_invalid_input(arm, target):
 
 
 def test_mismatched_lists_and_bad_callables():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     q0 = robot.configuration.q.copy()
     p = robot.frame_pose("rarm_end").translation()
     with pytest.raises(InvalidInput, match="one per target"):
@@ -312,8 +312,8 @@ def test_fullbody_needs_a_floating_base_and_model_paths_must_exist(arm, tmp_path
     with pytest.raises(InvalidInput, match="floating base"):
         fullbody_inverse_kinematics(arm, [])
     with pytest.raises(InvalidInput, match="does not exist"):
-        Robot.load(tmp_path / "missing.xml")
-    robot = Robot.load("sample_humanoid")
+        Robot.from_model(tmp_path / "missing.xml")
+    robot = Robot.from_model("sample_humanoid")
     with pytest.raises(InvalidInput, match="not both"):
         fullbody_inverse_kinematics(
             robot,

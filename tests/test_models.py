@@ -1,4 +1,4 @@
-"""Models in models/, dm_control's humanoids, and compose_scene."""
+"""Models in models/, dm_control's humanoids, and a robot's world (Robot.from_model)."""
 
 from __future__ import annotations
 
@@ -14,11 +14,11 @@ from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.models import (
     MODELS_DIR,
     available_models,
-    compose_scene,
     load_model,
     load_spec,
     model_path,
 )
+from pik_mj.robot import Robot, RobotSource
 
 HUMANOID_JOINTS = [
     *(
@@ -223,9 +223,12 @@ def test_reset_pose_touches_floor_with_soles_only():
         ("room", (0.4, 0, 0), 0.0),
         ("room", (0, 1.05, 0), math.pi / 2),
     ):
-        model = compose_scene(
-            "sample_humanoid", environment, robot_pos=pos, robot_yaw=yaw
-        ).compile()
+        at = None if environment is None else (pos[0], pos[1], yaw)
+        model = Robot.from_model("sample_humanoid", environment=environment, at=at).model
+        if environment is None:  # the robot alone has no floor: the scene adds one
+            from pik_mj.sim import Scene
+
+            model = Scene.from_robot(Robot.from_model("sample_humanoid")).model
         data = _reset(model)
         pairs = {
             frozenset((model.geom(c.geom1).name, model.geom(c.geom2).name))
@@ -308,23 +311,26 @@ def test_spots_in_reach_of_the_sample_humanoid():
     assert wall_face < reach < wall_face + 0.3
 
 
-# ----------------------------------------------------------- compose_scene
+# ------------------------------------------------- the robot's world
 def _yaw(yaw: float) -> np.ndarray:
     c, s = math.cos(yaw), math.sin(yaw)
     return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
 
 
 @pytest.mark.parametrize("environment", ["room", None])
-def test_compose_keeps_names_free_joint_and_poses(environment, tmp_path, monkeypatch):
+def test_world_keeps_names_free_joint_and_poses(environment, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # MuJoCo would write MUJOCO_LOG.TXT here
     robot = load_model("sample_humanoid")
     p_WR, yaw = np.array([0.4, -0.3, 0.0]), 0.8
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        spec = compose_scene("sample_humanoid", environment, robot_pos=p_WR, robot_yaw=yaw)
-        model = spec.compile()
+        placed = Robot.from_model(
+            "sample_humanoid", environment=environment, at=(p_WR[0], p_WR[1], yaw)
+        )
+        spec, model = placed.spec, placed.spec.compile()
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
-    assert model.geom("floor").type == mujoco.mjtGeom.mjGEOM_PLANE
+    if environment is not None:
+        assert model.geom("floor").type == mujoco.mjtGeom.mjGEOM_PLANE
     for obj, count in (
         (mujoco.mjtObj.mjOBJ_JOINT, "njnt"),
         (mujoco.mjtObj.mjOBJ_SITE, "nsite"),
@@ -334,6 +340,10 @@ def test_compose_keeps_names_free_joint_and_poses(environment, tmp_path, monkeyp
         scene_names = set(_names(model, obj, getattr(model, count)))
         robot_names = _names(robot, obj, getattr(robot, count))
         assert {n for n in robot_names if n and n != "world"} <= scene_names
+    # The robot's joints come first, at the robot's own addresses: its qpos is a
+    # prefix of the world's.
+    np.testing.assert_array_equal(model.jnt_qposadr[: robot.njnt], robot.jnt_qposadr)
+    np.testing.assert_array_equal(model.jnt_type[: robot.njnt], robot.jnt_type)
     root = model.joint("root")
     assert root.type == mujoco.mjtJoint.mjJNT_FREE
     assert model.body_parentid[root.bodyid[0]] == 0
@@ -343,7 +353,7 @@ def test_compose_keeps_names_free_joint_and_poses(environment, tmp_path, monkeyp
     np.testing.assert_array_equal(model.jnt_range[ids], robot.jnt_range)
     pelvis = model.body("pelvis").id
     assert model.body_subtreemass[pelvis] == pytest.approx(robot.body_subtreemass[1])
-    # reset_pose in the scene = reset_pose of the robot, moved by (p_WR, yaw).
+    # reset_pose in the world = reset_pose of the robot, moved by (p_WR, yaw).
     scene_data, robot_data = _reset(model), _reset(robot)
     R = _yaw(yaw)
     for site in HUMANOID_SITES:
@@ -355,14 +365,48 @@ def test_compose_keeps_names_free_joint_and_poses(environment, tmp_path, monkeyp
             R @ robot_data.site(site).xmat.reshape(3, 3),
             atol=1e-9,
         )
-    # The scene can be written and read back.
+    # ... and qpos0 too (the placement moved the body, not only the keyframe).
+    d0 = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, d0)
+    d0_robot = mujoco.MjData(robot)
+    mujoco.mj_kinematics(robot, d0_robot)
+    np.testing.assert_allclose(
+        d0.body("pelvis").xpos, p_WR + R @ d0_robot.body("pelvis").xpos, atol=1e-12
+    )
+    # The world can be written and read back.
     again = mujoco.MjSpec.from_string(spec.to_xml()).compile()
     assert (again.nq, again.nbody, again.nkey) == (model.nq, model.nbody, model.nkey)
 
 
-def test_compose_dm_humanoid_into_room_renames_clashing_assets():
+def test_placed_at_a_site_of_the_environment():
+    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_wall")
+    room = load_model("room")
+    data = mujoco.MjData(room)
+    mujoco.mj_kinematics(room, data)
+    spot = data.site("spot_wall")
+    # the robot model's origin is the spot (its heading +y: the spot's x axis)
+    R = spot.xmat.reshape(3, 3)
+    assert R[:, 0] @ [0, 1, 0] == pytest.approx(1.0)
+    alone = Robot.from_model("sample_humanoid")
+    for site in HUMANOID_SITES:
+        np.testing.assert_allclose(
+            robot.data.site(site).xpos, spot.xpos + R @ alone.data.site(site).xpos, atol=1e-9
+        )
+    assert robot.placement == pytest.approx((0.0, 1.05, 0.0, math.pi / 2))
+    assert robot.source == RobotSource("sample_humanoid", "room", "spot_wall")
+    # the kettle waits on the counter in the start pose (the room's qpos0)
+    k = robot.model.joint("kettle_free").qposadr[0]
+    np.testing.assert_allclose(robot.configuration.q[k : k + 3], [0.9, -0.2, 0.85])
+    with pytest.raises(UnknownName, match="spot_counter_front"):
+        Robot.from_model("sample_humanoid", environment="room", at="spot_nope")
+    with pytest.raises(InvalidInput, match="no environment"):
+        Robot.from_model("sample_humanoid", at="spot_wall")
+
+
+def test_dm_humanoid_into_room_renames_clashing_assets_and_stands_on_the_floor():
     robot = load_model("dm_humanoid")
-    model = compose_scene("dm_humanoid", "room", robot_pos=(0.5, 0, 0)).compile()
+    placed = Robot.from_model("dm_humanoid", environment="room", at=(0.5, 0, 0))
+    model = placed.model
     assert model.nv == 27 + 6  # robot + kettle
     assert model.nu == robot.nu == 21
     assert model.nsensor == robot.nsensor
@@ -370,34 +414,79 @@ def test_compose_dm_humanoid_into_room_renames_clashing_assets():
         joint = model.joint(robot.joint(j).name)
         np.testing.assert_allclose(joint.range, robot.joint(j).range)
     materials = _names(model, mujoco.mjtObj.mjOBJ_MATERIAL, model.nmat)
-    assert "grid" in materials and "humanoid_grid" in materials
-    # The room keeps its own floor material.
-    assert model.mat(model.geom("floor").matid[0]).name == "grid"
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    np.testing.assert_allclose(data.body("torso").xpos, [0.5, 0, 1.5], atol=1e-12)
+    assert "grid" in materials and "room_grid" in materials
+    # One floor, the room's (dm_control's own floor plane is left out).
+    planes = [g for g in range(model.ngeom) if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE]
+    assert len(planes) == 1 and model.mat(model.geom_matid[planes[0]]).name == "room_grid"
+    # dm_control's humanoid starts 0.2 m up; in its world it stands on z = 0:
+    # independent of mj_geomDistance, the lowest point of its foot capsules.
+    d = placed.data
+    bottoms = []
+    for g in range(model.ngeom):
+        if model.body_rootid[model.geom_bodyid[g]] != placed.root_body_id:
+            continue
+        if "foot" in model.body(model.geom_bodyid[g]).name:
+            r, h = model.geom_size[g][0], model.geom_size[g][1]
+            axis = d.geom_xmat[g].reshape(3, 3)[:, 2]
+            bottoms.append(min(d.geom_xpos[g][2] + s * h * axis[2] for s in (-1, 1)) - r)
+    assert min(bottoms) == pytest.approx(0.0, abs=1e-9)
+    lowered = d.body("torso").xpos
+    np.testing.assert_allclose(lowered[:2], [0.5, 0.0], atol=1e-12)
+    data = mujoco.MjData(robot)
+    mujoco.mj_kinematics(robot, data)
+    assert lowered[2] < data.body("torso").xpos[2] - 0.1
 
 
-def test_compose_fixed_base_arm_and_cmu():
-    arm = compose_scene("three_dof_arm", None, robot_pos=(1, 2, 0.5)).compile()
-    data = mujoco.MjData(arm)
-    mujoco.mj_forward(arm, data)
-    np.testing.assert_allclose(data.site("end").xpos, [1, 2, 0.74], atol=1e-12)
-    cmu = compose_scene("dm_humanoid_cmu", "room").compile()
-    assert cmu.nv == 62 + 6
+def test_fixed_base_arm_and_cmu():
+    arm = Robot.from_model("three_dof_arm", at=(1, 2, 0.5, 0.0))
+    np.testing.assert_allclose(arm.data.site("end").xpos, [1, 2, 0.74], atol=1e-12)
+    assert not arm.has_floating_base
+    cmu = Robot.from_model("dm_humanoid_cmu", environment="room")
+    assert cmu.model.nv == 62 + 6
 
 
-def test_compose_does_not_modify_given_specs():
+def test_world_does_not_modify_given_specs():
     robot = load_spec("sample_humanoid")
     environment = load_spec("room")
-    compose_scene(robot, environment)
+    placed = Robot.from_model(robot, environment=environment, at=(0.1, 0.2, 0.3))
     assert robot.default.name == "main"
     assert environment.compile().nbody == load_model("room").nbody
     assert robot.compile().nbody == load_model("sample_humanoid").nbody
+    assert robot.compile().body_pos[1] == pytest.approx([0.0, 0.0, 0.85])
+    # a spec is not JSON: the source says so
+    assert not placed.source.serializable
+    with pytest.raises(InvalidInput, match="MjSpec"):
+        placed.source.to_dict()
 
 
-def test_compose_rejects_bad_pose():
-    with pytest.raises(InvalidInput, match="robot_pos"):
-        compose_scene("three_dof_arm", None, robot_pos=(0, 0))
-    with pytest.raises(InvalidInput, match="robot_yaw"):
-        compose_scene("three_dof_arm", None, robot_yaw=float("nan"))
+def test_source_round_trip_rebuilds_the_same_world(tmp_path):
+    import json
+
+    path = tmp_path / "arm.xml"
+    path.write_text(model_path("three_dof_arm").read_text())
+    for robot in (
+        Robot.from_model("sample_humanoid", environment="room", at="spot_counter_front"),
+        Robot.from_model(str(path), at=(0.2, -0.1, 0.3, 1.0)),
+    ):
+        d = json.loads(json.dumps(robot.source.to_dict()))
+        again = Robot.from_source(d)
+        assert again.source == robot.source
+        np.testing.assert_array_equal(again.configuration.q, robot.configuration.q)
+        assert again.model.nbody == robot.model.nbody
+    assert Robot.from_source({"model": "three_dof_arm"}).source.model == "three_dof_arm"
+    assert RobotSource.from_dict({"model": str(path)}).model == str(path)
+    with pytest.raises(InvalidInput, match="model"):
+        RobotSource.from_dict({"q": [0.0]})
+    with pytest.raises(InvalidInput, match="at"):
+        RobotSource.from_dict({"model": "room", "at": {"x": 1}})
+
+
+def test_world_rejects_bad_placement_and_keyframe():
+    with pytest.raises(InvalidInput, match="at must be"):
+        Robot.from_model("three_dof_arm", at=(0, 0))
+    with pytest.raises(InvalidInput, match="at must be"):
+        Robot.from_model("three_dof_arm", at=(0.0, 0.0, float("nan")))
+    with pytest.raises(UnknownName, match="reset_pose"):
+        Robot.from_model("sample_humanoid", keyframe="nope")
+    with pytest.raises(InvalidInput, match=r"compiled mujoco\.MjModel"):
+        Robot("sample_humanoid")

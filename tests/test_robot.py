@@ -8,13 +8,13 @@ import pytest
 from fd import fd_jacobian
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import compose_scene, load_model
+from pik_mj.models import load_model
 from pik_mj.robot import Limb, Robot
 
 
 @pytest.fixture(scope="module")
 def humanoid() -> Robot:
-    return Robot.load("sample_humanoid")
+    return Robot.from_model("sample_humanoid")
 
 
 def _random_pose(robot: Robot, rng: np.random.Generator) -> None:
@@ -54,7 +54,7 @@ def _fresh_forward(model: mujoco.MjModel, qpos: np.ndarray) -> mujoco.MjData:
     ],
 )
 def test_load_names_and_limbs(name, njoints, root, limbs):
-    robot = Robot.load(name)
+    robot = Robot.from_model(name)
     assert len(robot.joint_names) == njoints
     assert robot.root_body == root
     assert list(robot.limbs) == limbs
@@ -92,7 +92,7 @@ def test_sample_humanoid_limb_table(humanoid):
 
 
 def test_dm_humanoid_limbs_reach_their_ends():
-    robot = Robot.load("dm_humanoid")
+    robot = Robot.from_model("dm_humanoid")
     assert robot.limb("rleg").joints == (
         "right_hip_x",
         "right_hip_z",
@@ -126,12 +126,12 @@ def test_unknown_limb_lists_limbs(humanoid):
 
 def test_root_body_in_scene_is_the_robot_not_the_kettle():
     for name, root in (("three_dof_arm", "l1"), ("sample_humanoid", "pelvis")):
-        robot = Robot(compose_scene(name, "room", robot_pos=(0.4, 0, 0)).compile())
+        robot = Robot.from_model(name, environment="room", at=(0.4, 0.0, 0.0))
         assert robot.root_body == root
         assert "kettle_free" not in robot.joint_names
-        assert robot.joint_names == Robot.load(name).joint_names
-    arm_in_room = Robot(compose_scene("three_dof_arm", "room").compile())
-    assert arm_in_room.mass == pytest.approx(Robot.load("three_dof_arm").mass)
+        assert robot.joint_names == Robot.from_model(name).joint_names
+    arm_in_room = Robot.from_model("three_dof_arm", environment="room")
+    assert arm_in_room.mass == pytest.approx(Robot.from_model("three_dof_arm").mass)
     kettle = Robot(arm_in_room.model, root_body="kettle")
     assert kettle.mass == pytest.approx(1.0, abs=0.05) and kettle.limbs == {}
     with pytest.raises(InvalidInput, match="top-level"):
@@ -212,7 +212,7 @@ def test_root_pose(humanoid):
     with pytest.raises(InvalidInput, match="shape"):
         humanoid.set_root_pose([0, 0], [1, 0, 0, 0])
     humanoid.reset_pose()
-    arm = Robot.load("three_dof_arm")
+    arm = Robot.from_model("three_dof_arm")
     with pytest.raises(InvalidInput, match="free joint"):
         arm.set_root_pose([0, 0, 0], [1, 0, 0, 0])
     p, quat = arm.root_pose()
@@ -228,7 +228,7 @@ def test_reset_pose_uses_keyframe_or_qpos0(humanoid):
         humanoid.configuration.q, model.key_qpos[model.key("reset_pose").id]
     )
     assert humanoid.angle_vector(["rleg_knee_p"])[0] == pytest.approx(0.4)
-    arm = Robot.load("three_dof_arm")
+    arm = Robot.from_model("three_dof_arm")
     arm.set_angle_vector([0.1, 0.2, 0.3])
     arm.reset_pose()
     np.testing.assert_array_equal(arm.configuration.q, arm.model.qpos0)
@@ -236,7 +236,7 @@ def test_reset_pose_uses_keyframe_or_qpos0(humanoid):
 
 # ---------------------------------------------------------- link lists
 def test_link_list_three_dof_arm():
-    arm = Robot.load("three_dof_arm")
+    arm = Robot.from_model("three_dof_arm")
     assert arm.link_list("end") == ["l1", "l2", "l3", "l4"]
     assert arm.link_list("l3", "body") == ["l1", "l2", "l3"]
     assert arm.link_list("l2_box", "geom") == ["l1", "l2"]
@@ -257,7 +257,7 @@ def test_link_list_humanoid_and_frames_off_the_robot(humanoid):
         "rleg_foot",
     ]
     assert humanoid.link_list("larm_end")[:3] == ["pelvis", "torso_chest", "larm_upper"]
-    scene = Robot(compose_scene("sample_humanoid", "room").compile())
+    scene = Robot.from_model("sample_humanoid", environment="room")
     with pytest.raises(InvalidInput, match="not on the robot"):
         scene.link_list("kettle_handle")
 
@@ -273,17 +273,17 @@ def _brute_force_com(robot: Robot) -> tuple[float, np.ndarray]:
 def test_mass_and_com_against_brute_force():
     rng = np.random.default_rng(2)
     for robot in (
-        Robot.load("sample_humanoid"),
-        Robot(compose_scene("sample_humanoid", "room").compile()),
-        Robot(compose_scene("dm_humanoid", "room").compile()),
+        Robot.from_model("sample_humanoid"),
+        Robot.from_model("sample_humanoid", environment="room"),
+        Robot.from_model("dm_humanoid", environment="room"),
     ):
         _random_pose(robot, rng)
         mass, com = _brute_force_com(robot)
         assert robot.mass == pytest.approx(mass, rel=1e-12)
         np.testing.assert_allclose(robot.com(), com, atol=1e-12)
-    assert Robot.load("sample_humanoid").mass == pytest.approx(58.5)
+    assert Robot.from_model("sample_humanoid").mass == pytest.approx(58.5)
     # In the room, the kettle is not part of the robot.
-    scene = Robot(compose_scene("sample_humanoid", "room").compile())
+    scene = Robot.from_model("sample_humanoid", environment="room")
     assert scene.mass == pytest.approx(58.5)
     assert not np.allclose(scene.com(), scene.data.subtree_com[0])
 
@@ -296,7 +296,7 @@ def test_com_jacobian_against_finite_differences(name, environment):
     model = (
         load_model(name)
         if environment is None
-        else compose_scene(name, environment, robot_pos=(0.3, -0.2, 0), robot_yaw=0.7).compile()
+        else Robot.from_model(name, environment=environment, at=(0.3, -0.2, 0.7)).model
     )
     robot = Robot(model)
     _random_pose(robot, np.random.default_rng(3))

@@ -1,6 +1,8 @@
-"""Recordings of scenario runs (issue 6) and simulation in the runs (issue 5).
+"""Every scenario runs green, its recording read back (issue 6), and its
+simulation checked (issue 5).
 
-Every scenario's recording is read back (``pik_mj.record.read_recording``) and
+Every scenario runs once, with a 3 s hold of its final pose where it has one;
+its recording is read back (``pik_mj.record.read_recording``) and
 compared with what the run returned: the iterations logged are the solves'
 iterations, the logged errors are the SolveResult's task errors, the logged CoM
 is the robot's, the logged static checks are the StaticReports, and the logged
@@ -11,6 +13,7 @@ from its JSON and fails a pose whose CoM leans past the toes.
 
 from __future__ import annotations
 
+import inspect
 import itertools
 import json
 import subprocess
@@ -18,23 +21,21 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pik_mj.scenarios
 import pytest
+from tmp_scenarios import add_scenario
 
-from pik_mj import cli
-from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.record import PATHS, EntityData, read_recording
-from pik_mj.robot import Robot
-from pik_mj.scenarios import (
-    REGISTRY,
-    Scenario,
-    ScenarioRecorder,
-    ScenarioResult,
-    run_scenario,
-)
+from pik_mj import Recorder, Robot, cli
+from pik_mj.record import PATHS, EntityData, read_recording, style
+from pik_mj.scenario import ScenarioResult
 
 HOLD = 3.0  # [s], as pik-mj run
-#: Shorter variants of the walking scenarios (each ~3.5 s instead of ~5 s).
-SHORT = {"walk_forward": {"n_steps": 2}, "walk_go_pos": {"x": 0.2, "y": 0.05, "theta_deg": 20.0}}
+#: Shorter variants of the walking scenarios (2 s of walking at 50 Hz, ~2 s to run).
+SHORT = {
+    "walk_forward": {"n_steps": 2, "dt": 0.02},
+    "walk_go_pos": {"x": 0.2, "y": 0.05, "theta_deg": 20.0, "dt": 0.02},
+}
+KEYS = {"name", "passed", "converged", "iterations", "tasks", "timing", "figures", "messages"}
 #: Scenarios whose final pose holds in physics (the others are reported, see the
 #: hold figures in the JSON: external forces not applied in the hold, kettle not
 #: carried by the hand, forearm sliding on the wall).
@@ -127,20 +128,26 @@ def _check_simulation(rec: dict[str, EntityData], result: ScenarioResult) -> Non
     strip = np.array(
         _at(rec[PATHS.support_polygon], "LineStrips3D:strips", "iteration", ticks[-1])[0]
     )
-    assert np.allclose(strip[:-1], final.support_polygon, atol=1e-6)
+    # drawn above the floor and the soles
+    assert np.allclose(strip[:-1, :2], final.support_polygon[:, :2], atol=1e-6)
+    lift = strip[:, 2] - final.support_polygon[0, 2]
+    assert np.allclose(lift, lift[0], atol=1e-6) and style.LIFT <= lift[0] < 0.2
     assert np.allclose(strip[-1], strip[0])  # closed outline
     if final.forces is not None:
         arrows = np.array(
             _at(rec[PATHS.contact_forces], "Arrows3D:vectors", "iteration", ticks[-1])
         )
-        assert np.allclose(arrows / 1e-3, final.forces, atol=1e-2)  # float32, 1 mm per N
+        # one scale for all (the robot's weight drawn as a fraction of its height)
+        scale = arrows[:, 2].sum() / final.forces[:, 2].sum()
+        assert 5e-4 < scale < 5e-3
+        assert np.allclose(arrows / scale, final.forces, atol=1e-2)  # float32
         # the LP's forces balance the weight (no external wrench in the check)
         mass = result.robot.mass
         assert final.forces.sum(axis=0) == pytest.approx([0, 0, mass * 9.81], abs=1e-3 * mass)
 
     # the hold, on sim_time, after the iterations
     bal = result.balance
-    assert bal is not None and {"static", "hold", "passed", "model"} <= set(bal)
+    assert bal is not None and {"static", "hold", "passed", "robot"} <= set(bal)
     hold = bal["hold"]
     assert hold["duration"] == HOLD
     times, drift = rec[PATHS.hold_metric("drift")].series(SCALAR, "sim_time")
@@ -164,14 +171,28 @@ def _check_simulation(rec: dict[str, EntityData], result: ScenarioResult) -> Non
     assert len(hold_check) == 1
 
 
-@pytest.mark.parametrize("name", sorted(REGISTRY))
-def test_every_scenario_writes_a_valid_recording(name, tmp_path):
+def run_scenario(name: str, rrd: Path, **params) -> ScenarioResult:
+    """Run scenario ``name``'s ``run`` into the recording ``rrd`` (quietly)."""
+    module = cli.load_scenario(name)
+    with Recorder.to_file(rrd, application_id=name) as recorder:
+        result = module.run(recorder, **params)
+    result.recording = str(rrd)
+    return result
+
+
+@pytest.mark.parametrize("name", pik_mj.scenarios.SCENARIOS)
+def test_every_scenario_passes_and_writes_a_valid_recording(name, tmp_path):
     rrd = tmp_path / f"{name}.rrd"
-    result = run_scenario(name, rrd, hold=HOLD, params=SHORT.get(name))
+    takes = inspect.signature(cli.load_scenario(name).run).parameters
+    params = {**SHORT.get(name, {}), **({"hold": HOLD} if "hold" in takes else {})}
+    result = run_scenario(name, rrd, **params)
     verified = _verify(rrd)
     assert verified.returncode == 0, verified.stderr
     rec = read_recording(rrd)
-    if REGISTRY[name].walking:  # played in physics by the scenario itself
+    d = result.to_dict()
+    json.dumps(d, allow_nan=False)  # JSON-ready
+    assert KEYS <= set(d)
+    if not result.solves:  # walking: the pattern is played in physics by the scenario
         assert result.passed, result.summary()
         times, _ = rec[PATHS.com].series("Points3D:positions", "sim_time")
         assert len(times) > 100
@@ -179,8 +200,9 @@ def test_every_scenario_writes_a_valid_recording(name, tmp_path):
     # every check of the scenario holds; the hold's check is the hold's verdict
     others = [m for m in result.messages if "held 3 s in physics" not in m]
     assert all(m.startswith("[ok]") for m in others), result.summary()
-    d = result.to_dict()
-    json.dumps(d, allow_nan=False)
+    assert d["timing"]["iteration_ms"] and all(t > 0 for t in d["timing"]["iteration_ms"])
+    for task in d["tasks"]:
+        assert {"name", "level", "error", "satisfied"} <= set(task)
     _check_iterations(rec, result)
     bp = read_recording(rrd, blueprint=True)
     origins = {
@@ -192,19 +214,30 @@ def test_every_scenario_writes_a_valid_recording(name, tmp_path):
     }
     n_levels = max(len({t.level for t in s.tasks}) for s in result.solves.values())
     assert origins[PATHS.world] == "3D"
-    assert all(origins[PATHS.level_errors(k)] == "TimeSeries" for k in range(1, n_levels))
+    assert all(
+        origins[PATHS.level_errors(k, log10=True)] == "TimeSeries" for k in range(1, n_levels)
+    )
     if result.robot.has_floating_base:
         assert origins[PATHS.balance] == "TimeSeries"
         _check_simulation(rec, result)
+        # a static check in simulation on every iteration of every solve
+        assert d["simulation"]["iterations_checked"] == d["timing"]["total_iterations"]
+        for label, solve in result.solves.items():
+            assert len(result.static_reports.get(label, [])) == solve.iterations
+        # the scene's CoM is the robot's at the end (one world, one frame)
+        last = [r for rs in result.static_reports.values() for r in rs][-1]
+        if not list(result.solves.values())[-1].reverted:
+            assert np.allclose(last.com, result.robot.com(), atol=1e-9)
         assert d["balance"]["hold"]["drift"] == pytest.approx(result.balance["hold"]["drift"])
-        assert d["robot"]["q"] and d["simulation"]["iterations_checked"] == len(_ticks(result)[0])
+        assert d["robot"]["q"] and d["robot"]["model"] == "sample_humanoid"
     else:
         assert result.balance is None and PATHS.balance_metric("margin") not in rec
+        assert d["simulation"] is None and d["robot"] is None
 
 
 def test_fullbody_reach_frames_in_the_recording(tmp_path):
     rrd = tmp_path / "r.rrd"
-    result = run_scenario("fullbody_reach", rrd)
+    result = run_scenario("fullbody_reach", rrd, hold=0.0)
     rec = read_recording(rrd)
     _, _, end = _ticks(result)
     last = end - 1
@@ -230,30 +263,47 @@ def test_fullbody_reach_frames_in_the_recording(tmp_path):
     assert dist < 1e-5
 
 
-def test_recording_is_valid_when_the_scenario_raises(tmp_path, monkeypatch, capsys):
-    def boom(out, *, progress=False):
-        robot = Robot.load("sample_humanoid")
+BOOM = '''
+    """Raises mid-solve."""
+    import numpy as np
+
+    from pik_mj import Robot, Scene, fullbody_inverse_kinematics
+    from pik_mj.scenario import open_recorder, parser, report
+
+
+    def run(recorder):
+        robot = Robot.from_model("sample_humanoid")
+        scene = Scene.from_robot(robot)
+        recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
         target = robot.root_pose()[0] + np.array([0.4, 0.1, -0.6])
-        with ScenarioRecorder(out, robot, progress=progress, name="boom") as rec:
-            step = rec.callback("reach")
+        checks = scene.static_checker()
+        log = recorder.solve_logger("reach", checks=checks)
 
-            def callback(info):
-                step(info)
-                if info.iteration == 3:
-                    raise RuntimeError("boom at iteration 3")
+        def boom(info):
+            if info.iteration == 3:
+                raise RuntimeError("boom at iteration 3")
 
-            fullbody_inverse_kinematics(
-                robot,
-                [(target, [1.0, 0.0, 0.0, 0.0])],
-                limbs=["larm"],
-                rotation_axis=[None],
-                callback=callback,
-            )
-        return ScenarioResult("boom")
+        fullbody_inverse_kinematics(
+            robot,
+            [(target, [1.0, 0.0, 0.0, 0.0])],
+            limbs=["larm"],
+            rotation_axis=[None],
+            callback=[checks, log, boom],
+        )
 
-    monkeypatch.setitem(REGISTRY, "boom", Scenario("boom", "raises mid-solve", fn=boom))
+
+    def main(argv=None):
+        args = parser(__doc__).parse_args(argv)
+        with open_recorder(args, "boom") as recorder:
+            result = run(recorder)
+        return report(result, args)
+'''
+
+
+def test_recording_is_valid_when_the_scenario_raises(tmp_path, monkeypatch, capsys):
+    add_scenario(monkeypatch, tmp_path, "boom", BOOM)
     rrd = tmp_path / "boom.rrd"
-    assert cli.main(["run", "boom", "--out", str(rrd), "--quiet"]) == 1
+    assert cli.main(["run", "boom", "--save", str(rrd), "--quiet"]) == 1
     captured = capsys.readouterr()
     assert "RuntimeError: boom at iteration 3" in captured.err
     assert f"recording (up to the error): {rrd}" in captured.out
@@ -270,20 +320,20 @@ def test_recording_is_valid_when_the_scenario_raises(tmp_path, monkeypatch, caps
     events = rec[PATHS.events].temporal
     texts = [b[0] for _, b in events["TextLog:text"]]
     levels = [b[0] for _, b in events["TextLog:level"]]
-    i = next(k for k, x in enumerate(texts) if "scenario raised RuntimeError" in x)
+    i = next(k for k, x in enumerate(texts) if "raised RuntimeError" in x)
     assert "boom at iteration 3" in texts[i] and levels[i] == "ERROR"
     assert PATHS.hold_metric("drift") not in rec  # no hold after a failure
 
 
 def test_validate_reproduces_the_hold_of_a_run(tmp_path, capsys):
     js = tmp_path / "run.json"
-    assert cli.main(["run", "--no-record", "--json", str(js), "--quiet"]) == 0
+    assert cli.main(["run", "--headless", "--json", str(js), "--quiet"]) == 0
     d = json.loads(js.read_text())
     assert d["name"] == "fullbody_reach" and d["balance"]["passed"]
     robot = d["robot"]
     assert (
         robot["model"] == "sample_humanoid"
-        and len(robot["q"]) == Robot.load("sample_humanoid").model.nq
+        and len(robot["q"]) == Robot.from_model("sample_humanoid").model.nq
     )
     # the scene's contact polygon (MuJoCo contacts) and the IK's sole rectangles agree
     assert d["balance"]["static"]["margin"] == pytest.approx(d["figures"]["com_margin_m"], abs=1e-6)
@@ -301,10 +351,16 @@ def test_validate_reproduces_the_hold_of_a_run(tmp_path, capsys):
     bare.write_text(json.dumps({"model": robot["model"], "q": robot["q"]}))
     assert cli.main(["validate", str(bare), "--duration", "0.5", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["hold"]["simulated"] == pytest.approx(0.5)
+    # the same pose in another world: the room around it (its floor at z = 0 too,
+    # nothing else within reach), the kettle's joint appended at its start
+    assert cli.main(["validate", str(js), "--environment", "room", "--json", str(out)]) == 0
+    v = json.loads(out.read_text())
+    assert v["robot"]["environment"] == "room" and v["passed"]
+    assert v["hold"]["drift"] == pytest.approx(d["balance"]["hold"]["drift"], rel=1e-3)
 
 
 def test_validate_fails_when_the_com_leans_past_the_toes(tmp_path, capsys):
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.set_angle_vector(
         [1.0, -1.57, -1.57], ["torso_waist_p", "rarm_shoulder_p", "larm_shoulder_p"]
     )

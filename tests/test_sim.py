@@ -1,7 +1,7 @@
 """Simulation-coupled static balance (pik_mj.sim): contacts, equilibrium, physics hold.
 
-Poses are built with pik_mj.solve on the robot-only sample humanoid; the scene
-adds a floor (and a wall). Numbers are checked against independent
+Poses are built with pik_mj.solve on the robot-only sample humanoid; its scene
+(Scene.from_robot) adds a floor (and a wall). Numbers are checked against independent
 constructions: support polygons from the sole boxes' geometry, force and moment
 balance of the LP's contact forces, and the robot placement transform.
 """
@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 import pik_mj
-from pik_mj import balance
+from pik_mj import HoldCriteria, Recorder, balance
 from pik_mj.exceptions import InvalidInput, SimulationUnstable, UnknownName
 from pik_mj.ik import fullbody_inverse_kinematics, sole_polygons
-from pik_mj.record import PATHS, Recorder, read_recording
+from pik_mj.record import PATHS, read_recording
 from pik_mj.robot import Robot
 from pik_mj.sim import ContactParams, Scene, add_wall, floor_environment, validate_pose
 from pik_mj.tasks.frame import FrameTask
@@ -90,24 +90,29 @@ def posture(robot: Robot, cost, check: bool = False) -> pik_mj.MinkTask:
     return pik_mj.MinkTask(task, check=check)
 
 
+def humanoid_scene(**options) -> Scene:
+    """The scene of a sample humanoid alone (floor added)."""
+    return Scene.from_robot(Robot.from_model("sample_humanoid"), **options)
+
+
 # ----------------------------------------------------------------- fixtures
 @pytest.fixture(scope="module")
 def scene() -> Scene:
-    return Scene("sample_humanoid")
+    return humanoid_scene()
 
 
 @pytest.fixture(scope="module")
 def reset_q(scene) -> np.ndarray:
-    rm = scene.robot_model
+    rm = scene.robot.model
     return rm.key_qpos[rm.key("reset_pose").id].copy()
 
 
 @pytest.fixture(scope="module")
 def lean():
     """CoM 8 cm ahead of the toes (x = 0.14 m), feet kept flat; per-iteration checks."""
-    robot = Robot.load("sample_humanoid")
-    scene = Scene("sample_humanoid")
-    log = scene.iteration_callback(mu=1.0)
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    log = scene.static_checker(mu=1.0)
     levels = [
         [mink.ConfigurationLimit(robot.model)],
         feet_levels(robot),
@@ -122,7 +127,7 @@ def lean():
 @pytest.fixture(scope="module")
 def crouch(scene):
     """Right hand to (0.6, 0.15, 0.49) m, CoM kept 2 cm inside the soles' polygon."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     robot.reset_pose()
     result = fullbody_inverse_kinematics(
         robot,
@@ -147,7 +152,7 @@ def crouch(scene):
 @pytest.fixture(scope="module")
 def wall_pose():
     """Right hand's fingertips on a wall ahead, CoM 3 cm ahead of the toes."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     m = robot.model
     keep = np.zeros(m.nv)  # left arm and head stay where they are
     for j in range(m.njnt):
@@ -181,7 +186,7 @@ def wall_scene(with_wall: bool) -> Scene:
     env = floor_environment()
     if with_wall:
         add_wall(env, (WALL_X, 0.0, 0.0), (-1.0, 0.0, 0.0))
-    return Scene("sample_humanoid", env, allowed_contacts=HAND_ON_WALL)
+    return humanoid_scene(environment=env, allowed_contacts=HAND_ON_WALL)
 
 
 # --------------------------------------------------------- reset pose
@@ -191,7 +196,7 @@ def test_reset_pose_static_check_matches_sole_geometry(scene, reset_q):
     assert report.touching_geoms == sorted(SOLES)
     assert report.self_contacts == []
     # Independent: hull of the sole boxes' bottom corners and the robot-only CoM.
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     corners = sole_bottom_corners(robot.model, robot.data)
     region = balance.support_polygon([corners])
     expected = region.signed_distance(robot.com())
@@ -240,12 +245,12 @@ def test_hard_contacts_settle_shallow_and_default_to_them(scene, reset_q):
         assert s.hold(reset_q, 1.0).passed
         return -min(s.data.contact[i].dist for i in range(s.data.ncon))
 
-    hard, soft = depth(scene), depth(Scene("sample_humanoid", contact=ContactParams()))
+    hard, soft = depth(scene), depth(humanoid_scene(contact=ContactParams()))
     assert scene.model.geom("rleg_sole").solref[0] == 0.005
     assert 0.0 < hard < 1e-4
     assert soft > 4e-4 and soft > 5 * hard
     with pytest.raises(InvalidInput, match="two time steps"):
-        Scene("sample_humanoid", timestep=0.004)
+        humanoid_scene(timestep=0.004)
 
 
 def test_crouched_reach_with_2cm_margin_holds_on_hard_contacts(crouch):
@@ -255,10 +260,10 @@ def test_crouched_reach_with_2cm_margin_holds_on_hard_contacts(crouch):
     # soft 20 ms contact that transient rolls it over the sole edge.
     q, static = crouch
     assert static.feasible and static.margin == pytest.approx(0.02, abs=1e-3)
-    hard = Scene("sample_humanoid").hold(q, 3.0)
+    hard = humanoid_scene().hold(q, 3.0)
     assert hard.passed, hard.failures
     assert hard.drift < 0.005 and hard.min_margin > 0.015
-    soft = Scene("sample_humanoid", contact=ContactParams()).hold(q, 3.0)
+    soft = humanoid_scene(contact=ContactParams()).hold(q, 3.0)
     assert soft.fell and not soft.passed
 
 
@@ -280,9 +285,12 @@ def test_contact_tolerance_counts_touching_not_hovering(scene, reset_q):
 
 def test_robot_placement_maps_the_pose(reset_q):
     pos, yaw = np.array([0.3, -0.2, 0.0]), 0.7
-    scene = Scene("sample_humanoid", "room", robot_pos=pos, robot_yaw=yaw)
-    scene.set_pose(reset_q)
-    robot = Robot.load("sample_humanoid")
+    placed = Robot.from_model("sample_humanoid", environment="room", at=(pos[0], pos[1], yaw))
+    scene = Scene.from_robot(placed)
+    scene.set_pose(placed.configuration.q)
+    # the robot's configuration is the prefix of the scene's qpos, as it is
+    np.testing.assert_array_equal(scene.data.qpos[: placed.model.nq], placed.configuration.q)
+    robot = Robot.from_model("sample_humanoid")
     c, s = np.cos(yaw), np.sin(yaw)
     R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     for site in ("rarm_end", "lleg_end", "head_end"):
@@ -362,7 +370,7 @@ def test_unexpected_contact_fails_the_hold(wall_pose):
     _, q = wall_pose
     env = floor_environment()
     add_wall(env, (WALL_X, 0.0, 0.0), (-1.0, 0.0, 0.0))
-    scene = Scene("sample_humanoid", env)  # the hand is not allowed by default
+    scene = humanoid_scene(environment=env)  # the hand is not allowed by default
     hold = scene.hold(q, 0.2)
     assert not hold.passed
     assert ("rarm_hand", "wall") in {(a, b) for a, b, _ in hold.unexpected_contacts}
@@ -386,7 +394,7 @@ def test_nan_position_raises(scene, reset_q):
 def test_diverging_servos_raise_during_hold(reset_q):
     # kp 1e8 on joints of ~0.01 kg m² at dt = 0.002: omega dt ~ 200, explicit
     # stiffness diverges within a few steps.
-    scene = Scene("sample_humanoid", kp=1e8, kv=0.0)
+    scene = humanoid_scene(kp=1e8, kv=0.0)
     with pytest.raises(SimulationUnstable, match="unstable"):
         scene.hold(reset_q, 1.0)
 
@@ -395,7 +403,7 @@ def test_diverging_servos_raise_during_hold(reset_q):
 def test_hold_records_on_sim_time(tmp_path, scene, reset_q):
     path = tmp_path / "hold.rrd"
     with Recorder.to_file(path) as rec:
-        hold = scene.hold(reset_q, 0.5, recorder=rec, record_every=25)
+        hold = scene.hold(reset_q, 0.5, callback=rec.hold_logger(every=25))
     out = read_recording(path)
     drift = out[PATHS.hold_metric("drift")]
     (component,) = drift.temporal
@@ -419,25 +427,24 @@ def test_validate_pose():
 
 def test_bad_inputs(scene, reset_q):
     with pytest.raises(UnknownName, match="rleg_sole"):
-        scene.hold(reset_q, 0.1, allowed=["nope"])
+        scene.hold(reset_q, 0.1, criteria=HoldCriteria(allowed=["nope"]))
     with pytest.raises(InvalidInput, match="NaN"):
         scene.static_check(np.full(scene.robot_nq, np.nan))
     with pytest.raises(InvalidInput, match="horizontal"):
         add_wall(floor_environment(), (1, 0, 0), (0, 0, 1))
     with pytest.raises(UnknownName, match="rleg_knee_p"):
-        Scene("sample_humanoid", kp={"nope": 1.0})
+        humanoid_scene(kp={"nope": 1.0})
 
 
 def test_degenerate_support_is_a_negative_distance():
-    from pik_mj.sim import _support
-
-    R = balance.plane_basis(np.array([0.0, 0.0, 1.0]))
     segment = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
-    vertices, margin = _support(segment, R, np.array([0.5, 0.3, 1.0]))
-    assert vertices.shape == (2, 3) and margin == pytest.approx(-0.3)
-    assert _support(segment, R, np.array([2.0, 0.0, 0.0]))[1] == pytest.approx(-1.0)
-    point = segment[:1]
-    assert _support(point, R, np.array([0.3, 0.4, 0.0]))[1] == pytest.approx(-0.5)
+    region = balance.support_polygon([segment], allow_degenerate=True)
+    assert region.vertices_3d.shape == (2, 3) and region.halfplanes is None
+    assert region.signed_distance(np.array([0.5, 0.3, 1.0])) == pytest.approx(-0.3)
+    assert region.signed_distance(np.array([2.0, 0.0, 0.0])) == pytest.approx(-1.0)
+    point = balance.support_polygon([segment[:1]], allow_degenerate=True)
+    assert point.signed_distance(np.array([0.3, 0.4, 0.0])) == pytest.approx(-0.5)
+    assert region.shrunk(0.01).shape == (0, 3)
 
 
 def test_robot_actuators_and_keyframe_ctrl_are_kept():
@@ -447,7 +454,7 @@ def test_robot_actuators_and_keyframe_ctrl_are_kept():
     spec.add_actuator(name="knee_motor", target="rleg_knee_p", trntype=mujoco.mjtTrn.mjTRN_JOINT)
     key = spec.key("reset_pose")
     key.ctrl = [0.25]
-    scene = Scene(spec)
+    scene = Scene.from_robot(Robot.from_model(spec))
     m = scene.model
     assert m.nu == 1 + len(scene.servo_joints) and m.actuator(0).name == "knee_motor"
     k = m.key("reset_pose").id
@@ -471,15 +478,16 @@ def test_grasped_object_follows_the_hand_and_loads_the_balance(reset_q):
     m_box, g = 2.0, 9.81
     # Box 12 cm beside the right hand (away from the thigh), turned 90° about z.
     p_FO, R_FO = np.array([0.0, -0.12, 0.02]), np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
-    scene = Scene(
-        "sample_humanoid", box_environment(m_box), grasps=[("rarm_end", "box", p_FO, R_FO)]
+    scene = humanoid_scene(
+        environment=box_environment(m_box), grasps=[("rarm_end", "box", p_FO, R_FO)]
     )
     assert scene.carried_mass == pytest.approx(m_box)
     # Independent: the hand pose in the robot-only model, X_WO = X_WF X_FO.
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     X_WF = robot.frame_pose("rarm_end")
     p_WO = X_WF.translation() + X_WF.rotation().as_matrix() @ p_FO
-    qpos = scene.scene_qpos(reset_q)
+    scene.set_pose(reset_q)
+    qpos = scene.data.qpos.copy()
     adr = scene.model.jnt_qposadr[scene.model.joint("box_free").id]
     np.testing.assert_allclose(qpos[adr : adr + 3], p_WO, atol=1e-9)
     R_WO = np.zeros(9)
@@ -503,9 +511,7 @@ def test_grasped_object_follows_the_hand_and_loads_the_balance(reset_q):
     )
     f_weld = d.efc_force[rows][:3]  # on the hand, world frame [N]
     np.testing.assert_allclose(f_weld, [0.0, 0.0, -m_box * g], atol=0.01 * m_box * g)
-    from pik_mj.scenarios import robot_contact_forces
-
-    _, f_feet = robot_contact_forces(m, d, scene._robot_geom)
+    _, f_feet = scene.contact_forces()
     assert f_feet[:, 2].sum() == pytest.approx(m_all * g, rel=0.01)
     # The box stayed in the hand: X_WF(t) X_FO vs the box's pose, 1 mm.
     site = m.site("rarm_end").id
@@ -513,8 +519,108 @@ def test_grasped_object_follows_the_hand_and_loads_the_balance(reset_q):
     assert np.linalg.norm(d.xpos[m.body("box").id] - expected) < 1e-3
 
     with pytest.raises(UnknownName, match="rarm_end"):
-        Scene("sample_humanoid", box_environment(), grasps=[("rarm_hnd", "box", p_FO, R_FO)])
+        humanoid_scene(environment=box_environment(), grasps=[("rarm_hnd", "box", p_FO, R_FO)])
     with pytest.raises(UnknownName, match="box"):
-        Scene("sample_humanoid", box_environment(), grasps=[("rarm_end", "floor", p_FO, R_FO)])
+        humanoid_scene(environment=box_environment(), grasps=[("rarm_end", "floor", p_FO, R_FO)])
     with pytest.raises(InvalidInput, match="rotation"):
-        Scene("sample_humanoid", box_environment(), grasps=[("rarm_end", "box", p_FO, 2 * R_FO)])
+        humanoid_scene(environment=box_environment(), grasps=[("rarm_end", "box", p_FO, 2 * R_FO)])
+
+
+# ------------------------------------------------------- scene from a robot
+def test_grasp_pair_reads_the_object_pose_from_the_robot():
+    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_counter_front")
+    # carry the kettle with the hand: put it 5 cm below the hand, turned 0.3 rad
+    X_WF = robot.frame_pose("rarm_end")
+    R = X_WF.rotation().as_matrix() @ np.array(
+        [[np.cos(0.3), -np.sin(0.3), 0], [np.sin(0.3), np.cos(0.3), 0], [0, 0, 1]]
+    )
+    p = X_WF.translation() - np.array([0.0, 0.0, 0.05])
+    k = robot.model.joint("kettle_free").qposadr[0]
+    q = robot.configuration.q.copy()
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, R.ravel())
+    q[k : k + 7] = np.r_[p, quat]
+    robot.configuration.update(q)
+    scene = Scene.from_robot(robot, grasps=[("rarm_end", "kettle")])
+    (g,) = scene.grasps
+    # independent: X_FO = X_WF^-1 X_WO from the robot's own frames
+    X_FO = X_WF.inverse() @ robot.frame_pose("kettle", "body")
+    np.testing.assert_allclose(g.p_FO, X_FO.translation(), atol=1e-12)
+    np.testing.assert_allclose(g.R_FO, X_FO.rotation().as_matrix(), atol=1e-12)
+    assert scene.carried_mass == pytest.approx(1.0)
+    # the kettle follows the hand when the robot moves
+    robot.set_angle_vector([-0.5], ["rarm_shoulder_p"])
+    scene.set_pose(robot.configuration.q)
+    hand = scene.data.site("rarm_end")
+    expected = hand.xpos + hand.xmat.reshape(3, 3) @ g.p_FO
+    np.testing.assert_allclose(scene.data.body("kettle").xpos, expected, atol=1e-12)
+    assert scene.robot is robot
+
+
+def test_scene_needs_a_robot_that_knows_its_world():
+    with pytest.raises(InvalidInput, match=r"Robot\.from_model"):
+        Scene.from_robot(Robot(mujoco.MjModel.from_xml_path(str(_model_file()))))
+    with pytest.raises(InvalidInput, match=r"Robot\.from_model"):
+        Scene.from_robot("sample_humanoid")
+    in_room = Robot.from_model("sample_humanoid", environment="room")
+    with pytest.raises(InvalidInput, match="already stands"):
+        Scene.from_robot(in_room, environment=floor_environment())
+    with pytest.raises(InvalidInput, match="shape"):
+        Scene.from_robot(in_room).set_pose(np.zeros(37))  # the robot's nq is 44 here
+
+
+def _model_file():
+    from pik_mj.models import model_path
+
+    return model_path("sample_humanoid")
+
+
+def test_unnamed_joints_get_servos_and_keep_their_addresses():
+    spec = mujoco.MjSpec.from_string(
+        """<mujoco><compiler angle="radian"/><worldbody>
+        <body name="base" pos="0 0 0.5"><geom type="box" size="0.1 0.1 0.1"/>
+          <body pos="0 0 0.2"><joint type="hinge" axis="0 1 0" range="-1 1"/>
+            <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+            <body pos="0.3 0 0"><joint type="hinge" axis="0 1 0" range="-1 1"/>
+              <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02"/>
+              <site name="tip" pos="0.3 0 0"/></body></body></body>
+        </worldbody></mujoco>"""
+    )
+    robot = Robot.from_model(spec)
+    assert robot.joint_names == ["", ""]  # unnamed: harmless, nothing maps by name
+    scene = Scene.from_robot(robot)
+    assert scene.servo_joints == ["pik_mj_joint_0", "pik_mj_joint_1"]
+    q = np.array([0.3, -0.4])
+    scene.set_pose(q)
+    robot.configuration.update(q)
+    np.testing.assert_allclose(scene.data.site("tip").xpos, robot.data.site("tip").xpos)
+    np.testing.assert_allclose(scene.data.ctrl, q)  # servo targets at the pose
+
+
+def test_hold_callbacks_receive_samples(scene, reset_q):
+    samples: list = []
+    seen: list = []
+
+    def keep(sample) -> None:
+        samples.append((sample.time, sample.step, sample.drift, sample.com.copy()))
+        if sample.step in (0, 500):
+            # forces on the robot from MuJoCo's contacts; the support polygon of
+            # the touching soles and the CoM margin to it
+            seen.append(
+                (sample.contact_forces.sum(axis=0), sample.margin, len(sample.support_polygon))
+            )
+
+    hold = scene.hold(reset_q, 1.0, callback=[keep, lambda s: None], every=50)
+    assert [t for t, *_ in samples] == pytest.approx(np.arange(11) * 0.1)
+    assert [k for _, k, _, _ in samples] == list(range(0, 501, 50))
+    assert max(d for *_, d, _ in samples) <= hold.drift
+    weight = scene.mass * 9.81
+    _, margin_start, n_start = seen[0]
+    assert n_start == 4 and margin_start == pytest.approx(hold.min_margin, abs=1e-3)
+    f_end, _, _ = seen[1]
+    # standing still after 1 s: MuJoCo's contact forces carry the robot's weight
+    assert f_end[2] == pytest.approx(weight, rel=0.01)
+    np.testing.assert_allclose(f_end[:2], 0.0, atol=0.01 * weight)
+    with pytest.raises(InvalidInput, match=r"callback\[1\] must be callable"):
+        scene.hold(reset_q, 0.1, callback=[keep, "log"])
+    assert len(samples) == 11  # nothing ran

@@ -24,7 +24,7 @@ import pytest
 import ray  # the test extra installs it
 
 from pik_mj import cli
-from pik_mj.exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.record import read_recording
 from pik_mj.sweep import Grid, Sweep, Uniform, Worker, read_rows, run_sweep
 from pik_mj.sweep.dataset import UNREPEATABLE, comparable
@@ -147,7 +147,7 @@ def test_bad_sweeps_say_what_is_valid():
         Grid({"w": [1.0], "x": [0.3], "y": [0.0], "z": [1.0]})
     with pytest.raises(InvalidInput, match=r"must set \['z'\]"):
         Sweep(Grid({"x": [0.3], "y": [0.0]}))
-    with pytest.raises(InvalidInput, match=r"unknown stack 'tiptoe'.*'balanced'"):
+    with pytest.raises(UnknownName, match=r"stack 'tiptoe' does not exist.*'balanced'"):
         Sweep(Grid(GRID), stacks=("tiptoe",))
     with pytest.raises(InvalidInput, match="inverted"):
         Uniform({"x": (0.7, 0.2), "y": (0, 0), "z": (1, 1)}, 5)

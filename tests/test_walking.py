@@ -13,15 +13,15 @@ from pik_mj.dynamics import zmp_of_motion
 from pik_mj.exceptions import InvalidInput
 from pik_mj.record import PATHS, Recorder, read_recording
 from pik_mj.robot import Robot
-from pik_mj.walking import GaitParameters
-from pik_mj.walking.playback import evaluate_walk, feedforward_torques, play_walk_pattern
-from pik_mj.walking.wholebody import (
-    calc_walk_pattern,
-    feet_from_robot,
-    go_pos,
-    sole_corners,
-    straight_walk,
+from pik_mj.sim import Scene
+from pik_mj.walking import GaitParameters, go_pos, straight_steps
+from pik_mj.walking.playback import (
+    WALK_CONTACT,
+    evaluate_walk,
+    feedforward_torques,
+    play_walk_pattern,
 )
+from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot, sole_corners
 
 G = 9.81  # the sample humanoid's |gravity| [m/s^2]
 TIMES: dict[str, float] = {}
@@ -29,16 +29,17 @@ TIMES: dict[str, float] = {}
 
 @pytest.fixture(scope="module")
 def walk():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     t0 = time.perf_counter()
-    pattern = straight_walk(robot, 4, 0.12, GaitParameters(dt=0.02))
+    steps = straight_steps(4, 0.12, feet_from_robot(robot))
+    pattern = calc_walk_pattern(robot, steps, GaitParameters(dt=0.02))
     TIMES["pattern_s"] = time.perf_counter() - t0
     return robot, pattern
 
 
 def test_inverse_dynamics_zmp_is_cart_table_for_a_translating_robot():
     """A rigid robot translating along c(t): p = c_xy - (c_z - z_g) c''_xy / (g + c''_z)."""
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     model = robot.model
     q0 = robot.configuration.q.copy()
     c0 = robot.com()
@@ -77,6 +78,8 @@ def test_ik_tracks_the_plan(walk):
 
 def test_zmp_inside_support_polygon_and_tracking(walk):
     _, pattern = walk
+    # the soles measured on the robot are the sample humanoid's 0.22 m x 0.12 m boxes
+    assert pattern.sole_size == pytest.approx((0.22, 0.12), abs=1e-12)
     margin = pattern.support_margin("computed")
     tracking = pattern.zmp_tracking()
     print(
@@ -93,7 +96,7 @@ def test_zmp_inside_support_polygon_and_tracking(walk):
     for k in range(0, len(pattern.t), 7):
         limbs = ("rleg", "lleg") if plan.support[k] == "double" else (plan.support[k],)
         corners = np.vstack(
-            [sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k]) for lb in limbs]
+            [sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k], (0.22, 0.12)) for lb in limbs]
         )
         eq = ConvexHull(corners).equations  # outward unit normals: n . p + d <= 0 inside
         expected = -np.max(eq[:, :2] @ pattern.zmp_computed[k] + eq[:, 2])
@@ -152,10 +155,11 @@ def test_feedforward_torques_balance_the_base(walk):
 
 
 def test_playback_walks_to_the_goal(walk, tmp_path):
-    _, pattern = walk
+    robot, pattern = walk
     out = tmp_path / "walk.rrd"
+    scene = Scene.from_robot(robot, contact=WALK_CONTACT)
     with Recorder.to_file(out) as rec:
-        report = play_walk_pattern(pattern, "sample_humanoid", recorder=rec, record_every=10)
+        report = play_walk_pattern(pattern, scene, recorder=rec, record_every=10)
     print(f"\nplayback: {report.to_dict()}")
     assert not report.fell
     assert report.height_ratio_min >= 0.8
@@ -172,17 +176,22 @@ def test_playback_walks_to_the_goal(walk, tmp_path):
 
 def test_playback_without_feedforward_at_default_gains_fails(walk):
     """The feed-forward torques are what makes kp = 3000 enough (the check can fail)."""
-    _, pattern = walk
+    robot, pattern = walk
     report = play_walk_pattern(
-        pattern, torque_feedforward=False, velocity_feedforward=False, settle_time=0.0
+        pattern,
+        Scene.from_robot(robot, contact=WALK_CONTACT),
+        torque_feedforward=False,
+        velocity_feedforward=False,
+        settle_time=0.0,
     )
     assert report.fell or report.final_midfeet_error > 0.05
 
 
 def test_go_pos_turns_the_feet():
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     theta = np.deg2rad(30.0)
-    pattern = go_pos(robot, 0.15, 0.0, theta, GaitParameters(dt=0.05, step_time=0.8), stop=3)
+    steps = go_pos(0.15, 0.0, theta, feet_from_robot(robot))
+    pattern = calc_walk_pattern(robot, steps, GaitParameters(dt=0.05, step_time=0.8), stop=3)
     feet = feet_from_robot(robot)
     for lb, foot in feet.items():
         assert foot.yaw == pytest.approx(theta, abs=2e-3)
@@ -191,13 +200,19 @@ def test_go_pos_turns_the_feet():
 
 
 def test_bad_input():
-    arm = Robot.load("three_dof_arm")
+    arm = Robot.from_model("three_dof_arm")
     with pytest.raises(InvalidInput, match="free joint"):
         calc_walk_pattern(arm, [])
-    robot = Robot.load("sample_humanoid")
+    robot = Robot.from_model("sample_humanoid")
     with pytest.raises(InvalidInput, match="lleg"):
         calc_walk_pattern(robot, [], feet_frames={"rleg": "rleg_end"})
-    with pytest.raises(InvalidInput, match="kp"):
-        play_walk_pattern(
-            straight_walk(robot, 0, 0.1, GaitParameters(dt=0.1, step_time=0.5)), kp=-1.0
-        )
+    pattern = calc_walk_pattern(
+        robot, straight_steps(0, 0.1, feet_from_robot(robot)), GaitParameters(dt=0.1, step_time=0.5)
+    )
+    with pytest.raises(InvalidInput, match="Scene"):
+        play_walk_pattern(pattern, "sample_humanoid")
+    with pytest.raises(InvalidInput, match="settle_time"):
+        play_walk_pattern(pattern, Scene.from_robot(robot), settle_time=-1.0)
+    arm_scene = Scene.from_robot(Robot.from_model("three_dof_arm"))
+    with pytest.raises(InvalidInput, match="robot it was made for"):
+        play_walk_pattern(pattern, arm_scene)

@@ -1,5 +1,7 @@
 """``python -m pik_mj.sweep``: the ``pik-mj sweep`` command."""
 
-from .cli import main
+import sys
 
-raise SystemExit(main())
+from ..cli import main
+
+raise SystemExit(main(["sweep", *sys.argv[1:]]))

@@ -4,8 +4,15 @@ This is the only module of :mod:`pik_mj.sweep` that calls the robot, IK and
 simulation API; the rest (cases, Ray driver, dataset, views) sees a
 :class:`Worker` and the plain dict its :meth:`Worker.run` returns.
 
-A case reaches the hand target ``p = (x, y, z)`` [m] (world frame; the robot
-starts in its ``reset_pose`` standing at the origin) from ``reset_pose`` with
+The robot is :meth:`pik_mj.Robot.from_model` of the case's model standing on a
+floor plane (``environment=floor_environment()``: the world frame is the
+floor's, z up, the robot's model frame at the origin; no degrees of freedom
+added), so that the floor is a geom the IK keeps clear of. Its physics scene is
+:meth:`pik_mj.sim.Scene.from_robot` of that robot (default servos, contacts and
+allowed contacts: the soles).
+
+A case reaches the hand target ``p = (x, y, z)`` [m] (world frame) from the
+robot's start pose (``reset_pose``) with
 :func:`pik_mj.ik.fullbody_inverse_kinematics` (feet fixed, hand position only,
 ``stop=100``, no revert: the final pose is what is held). Level 1 holds the
 feet, collision avoidance (every pair of robot bodies and every body against
@@ -13,7 +20,7 @@ the floor, less adjacent pairs and pairs touching at the start; yellow zone
 10 cm, orange zone 1 cm) and, in the ``balanced`` stack, the CoM inside the
 soles' support polygon shrunk by ``margin``; level 2 the hand. The final pose is
 checked statically (:meth:`pik_mj.sim.Scene.static_check`) and held in physics
-(:meth:`pik_mj.sim.Scene.hold`, default servos and thresholds).
+(:meth:`pik_mj.sim.Scene.hold`, default :class:`pik_mj.sim.HoldCriteria`).
 """
 
 from __future__ import annotations
@@ -21,13 +28,13 @@ from __future__ import annotations
 import time
 from typing import Any
 
-import mujoco
 import numpy as np
 
+from ..exceptions import InvalidInput
 from ..ik import fullbody_inverse_kinematics, sole_polygons
-from ..models import compose_scene
 from ..robot import Robot
-from ..sim import Scene
+from ..sim import HoldCriteria, Scene, floor_environment
+from ..sim.environment import FLOOR
 from ..tasks.collision import CollisionAvoidanceTask, collision_pairs
 from ..tasks.support_polygon import SupportPolygonTask
 
@@ -35,7 +42,7 @@ DEFAULT_HAND = "rarm"
 DEFAULT_MARGIN = 0.02  # [m] CoM kept this far inside the support polygon (balanced)
 STOP = 100  # IK iterations at most
 YELLOW, ORANGE = 0.1, 0.01  # [m] collision avoidance: watched below, kept above
-FLOOR = "floor"  # the floor plane of compose_scene(robot, None)
+FEET = ("rleg", "lleg")
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
 PARAMETERS = {
@@ -55,12 +62,22 @@ STACKS = {
 """Stacks a sweep may use, with their levels."""
 
 
-def start_pose(robot: str) -> tuple[mujoco.MjModel, mujoco.MjData, str]:
-    """The robot on its floor in ``reset_pose`` (forward kinematics done): the
-    model, its data and the robot's root body, for drawing the robot."""
-    r = Robot(compose_scene(robot, None).compile())
-    r.reset_pose()
-    return r.model, r.data, r.root_body
+def standing_robot(model: str, hand: str = DEFAULT_HAND) -> Robot:
+    """The robot of a sweep: ``model`` standing on a floor plane, in its start pose.
+
+    Raises:
+        UnknownName: Unknown model, or no limb ``hand`` / ``rleg`` / ``lleg``.
+        InvalidInput: A model that does not load, or no floating base.
+    """
+    robot = Robot.from_model(model, environment=floor_environment())
+    if not robot.has_floating_base:
+        raise InvalidInput(
+            f"model {model!r} has no floating base (a free joint at its root "
+            f"{robot.root_body!r}): a sweep's robot stands on its feet"
+        )
+    for limb in (hand, *FEET):
+        robot.limb(limb)
+    return robot
 
 
 class Worker:
@@ -73,15 +90,16 @@ class Worker:
     """
 
     def __init__(self, robot: str, *, hand: str = DEFAULT_HAND, hold: float = 3.0):
-        self.robot = Robot(compose_scene(robot, None).compile())
+        self.robot = standing_robot(robot, hand)
         self.limb = self.robot.limb(hand)
         self.hold_duration = float(hold)
+        self.scene = Scene.from_robot(self.robot)
+        self.criteria = HoldCriteria()
         self.robot.reset_pose()
         m = self.robot.model
         bodies = [m.body(b).name for b in range(1, m.nbody) if m.body_geomnum[b] > 0]
         self.pairs = collision_pairs(m, self.robot.data, bodies, [FLOOR])
-        self.soles = sole_polygons(self.robot)
-        self.scene = Scene(robot)
+        self.soles = sole_polygons(self.robot, FEET)
 
     def run(self, case: Any) -> dict[str, Any]:
         """Solve, check and hold ``case`` (a :class:`pik_mj.sweep.spec.Case`).
@@ -106,6 +124,7 @@ class Worker:
             [(target, IDENTITY)],
             limbs=[self.limb.name],
             rotation_axis=[None],  # position only
+            fix_feet=FEET,
             balance=balance,
             collision_avoidance=[avoid],
             stop=STOP,
@@ -116,7 +135,7 @@ class Worker:
         p_hand = robot.frame_pose(self.limb.end_frame, self.limb.end_frame_type).translation()
         static = self.scene.static_check(q)
         t2 = time.perf_counter()
-        hold = self.scene.hold(q, self.hold_duration)
+        hold = self.scene.hold(q, self.hold_duration, criteria=self.criteria)
         t3 = time.perf_counter()
         return {
             "converged": bool(result.converged),

@@ -148,15 +148,16 @@ class Dataset:
         self.schema = schema(sweep.parameters)
 
     @classmethod
-    def open(
+    def check(
         cls, path: str | os.PathLike[str], sweep: Sweep | None = None, *, resume: bool = False
-    ) -> Dataset:
-        """Create the directory for ``sweep``, or (``resume``) reopen it.
+    ) -> Sweep:
+        """The sweep :meth:`open` would open in ``path``, checked without writing.
 
         Raises:
-            InvalidInput: The directory holds a sweep and ``resume`` is False; it
-                holds another sweep than ``sweep``; ``resume`` without a sweep there
-                and none given.
+            InvalidInput: ``path`` holds a sweep and ``resume`` is False; it holds
+                another sweep than ``sweep``; ``resume`` without a sweep there and
+                none given; ``path`` is a file, a non-empty directory holding no
+                sweep, or below a file.
         """
         p = Path(path)
         stored = cls.stored_sweep(p)
@@ -171,16 +172,41 @@ class Dataset:
                     f"{str(p)!r} holds another sweep ({stored.to_dict()}) than the one "
                     f"given ({sweep.to_dict()})"
                 )
-            for tmp in (p / ROWS_DIR).glob(".tmp-*"):  # a batch cut short by a kill
-                tmp.unlink()
-            return cls(p, stored)
+            return stored
         if sweep is None:
             raise InvalidInput(f"{str(p)!r} holds no sweep to resume ({SWEEP_FILE} is missing)")
         if p.exists() and (not p.is_dir() or any(p.iterdir())):
             raise InvalidInput(f"{str(p)!r} exists and is not an empty directory")
-        (p / ROWS_DIR).mkdir(parents=True, exist_ok=True)
-        _write_atomic(p / SWEEP_FILE, json.dumps(sweep.to_dict(), indent=2).encode())
-        return cls(p, sweep)
+        parent = p.absolute().parent
+        while not parent.exists():
+            parent = parent.parent
+        if not parent.is_dir():
+            raise InvalidInput(f"{str(p)!r} cannot be made: {str(parent)!r} is a file")
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise InvalidInput(f"{str(p)!r} cannot be made: {str(parent)!r} is not writable")
+        return sweep
+
+    @classmethod
+    def open(
+        cls, path: str | os.PathLike[str], sweep: Sweep | None = None, *, resume: bool = False
+    ) -> Dataset:
+        """Create the directory for ``sweep``, or (``resume``) reopen it.
+
+        Raises:
+            InvalidInput: As :meth:`check`.
+        """
+        p = Path(path)
+        checked = cls.check(p, sweep, resume=resume)
+        if cls.stored_sweep(p) is not None:
+            for tmp in (p / ROWS_DIR).glob(".tmp-*"):  # a batch cut short by a kill
+                tmp.unlink()
+            return cls(p, checked)
+        try:
+            (p / ROWS_DIR).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InvalidInput(f"{str(p)!r} cannot be made: {exc.strerror or exc}") from None
+        _write_atomic(p / SWEEP_FILE, json.dumps(checked.to_dict(), indent=2).encode())
+        return cls(p, checked)
 
     @staticmethod
     def stored_sweep(path: str | os.PathLike[str]) -> Sweep | None:

@@ -22,6 +22,7 @@ and is replaced by a new actor.
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import math
 import os
@@ -37,6 +38,7 @@ from typing import Any
 
 import pyarrow as pa
 
+from .. import inputs
 from ..exceptions import InvalidInput, PikError
 from .case import Worker
 from .dataset import Dataset, make_row
@@ -149,15 +151,11 @@ def _init_ray(address: str | None, num_cpus: int | None) -> bool:
         return False
     quiet = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.ERROR}
     if address is None:
-        if num_cpus is not None and (not isinstance(num_cpus, int) or num_cpus < 1):
-            raise InvalidInput(f"num_cpus must be an integer >= 1, got {num_cpus!r}")
         os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no network from a local run
         ray.init(
             address="local", num_cpus=num_cpus, object_store_memory=OBJECT_STORE_BYTES, **quiet
         )
     else:
-        if num_cpus is not None:
-            raise InvalidInput("num_cpus applies to a local Ray instance, not with an address")
         ray.init(address=address, **quiet)
     return True
 
@@ -197,10 +195,19 @@ def run_sweep(
         InvalidInput: Bad arguments, ``out`` holding another sweep, or more
             workers than the cluster has CPUs.
     """
-    if not isinstance(batch_size, int) or batch_size < 1:
-        raise InvalidInput(f"batch_size must be an integer >= 1, got {batch_size!r}")
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
-        raise InvalidInput(f"workers must be an integer >= 1, got {workers!r}")
+    batch_size = inputs.integer(batch_size, "batch_size", low=1)
+    if workers is not None:
+        workers = inputs.integer(workers, "workers", low=1)
+    if num_cpus is not None:
+        if address is not None:
+            raise InvalidInput("num_cpus applies to a local Ray instance, not with an address")
+        num_cpus = inputs.integer(num_cpus, "num_cpus", low=1)
+        if workers is not None and workers > num_cpus:
+            raise InvalidInput(f"workers={workers} but num_cpus={num_cpus}: each worker takes one")
+    if address is not None and (not isinstance(address, str) or not address):
+        raise InvalidInput(f"address must be a Ray address such as 'head:6379', got {address!r}")
+    if importlib.util.find_spec("ray") is None:
+        raise PikError("sweeps run on Ray, which is not installed: pip install 'pik_mj[sweep]'")
     data = Dataset.open(out, sweep, resume=resume)
     sweep = data.sweep
     done = data.done()

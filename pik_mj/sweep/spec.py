@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import InvalidInput
+from .. import inputs
+from ..exceptions import InvalidInput, UnknownName
 from .case import DEFAULT_HAND, PARAMETERS, REQUIRED, STACKS
 
 
@@ -37,14 +38,11 @@ def _name(name: Any) -> str:
     return str(name)
 
 
-def _finite(value: Any, what: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"{what} must be a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise InvalidInput(f"{what} must be finite, got {value!r}")
-    return v
+def _values(values: Any, name: str) -> list[Any]:
+    """The values of grid axis ``name``: a number or a list of them."""
+    if isinstance(values, (str, bytes, Mapping)):
+        raise InvalidInput(f"grid axis {name!r} must be numbers [m], got {values!r}")
+    return list(np.atleast_1d(np.asarray(values, dtype=object)))
 
 
 @dataclass(frozen=True)
@@ -64,7 +62,9 @@ class Grid:
             raise InvalidInput("a Grid needs at least one parameter axis")
         axes = {}
         for name, values in self.axes.items():
-            vals = tuple(_finite(v, f"grid value of {name!r}") for v in np.atleast_1d(values))
+            vals = tuple(
+                inputs.real(v, f"grid value of {name!r}", unit="m") for v in _values(values, name)
+            )
             if not vals:
                 raise InvalidInput(f"grid axis {name!r} has no values")
             if len(set(vals)) != len(vals):
@@ -106,18 +106,17 @@ class Uniform:
     def __post_init__(self) -> None:
         if not self.bounds:
             raise InvalidInput("a Uniform set needs at least one parameter range")
-        if not isinstance(self.n, (int, np.integer)) or self.n < 1:
-            raise InvalidInput(f"n must be an integer >= 1, got {self.n!r}")
+        n = inputs.integer(self.n, "n", low=1)
         bounds = {}
         for name, pair in self.bounds.items():
-            if len(pair) != 2:
-                raise InvalidInput(f"range of {name!r} must be (low, high), got {pair!r}")
-            lo, hi = (_finite(v, f"range of {name!r}") for v in pair)
+            if isinstance(pair, (str, bytes)) or not isinstance(pair, Sequence) or len(pair) != 2:
+                raise InvalidInput(f"range of {name!r} must be (low, high) [m], got {pair!r}")
+            lo, hi = (inputs.real(v, f"range of {name!r}", unit="m") for v in pair)
             if lo > hi:
                 raise InvalidInput(f"range of {name!r} is inverted: low {lo} > high {hi}")
             bounds[_name(name)] = (lo, hi)
         object.__setattr__(self, "bounds", bounds)
-        object.__setattr__(self, "n", int(self.n))
+        object.__setattr__(self, "n", n)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -192,23 +191,21 @@ class Sweep:
         missing = [k for k in REQUIRED if k not in self.space.names]
         if missing:
             raise InvalidInput(f"the sweep's space must set {missing} (hand target [m])")
-        for what, names in (("robots", self.robots), ("stacks", self.stacks)):
-            if isinstance(names, str) or not names:
-                raise InvalidInput(f"{what} must be a non-empty sequence of names, got {names!r}")
+        for what in ("robots", "stacks"):
+            names = inputs.names(getattr(self, what), what)
+            if not names:
+                raise InvalidInput(f"{what} must name at least one, got none")
             if len(set(names)) != len(names):
                 raise InvalidInput(f"{what} repeat a name: {list(names)}")
-        object.__setattr__(self, "robots", tuple(str(r) for r in self.robots))
-        object.__setattr__(self, "stacks", tuple(str(s) for s in self.stacks))
+            object.__setattr__(self, what, names)
         for s in self.stacks:
             if s not in STACKS:
-                raise InvalidInput(f"unknown stack {s!r}; valid stacks: {list(STACKS)}")
-        if not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise InvalidInput(f"seed must be an integer >= 0, got {self.seed!r}")
-        object.__setattr__(self, "seed", int(self.seed))
-        hold = _finite(self.hold, "hold")
-        if hold <= 0:
-            raise InvalidInput(f"hold must be a duration > 0 [s], got {self.hold}")
+                raise UnknownName("stack", s, STACKS)
+        object.__setattr__(self, "seed", inputs.integer(self.seed, "seed", low=0))
+        hold = inputs.real(self.hold, "hold", unit="s", low=0, low_open=True)
         object.__setattr__(self, "hold", hold)
+        if not isinstance(self.hand, str) or not self.hand:
+            raise InvalidInput(f"hand must be a limb name, got {self.hand!r}")
 
     def __len__(self) -> int:
         return len(self.robots) * len(self.stacks) * len(self.space)

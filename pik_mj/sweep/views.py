@@ -24,7 +24,7 @@ import numpy as np
 import pyarrow as pa
 
 from ..exceptions import InvalidInput
-from .case import REQUIRED, start_pose
+from .case import REQUIRED, standing_robot
 from .dataset import VERDICTS
 from .spec import Grid, Sweep
 
@@ -104,13 +104,13 @@ def _geom_points(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarr
     return data.geom_xpos[g] + local @ data.geom_xmat[g].reshape(3, 3).T
 
 
-def _silhouette(robot: str, axes: tuple[int, int]) -> list[np.ndarray]:
+def _silhouette(robot: str, hand: str, axes: tuple[int, int]) -> list[np.ndarray]:
     """The robot's start pose projected on the plane of ``axes``: one polygon (n, 2)
     [m] per visible robot geom (the convex hull of its projected surface points)."""
     from scipy.spatial import ConvexHull, QhullError
 
-    model, data, root = start_pose(robot)
-    root_id = model.body(root).id
+    r = standing_robot(robot, hand)
+    model, data, root_id = r.model, r.data, r.root_body_id
     polygons = []
     for g in range(model.ngeom):
         if model.body_rootid[model.geom_bodyid[g]] != root_id or model.geom_group[g] > 2:
@@ -180,7 +180,7 @@ def plot_map(
     stacks = [s for s in sweep.stacks if any(r["stack"] == s for r in rows)]
     fig = Figure(figsize=(max(2.9 * len(slices) + 0.6, 7.0), 3.3 * len(stacks) + 1.0), dpi=110)
     axes = fig.subplots(len(stacks), len(slices), squeeze=False, sharex=True, sharey=True)
-    robot_shape = _silhouette(robot, (REQUIRED.index(u), REQUIRED.index(v)))
+    robot_shape = _silhouette(robot, sweep.hand, (REQUIRED.index(u), REQUIRED.index(v)))
     for i, stack in enumerate(stacks):
         for j, (lo, hi, title) in enumerate(slices):
             ax = axes[i][j]
@@ -261,11 +261,11 @@ def log_map(
             np.min(np.diff(v)) for v in getattr(sweep.space, "axes", {}).values() if len(v) > 1
         ]
         radius = float(min(steps)) / 4 if steps else 0.015
-    model, data, root = start_pose(robot)
+    r = standing_robot(robot, sweep.hand)
     recorder = Recorder(stream)
-    recorder.log_model_geometry(model, data, robot_root_body=root)
-    recorder.log_body_poses(data, timeline="iteration", time=0)
-    recorder.close()  # sends the buffered rows; the stream stays the caller's
+    recorder.log_model_geometry(r.model, r.data, robot_root_body=r.root_body)
+    recorder.log_body_poses(r.data, timeline="iteration", time=0)
+    recorder.close(blueprint=False)  # sends the rows; the stream stays the caller's
     stacks = [s for s in sweep.stacks if any(r["stack"] == s for r in rows)]
     for stack in stacks:
         for k in VERDICTS:

@@ -12,7 +12,7 @@ penetrate), the distance changes to first order as
 (``J_p`` of a point fixed to the geom's body, ``mj_jac``). The seed's two zones:
 
 * yellow zone ``d_y`` (seed ``avoid-collision-distance``, 200 mm): a pair
-  farther apart contributes nothing (its row is inactive: unbounded);
+  farther apart contributes nothing (no row);
 * orange zone ``d_o`` (seed: 0.1 ``d_y``): the minimum distance kept.
 
 Inside the yellow zone a pair's row is the velocity damper of Faverjon &
@@ -30,6 +30,19 @@ hand's target it avoids even against the target (the seed's orange zone);
 below it, avoidance uses only what the target leaves free (the seed's null
 space term). Pair lists are built like the seed's
 ``collision-avoidance-link-pair-from-link-list``: see :func:`collision_pairs`.
+
+A pair already closer than ``d_o`` when the task is made (standing, Unitree
+H1's torso and right shoulder link are 3.5 mm apart, G1's elbow and wrist pitch
+links 9.5 mm) keeps that start distance ``d_0`` as its own bound,
+``d_o,i = min(d_o, d_0)``: it may not come closer, and the task can be satisfied
+(pushing it out to ``d_o`` could fight the feet and never converge).
+
+Each iteration measures only the pairs that can be in the yellow zone: a pair
+whose geoms' bounding spheres (``geom_rbound`` about ``geom_xpos``) or
+world-aligned boxes (MuJoCo's ``geom_aabb`` carried by ``geom_xmat``) are
+``d_y`` or more apart cannot be nearer than ``d_y``, so ``mj_geomDistance``
+runs only for the others, once per iteration (rows, error and stop test share
+it), and only the pairs that have come inside the yellow zone give rows.
 """
 
 from __future__ import annotations
@@ -43,7 +56,8 @@ import numpy as np
 
 from ..exceptions import InvalidInput, UnknownName
 from ..frames import names_of
-from .task import Task, TaskRows
+from .joint_limit import find_joint
+from .task import Task, TaskRows, TaskState
 
 DEFAULT_YELLOW = 0.2
 """Seed ``avoid-collision-distance`` [m] (200 mm)."""
@@ -155,6 +169,51 @@ def collision_pairs(
     return pairs
 
 
+def moving_pairs(
+    model: mujoco.MjModel, pairs: Sequence[GeomPair], joints: Sequence[str]
+) -> list[GeomPair]:
+    """The pairs whose distance the joints ``joints`` can change.
+
+    Two bodies move relative to each other only through the joints on the path
+    between them (up from each to their lowest common ancestor; a joint above
+    it, such as a floating base, moves both alike). A pair whose path holds no
+    joint of ``joints`` keeps its distance whatever the solve does: its row
+    could only be constant, and a solver given such rows (pinned by the hard
+    rows that freeze the other joints) converges slowly.
+
+    Args:
+        model: The model.
+        pairs: Candidate pairs (:func:`collision_pairs`).
+        joints: Names of the joints the solve moves.
+
+    Raises:
+        UnknownName: A joint name the model does not have.
+    """
+    moving = {find_joint(model, j).id for j in joints}
+
+    def chain(b: int) -> list[int]:
+        out = [b]
+        while out[-1] != 0:
+            out.append(int(model.body_parentid[out[-1]]))
+        return out
+
+    def path_joints(b1: int, b2: int) -> set[int]:
+        c1, c2 = chain(b1), chain(b2)
+        common = set(c1) & set(c2)
+        bodies = [b for b in c1 + c2 if b not in common]
+        return {
+            j
+            for b in bodies
+            for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b])
+        }
+
+    return [
+        p
+        for p in pairs
+        if path_joints(int(model.geom_bodyid[p.geom1]), int(model.geom_bodyid[p.geom2])) & moving
+    ]
+
+
 class PairDistance(NamedTuple):
     """Distance of one pair: ``d`` [m], witness points ``p_a``, ``p_b`` and normal ``n``."""
 
@@ -202,11 +261,13 @@ class CollisionAvoidanceTask(Task):
     """Keep geom pairs apart (seed yellow/orange zones), as inequality rows.
 
     Args:
-        configuration: Robot configuration (for name lookup).
+        configuration: Robot configuration: names, and the start distances.
         pairs: Geom pairs: ``(name1, name2)`` tuples or :class:`GeomPair`s
             (see :func:`collision_pairs` / :meth:`from_links`).
         yellow: Yellow zone ``d_y`` [m]: pairs farther apart are ignored.
-        orange: Orange zone ``d_o`` [m], the minimum distance (default ``0.1 d_y``).
+        orange: Orange zone ``d_o`` [m], the minimum distance (default ``0.1 d_y``);
+            a pair nearer than that in ``configuration`` keeps its distance there
+            instead (:meth:`keep_start_distances`).
         gain: Velocity-damper gain ``γ`` in (0, 1].
         weight: Slack weight of the rows [cost/m²].
         check: Whether the solve loop's stop test looks at this task
@@ -254,6 +315,19 @@ class CollisionAvoidanceTask(Task):
         self.gain, self.weight = float(gain), float(weight)
         self.check = check
         self.name = name
+        self._g1 = np.array([p.geom1 for p in self.pairs], dtype=int)
+        self._g2 = np.array([p.geom2 for p in self.pairs], dtype=int)
+        self.keep_start_distances(configuration)
+
+    def keep_start_distances(self, configuration: mink.Configuration) -> None:
+        """Bound each pair by ``min(d_o, d_0)``, ``d_0`` its distance at ``configuration``.
+
+        The constructor calls it with the configuration it is given (the start of
+        the solve); call it again to start from another configuration (it also
+        forgets which pairs have rows).
+        """
+        self.bounds = np.minimum(self.orange, self.distances(configuration, self.yellow))
+        self.row_pairs = np.zeros(0, dtype=int)
 
     @classmethod
     def from_links(
@@ -271,33 +345,96 @@ class CollisionAvoidanceTask(Task):
             )
         return cls(configuration, pairs, **kwargs)
 
+    def near_pairs(self, data: mujoco.MjData, distmax: float) -> np.ndarray:
+        """Indices of the pairs that may be nearer than ``distmax`` [m].
+
+        The distance of two geoms is at least the gap of their bounding spheres
+        and at least the gap of their world-aligned bounding boxes:
+
+        .. math::
+
+            d \\ge \\|c_1 - c_2\\| - r_1 - r_2, \\qquad
+            d \\ge \\big\\|\\max(0,\\ |a_1 - a_2| - (h_1 + h_2))\\big\\|
+
+        with ``c`` the geom centres, ``r`` MuJoCo's bounding radii, ``a`` and
+        ``h = |R| h_G`` the centres and half sizes of the geoms' boxes in the
+        world. A plane has no bound (``r = 0``): its pairs are always measured.
+        """
+        m = self.model
+        g1, g2 = self._g1, self._g2
+        c1, c2 = data.geom_xpos[g1], data.geom_xpos[g2]
+        lower = np.linalg.norm(c1 - c2, axis=1) - m.geom_rbound[g1] - m.geom_rbound[g2]
+        R1 = data.geom_xmat[g1].reshape(-1, 3, 3)
+        R2 = data.geom_xmat[g2].reshape(-1, 3, 3)
+        a1 = c1 + np.einsum("nij,nj->ni", R1, m.geom_aabb[g1, :3])
+        a2 = c2 + np.einsum("nij,nj->ni", R2, m.geom_aabb[g2, :3])
+        h1 = np.einsum("nij,nj->ni", np.abs(R1), m.geom_aabb[g1, 3:])
+        h2 = np.einsum("nij,nj->ni", np.abs(R2), m.geom_aabb[g2, 3:])
+        box_gap = np.linalg.norm(np.maximum(np.abs(a1 - a2) - h1 - h2, 0.0), axis=1)
+        unbounded = (m.geom_rbound[g1] == 0) | (m.geom_rbound[g2] == 0)
+        return np.flatnonzero(unbounded | (np.maximum(lower, box_gap) < distmax))
+
+    def _measure(
+        self, configuration: mink.Configuration, distmax: float
+    ) -> tuple[np.ndarray, dict[int, PairDistance]]:
+        """Distance of every pair capped at ``distmax`` [m], and the measured pairs."""
+        m, data = configuration.model, configuration.data
+        d = np.full(len(self.pairs), float(distmax))
+        measured = {}
+        for i in self.near_pairs(data, distmax):
+            pd = pair_distance(m, data, self.pairs[i], distmax)
+            d[i] = pd.distance
+            if pd.distance < distmax:
+                measured[int(i)] = pd
+        return d, measured
+
     def distances(self, configuration: mink.Configuration, distmax: float = 10.0) -> np.ndarray:
         """Signed distance of every pair [m] (capped at ``distmax``)."""
-        m, d = configuration.model, configuration.data
-        return np.array([pair_distance(m, d, p, distmax).distance for p in self.pairs])
+        return self._measure(configuration, distmax)[0]
 
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
+    def _rows(self, configuration: mink.Configuration, measured: dict[int, PairDistance]):
+        """One row per pair that has been inside the yellow zone since the start
+        (:attr:`row_pairs`, in pair order); a row is inactive (``0 x >= -d_y``)
+        while its pair is outside the zone.
+
+        Pairs never in the zone give no row: a row per pair would put hundreds
+        of inactive rows and slacks into every level's QP (579 pairs on G1). A
+        pair keeps its row once it had one, so that the QP's shape changes only
+        when a new pair comes near (each change costs the QP solver a new setup).
+        """
         m, data = configuration.model, configuration.data
-        # One row per pair, always (a fixed sparsity pattern for the QP backend).
-        # Outside the yellow zone a row is inactive: 0·x >= -d_y holds for every x.
-        C = np.zeros((len(self.pairs), m.nv))
-        lower = np.full(len(self.pairs), -self.yellow)
-        for i, pair in enumerate(self.pairs):
-            pd = pair_distance(m, data, pair, self.yellow)
-            if pd.distance >= self.yellow:
+        self.row_pairs = np.union1d(self.row_pairs, np.fromiter(measured, int, len(measured)))
+        C = np.zeros((len(self.row_pairs), m.nv))
+        lower = np.full(len(self.row_pairs), -self.yellow)
+        for r, i in enumerate(self.row_pairs):
+            if i not in measured:
                 continue
+            pd, pair = measured[i], self.pairs[i]
             J_a = _point_jacobian(m, data, pd.p_a, int(m.geom_bodyid[pair.geom1]))
             J_b = _point_jacobian(m, data, pd.p_b, int(m.geom_bodyid[pair.geom2]))
-            C[i] = pd.normal @ (J_a - J_b)
-            lower[i] = -self.gain * (pd.distance - self.orange)
-        return TaskRows.inequality(C, lower, np.inf, self.weight)
+            C[r] = pd.normal @ (J_a - J_b)
+            lower[r] = -self.gain * (pd.distance - self.bounds[i])
+        return TaskRows.inequality(C.reshape(-1, m.nv), lower, np.inf, self.weight)
+
+    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
+        return self._rows(configuration, self._measure(configuration, self.yellow)[1])
 
     def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
-        """How far each pair is inside the orange zone [m] (0 when clear)."""
-        return np.maximum(self.orange - self.distances(configuration, self.yellow), 0.0)
+        """How far each pair is inside its bound ``min(d_o, d_0)`` [m] (0 when clear)."""
+        return np.maximum(self.bounds - self.distances(configuration, self.yellow), 0.0)
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
         return bool(np.all(self.compute_error(configuration) <= 1e-6))
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, error and stop test from one measurement of the pairs."""
+        d, measured = self._measure(configuration, self.yellow)
+        error = np.maximum(self.bounds - d, 0.0)
+        return TaskState(
+            self._rows(configuration, measured),
+            float(np.linalg.norm(error)),
+            bool(np.all(error <= 1e-6)),
+        )
 
     def __repr__(self) -> str:
         return (

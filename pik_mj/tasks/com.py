@@ -29,60 +29,17 @@ import mink
 import mujoco
 import numpy as np
 
-from ..exceptions import InvalidInput, UnknownName
+from ..exceptions import InvalidInput
 from ..frames import Frame
-from .frame import AxisSpec, constrained_axes, skew
-from .task import Task, TaskRows, diagonal_weights
+from ..robot import robot_root_body
+from .frame import AxisSpec, constrained_axes, rotation_matrix, skew
+from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]
 
 
 def _body_name(model: mujoco.MjModel, b: int) -> str:
     return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"body#{b}"
-
-
-def robot_root_body(model: mujoco.MjModel, root_body: str | None = None) -> int:
-    """Id of the robot's top-level body.
-
-    Args:
-        model: The model.
-        root_body: A body name (any body except the world; its subtree is the
-            robot). None picks among the top-level bodies (children of the
-            world): those with a free joint if any, then the one with the most
-            degrees of freedom in its subtree.
-
-    Raises:
-        UnknownName: No body ``root_body``.
-        InvalidInput: ``root_body`` is the world, or the default is ambiguous.
-    """
-    top = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
-    names = [_body_name(model, b) for b in top]
-    if root_body is not None:
-        if not isinstance(root_body, str):
-            raise InvalidInput(f"root_body must be a body name, got {type(root_body).__name__}")
-        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-        if b < 0:
-            raise UnknownName("body", root_body, [_body_name(model, i) for i in range(model.nbody)])
-        if b == 0:
-            raise InvalidInput(
-                f"root_body {root_body!r} is the world body, whose subtree holds the "
-                f"environment too; give the robot's top-level body, one of {names}"
-            )
-        return int(b)
-    if not top:
-        raise InvalidInput("the model has no body besides the world")
-    free = int(mujoco.mjtJoint.mjJNT_FREE)
-    floating = [
-        b for b in top if model.body_jntnum[b] > 0 and model.jnt_type[model.body_jntadr[b]] == free
-    ]
-    candidates = floating or top
-    dofs = [int(model.body_dofnum[model.body_rootid == b].sum()) for b in candidates]
-    best = max(dofs)
-    if dofs.count(best) > 1:
-        raise InvalidInput(
-            f"cannot tell which top-level body is the robot among {names}; pass root_body"
-        )
-    return int(candidates[dofs.index(best)])
 
 
 def com_position(configuration: mink.Configuration, body: int) -> np.ndarray:
@@ -113,30 +70,10 @@ def frame_rotation_option(model: mujoco.MjModel, value: Any, frame_type: str | N
     any other string → a :class:`Frame` of the robot."""
     if isinstance(value, str):
         return None if value == "world" else Frame.find(model, value, frame_type)
-    if isinstance(value, mink.SO3):
-        return value.as_matrix()
-    arr = np.asarray(value, dtype=float)
-    if arr.shape == (4,) and np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0:
-        return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
-    if (
-        arr.shape == (3, 3)
-        and np.all(np.isfinite(arr))
-        and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
-        and np.linalg.det(arr) > 0
-    ):
-        return arr
-    raise InvalidInput(
-        "frame must be 'world', a frame name, a wxyz quaternion, a rotation matrix or "
-        f"a mink.SO3; got {value!r}"
-    )
+    return rotation_matrix(value, "frame", "'world', a frame name")
 
 
-def _clamp(v: np.ndarray, limit: float) -> np.ndarray:
-    n = float(np.linalg.norm(v))
-    return v if n <= limit else v * (limit / n)
-
-
-class CentroidTask(Task):
+class CentroidTask(EqualityTask):
     """Bring the robot's CoM onto a target position (seed ``target-centroid-pos-task``).
 
     Args:
@@ -188,14 +125,12 @@ class CentroidTask(Task):
         self.rows = constrained_axes(translation_axis, "translation_axis")
         self.frame = frame_rotation_option(model, frame, frame_type)
         self.w = diagonal_weights(w, 3, "w")
+        self.k = self.rows.size
+        self.weights = self.w[self.rows]
         if not (np.isfinite(p_limit) and p_limit > 0):
             raise InvalidInput(f"p_limit must be a positive finite number [m], got {p_limit}")
         self.p_limit = float(p_limit)
-        self.centroid_thre = np.asarray(centroid_thre, dtype=float)
-        if self.centroid_thre.shape not in ((), (3,)) or not np.all(self.centroid_thre >= 0):
-            raise InvalidInput(
-                f"centroid_thre must be a float or 3-vector >= 0 [m], got {centroid_thre!r}"
-            )
+        self.centroid_thre = tolerance(centroid_thre, "centroid_thre", "m")
         if com_offset is not None and not callable(com_offset):
             raise InvalidInput("com_offset must be a callable f(configuration) -> 3-vector")
         self.com_offset = com_offset
@@ -246,19 +181,12 @@ class CentroidTask(Task):
             J = J + skew(self._error_world(configuration)) @ J_w
         return (self._R_WF(configuration).T @ J)[self.rows]
 
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        e = self.compute_error(configuration)
-        return TaskRows.equality(
-            self.compute_jacobian(configuration), -_clamp(e, self.p_limit), self.w[self.rows]
-        )
+    def clamp(self, e: np.ndarray) -> np.ndarray:
+        """``e`` scaled to norm ``p_limit`` if longer (a copy)."""
+        return clamp_norm(e.copy(), self.p_limit)
 
-    def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        e = self.compute_error(configuration)
-        if e.size == 0:
-            return True
-        if self.centroid_thre.ndim == 0:
-            return bool(np.linalg.norm(e) <= self.centroid_thre)
-        return bool(np.all(np.abs(e) <= self.centroid_thre[self.rows]))
+    def satisfied_by(self, e: np.ndarray) -> bool:
+        return within(e, self.centroid_thre, self.rows)
 
     def __repr__(self) -> str:
         frame = (

@@ -161,12 +161,15 @@ class JointLimitTask(Task):
     Args:
         configuration: Robot configuration (for name lookup and model limits).
         joints: A joint name or names (hinge, slide, ball). None: every joint the
-            model limits (``jnt_limited``) except free joints.
+            model limits (``jnt_limited``) except free joints (no rows when the
+            model limits none).
         min_angle: Lower limits [rad or m]: a float for all joints or one per
-            joint; None reads the model's ``jnt_range``. Ball joints take 0 (or
-            None): their limit is the cone angle ``max_angle``.
-        max_angle: Upper limits [rad or m]; for ball joints the largest rotation
-            angle [rad] (> 0). None reads ``jnt_range``.
+            joint (``-inf`` allowed); None reads the model's ``jnt_range``, or
+            ``-inf`` for a joint without a range (``limited="false"``: unbounded).
+            Ball joints take 0 (or None): their limit is the cone angle ``max_angle``.
+        max_angle: Upper limits [rad or m] (``inf`` allowed); for ball joints the
+            largest rotation angle [rad] (> 0). None reads ``jnt_range``, or
+            ``inf`` for a joint without a range.
         w: Slack weight(s), float or one per row.
         check: Whether the solve loop's stop test looks at this task.
         check_margin: Violation tolerated by the stop test [rad or m]; default
@@ -194,28 +197,26 @@ class JointLimitTask(Task):
                 for j in range(model.njnt)
                 if model.jnt_limited[j] and JOINT_TYPES[int(model.jnt_type[j])] in kinds
             ]
-            if not ids:
-                raise InvalidInput("the model has no limited hinge, slide or ball joint")
             names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in ids]
             if any(not n for n in names):
                 raise InvalidInput("every limited joint needs a name to build a JointLimitTask")
-            joints = names
-        self.joints = joint_list(model, joints, kinds, "JointLimitTask joint")
+            # A model without any range (every joint unbounded) gets a task without rows.
+            self.joints = joint_list(model, names, kinds, "JointLimitTask joint") if ids else []
+        else:
+            self.joints = joint_list(model, joints, kinds, "JointLimitTask joint")
         n = len(self.joints)
         lo = _per_joint(min_angle, n, "min_angle")
         hi = _per_joint(max_angle, n, "max_angle")
         self.min_angle = np.zeros(n)
         self.max_angle = np.zeros(n)
         for i, jr in enumerate(self.joints):
-            if lo is None or hi is None:
-                if not model.jnt_limited[jr.id]:
-                    raise InvalidInput(
-                        f"joint {jr.name!r} is not limited in the model (limited=false); "
-                        "pass min_angle and max_angle"
-                    )
-            m_lo = model.jnt_range[jr.id, 0] if lo is None else lo[i]
-            m_hi = model.jnt_range[jr.id, 1] if hi is None else hi[i]
-            if jr.kind == "ball":
+            # A joint without a range (limited=false) is unbounded where no value is given.
+            bounded = bool(model.jnt_limited[jr.id])
+            m_lo = (model.jnt_range[jr.id, 0] if bounded else -np.inf) if lo is None else lo[i]
+            m_hi = (model.jnt_range[jr.id, 1] if bounded else np.inf) if hi is None else hi[i]
+            if jr.kind == "ball" and m_lo == -np.inf and m_hi == np.inf:
+                m_lo = 0.0  # an unbounded cone
+            elif jr.kind == "ball":
                 if m_lo != 0.0:
                     raise InvalidInput(
                         f"ball joint {jr.name!r}: min_angle must be 0 (the limit is the "

@@ -57,7 +57,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.walking.preview import STANDARD_GRAVITY, PreviewController
+from pik_mj.spatial import STANDARD_GRAVITY, rot_z
+from pik_mj.walking.preview import PreviewController
 
 __all__ = [
     "Footstep",
@@ -75,11 +76,6 @@ DOUBLE_SUPPORT = "double"
 def wrap_angle(angle: float | np.ndarray) -> float | np.ndarray:
     """Angle wrapped to [-pi, pi) [rad]."""
     return (np.asarray(angle) + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def _rot_z(yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 @dataclass(frozen=True)
@@ -113,7 +109,7 @@ class Footstep:
     @property
     def R_WF(self) -> np.ndarray:
         """Rotation of the sole frame in the world (3, 3)."""
-        return _rot_z(self.yaw)
+        return rot_z(self.yaw)
 
     def point(self, p_F: np.ndarray) -> np.ndarray:
         """World position of a point given in the sole frame [m]."""
@@ -221,7 +217,9 @@ class GaitParameters:
         q: Preview control weight on the ZMP error [1/m^2].
         r: Preview control weight on the jerk increment [s^6/m^2].
         preview_time: Preview horizon in [s].
-        gravity: Gravitational acceleration in [m/s^2].
+        gravity: Gravitational acceleration in [m/s^2]; None: the robot model's
+            (:func:`pik_mj.walking.wholebody.calc_walk_pattern`), or
+            :data:`pik_mj.spatial.STANDARD_GRAVITY` for a plan made without one.
     """
 
     step_time: float = 1.0
@@ -235,7 +233,7 @@ class GaitParameters:
     q: float = 1.0
     r: float = 1e-6
     preview_time: float = 1.6
-    gravity: float = STANDARD_GRAVITY
+    gravity: float | None = None
 
     def __post_init__(self) -> None:
         _finite("step_time", self.step_time, low=0.0, low_open=True)
@@ -253,7 +251,8 @@ class GaitParameters:
         _finite("q", self.q, low=0.0, low_open=True)
         _finite("r", self.r, low=0.0, low_open=True)
         _finite("preview_time", self.preview_time, low=0.0, low_open=True)
-        _finite("gravity", self.gravity, low=0.0, low_open=True)
+        if self.gravity is not None:
+            _finite("gravity", self.gravity, low=0.0, low_open=True)
         limbs = tuple(self.all_limbs)
         if len(limbs) != 2 or len(set(limbs)) != 2 or not all(isinstance(x, str) for x in limbs):
             raise InvalidInput(f"all_limbs must be two distinct limb names, got {self.all_limbs!r}")
@@ -459,7 +458,7 @@ def plan_gait(
         q=params.q,
         r=params.r,
         preview_time=params.preview_time,
-        gravity=params.gravity,
+        gravity=STANDARD_GRAVITY if params.gravity is None else params.gravity,
     )
     result = controller.run(zmp_ref[:, :2])
     final_feet = {lb: Footstep(lb, stances[-1][lb].p_W, stances[-1][lb].yaw) for lb in limbs}

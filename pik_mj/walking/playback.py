@@ -1,8 +1,9 @@
 """Play a :class:`~pik_mj.walking.wholebody.WalkPattern` in MuJoCo physics.
 
-The robot stands on a floor (:class:`pik_mj.sim.Scene`, no environment) with a
-position servo on every hinge joint; the physics starts at rest in the pattern's
-first configuration and the servo targets follow the pattern, linearly
+The robot stands in its :class:`pik_mj.sim.Scene` (made with
+:meth:`~pik_mj.sim.Scene.from_robot`: a floor, a position servo on every hinge
+joint; the walks use :data:`WALK_CONTACT`); the physics starts at rest in the
+pattern's first configuration and the servo targets follow the pattern, linearly
 interpolated at the physics rate. With MuJoCo's position actuator
 :math:`\\tau = k_p (u - q) - k_v \\dot q`, the control
 
@@ -35,18 +36,25 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from pik_mj.balance import convex_hull_2d
 from pik_mj.dynamics import joint_torques, root_wrench
 from pik_mj.exceptions import InvalidInput
-from pik_mj.record import PATHS, Recorder
-from pik_mj.sim import ContactParams, RobotLike, Scene
+from pik_mj.record import Recorder
+from pik_mj.sim import ContactParams, Scene
+from pik_mj.spatial import yaw_of
 from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle
-from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern, sole_corners
+from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern
 
-__all__ = ["PlaybackReport", "evaluate_walk", "feedforward_torques", "play_walk_pattern"]
+__all__ = [
+    "WALK_CONTACT",
+    "PlaybackReport",
+    "evaluate_walk",
+    "feedforward_torques",
+    "play_walk_pattern",
+]
 
-DEFAULT_CONTACT = ContactParams()
-"""Sole/floor contact: MuJoCo's defaults with friction 1."""
+WALK_CONTACT = ContactParams()
+"""Sole/floor contact of the walks (``Scene.from_robot(robot, contact=WALK_CONTACT)``):
+MuJoCo's defaults with friction 1."""
 
 
 @dataclass(frozen=True)
@@ -197,43 +205,34 @@ def feedforward_torques(
 
 def play_walk_pattern(
     pattern: WalkPattern,
-    robot: RobotLike = "sample_humanoid",
+    scene: Scene,
     *,
-    kp: float = 3000.0,
-    kv: float = 60.0,
-    timestep: float = 0.002,
     settle_time: float = 1.0,
     velocity_feedforward: bool = True,
     torque_feedforward: bool = True,
-    contact: ContactParams | None = DEFAULT_CONTACT,
     feet_frames: Mapping[str, str] = DEFAULT_FEET,
     fall_ratio: float = 0.8,
     recorder: Recorder | None = None,
     record_every: int = 2,
 ) -> PlaybackReport:
-    """Play ``pattern`` with joint servos on a floor and measure the outcome.
+    """Play ``pattern`` with the scene's joint servos and measure the outcome.
 
     Args:
-        pattern: The walking pattern (configurations of ``robot``'s model).
-        robot: Model name, MJCF path or spec of the robot the pattern is for.
-        kp: Servo stiffness [N m/rad].
-        kv: Servo damping [N m s/rad].
-        timestep: Physics time step [s].
+        pattern: The walking pattern (configurations of the scene's robot).
+        scene: The robot's scene (:meth:`pik_mj.sim.Scene.from_robot`; its servo
+            gains, time step and contacts are the playback's).
         settle_time: Time the last targets are held after the pattern [s].
         velocity_feedforward: Damp the velocity error instead of the velocity
             (module docstring).
         torque_feedforward: Add the pattern's joint torques
             (:func:`feedforward_torques`) to the servo torques (``qfrc_applied``).
-        contact: Contact parameters of the soles and the floor (see
-            :class:`pik_mj.sim.ContactParams`); None keeps the model's.
         feet_frames: Sole site of each limb.
         fall_ratio: Root height ratio below which the robot counts as fallen;
             the simulation stops there.
-        recorder: If given, logged on the ``sim_time`` timeline: body poses,
-            CoM (target: planned CoM), the contact ZMP (``world/zmp``), the
-            reference and inverse-dynamics ZMPs of the pattern
-            (``world/zmp/reference``, ``world/zmp/inverse_dynamics``) and the
-            planned support polygon.
+        recorder: If given, logged on the ``sim_time`` timeline: the body poses
+            every ``record_every`` ticks, then the walk's series
+            (:meth:`pik_mj.record.Recorder.log_walk`: footsteps, ZMPs, CoM,
+            support polygon, margins).
         record_every: Log every n-th pattern tick.
 
     Returns:
@@ -241,37 +240,37 @@ def play_walk_pattern(
 
     Raises:
         SimulationUnstable: MuJoCo warned or the state became non-finite.
-        InvalidInput: Bad gains, times, or a pattern for another model.
+        InvalidInput: Bad times, or a pattern for another robot.
     """
-    for label, v in (("kp", kp), ("timestep", timestep)):
-        if not (math.isfinite(v) and v > 0):
-            raise InvalidInput(f"{label} must be finite and > 0, got {v}")
-    for label, v in (("kv", kv), ("settle_time", settle_time)):
-        if not (math.isfinite(v) and v >= 0):
-            raise InvalidInput(f"{label} must be finite and >= 0, got {v}")
+    if not isinstance(scene, Scene):
+        raise InvalidInput(
+            f"play_walk_pattern needs the robot's Scene (Scene.from_robot), got "
+            f"{type(scene).__name__}"
+        )
+    if not (math.isfinite(settle_time) and settle_time >= 0):
+        raise InvalidInput(f"settle_time must be finite and >= 0, got {settle_time}")
     if not 0.0 < fall_ratio < 1.0:
         raise InvalidInput(f"fall_ratio must be in (0, 1), got {fall_ratio}")
     if int(record_every) != record_every or record_every < 1:
         raise InvalidInput(f"record_every must be an integer >= 1, got {record_every}")
-    scene = Scene(robot, None, timestep=timestep, kp=kp, kv=kv, contact=contact)
     model, data = scene.model, scene.data
+    timestep = float(model.opt.timestep)
     if pattern.q.shape[1] != scene.robot_nq:
         raise InvalidInput(
-            f"the pattern has configurations of size {pattern.q.shape[1]}, the robot "
-            f"model {scene.robot_nq}: play it with the robot it was made for"
+            f"the pattern has configurations of size {pattern.q.shape[1]}, the scene's "
+            f"robot {scene.robot_nq}: play it with the robot it was made for"
         )
     joints = scene.servo_joints
-    rm = scene.robot_model
+    rm = scene.robot.model  # its joints are the scene's first ones
     q_adr = np.array([rm.jnt_qposadr[rm.joint(j).id] for j in joints])
-    scene_qadr = np.array([model.jnt_qposadr[model.joint(j).id] for j in joints])
+    dofs = np.array([rm.jnt_dofadr[rm.joint(j).id] for j in joints])
     act_ids = np.array([model.actuator(f"{j}_servo").id for j in joints])
+    gains = np.array([scene.servo_gains[j] for j in joints])
     q_ref = pattern.q[:, q_adr]
     qd_ref = np.gradient(q_ref, pattern.dt, axis=0)
-    gain_v = kv / kp if velocity_feedforward else 0.0
-    dof_rm = np.array([rm.jnt_dofadr[rm.joint(j).id] for j in joints])
-    dof_scene = np.array([model.jnt_dofadr[model.joint(j).id] for j in joints])
+    gain_v = gains[:, 1] / gains[:, 0] if velocity_feedforward else np.zeros(len(joints))
     if torque_feedforward:
-        tau_ff = feedforward_torques(rm, pattern, feet_frames)[:, dof_rm]
+        tau_ff = feedforward_torques(rm, pattern, feet_frames)[:, dofs]
     else:
         tau_ff = np.zeros_like(q_ref)
 
@@ -323,9 +322,9 @@ def play_walk_pattern(
         if fz_sum > 1e-6:
             zmp[k] = p_sum / fz_sum
         if k < K:
-            joint_err = max(joint_err, float(np.max(np.abs(data.qpos[scene_qadr] - q_ref[k]))))
+            joint_err = max(joint_err, float(np.max(np.abs(data.qpos[q_adr] - q_ref[k]))))
         if recorder is not None and k % record_every == 0:
-            _record(recorder, data, pattern, min(k, K - 1), t_samples[k], com[k], zmp[k])
+            recorder.log_body_poses(data, timeline="sim_time", time=t_samples[k])
         if root_p[k, 2] < fall_ratio * standing:
             n_done = k + 1
             break
@@ -342,13 +341,12 @@ def play_walk_pattern(
             if j < K - 1:
                 target = target + gain_v * ((1.0 - a) * qd_ref[j] + a * qd_ref[j1])
             data.ctrl[act_ids] = target
-            data.qfrc_applied[dof_scene] = (1.0 - a) * tau_ff[j] + a * tau_ff[j1]
+            data.qfrc_applied[dofs] = (1.0 - a) * tau_ff[j] + a * tau_ff[j1]
             scene.step(1)
     wall = time.perf_counter() - wall0
     yaw_error = 0.0
     for lb, site in site_ids.items():
-        R = data.site_xmat[site].reshape(3, 3)
-        e = wrap_angle(np.arctan2(R[1, 0], R[0, 0]) - plan.final_feet[lb].yaw)
+        e = wrap_angle(yaw_of(data.site_xmat[site].reshape(3, 3)) - plan.final_feet[lb].yaw)
         yaw_error = max(yaw_error, abs(float(e)))
 
     sl = slice(0, n_done)
@@ -362,7 +360,7 @@ def play_walk_pattern(
             d = np.linalg.norm(xy - plan.feet_p[lb][a:b, :2], axis=1)
             ferr = max(ferr, float(d.max()))
     fell = bool(heights.min() < fall_ratio * standing or bad)
-    return PlaybackReport(
+    report = PlaybackReport(
         t=t_samples[sl],
         root_p=root_p[sl],
         com=com[sl],
@@ -380,41 +378,17 @@ def play_walk_pattern(
         joint_error_max=joint_err,
         wall_time=wall,
         params={
-            "kp": kp,
-            "kv": kv,
+            "kp": float(gains[:, 0].max()),
+            "kv": float(gains[:, 1].max()),
             "timestep": timestep,
             "settle_time": settle_time,
             "velocity_feedforward": velocity_feedforward,
             "torque_feedforward": torque_feedforward,
         },
     )
-
-
-def _record(
-    recorder: Recorder,
-    data: mujoco.MjData,
-    pattern: WalkPattern,
-    k: int,
-    t: float,
-    com: np.ndarray,
-    zmp: np.ndarray,
-) -> None:
-    """Log one sample on the ``sim_time`` timeline."""
-    recorder.log_body_poses(data, timeline="sim_time", time=t)
-    recorder.log_com(com, target=pattern.com_ref[k])
-    z = pattern.plan.ground_z
-    if np.all(np.isfinite(zmp)):
-        recorder.log_point(PATHS.zmp, [zmp[0], zmp[1], z], radius=0.02, color=(255, 0, 255))
-    for name, p_xy, color in (
-        ("reference", pattern.zmp_ref[k], (40, 200, 40)),
-        ("inverse_dynamics", pattern.zmp_computed[k], (255, 140, 0)),
-    ):
-        recorder.log_point(f"{PATHS.zmp}/{name}", [p_xy[0], p_xy[1], z], radius=0.015, color=color)
-    plan = pattern.plan
-    limbs = plan.params.all_limbs if plan.support[k] == DOUBLE_SUPPORT else (plan.support[k],)
-    corners = np.vstack([sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k]) for lb in limbs])
-    hull = convex_hull_2d(corners)
-    recorder.log_polygon(np.column_stack([hull, np.full(len(hull), z)]))
+    if recorder is not None:
+        recorder.log_walk(pattern, report)
+    return report
 
 
 def evaluate_walk(

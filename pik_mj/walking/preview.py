@@ -39,6 +39,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.spatial import STANDARD_GRAVITY
 
 __all__ = [
     "PreviewController",
@@ -49,8 +50,6 @@ __all__ = [
     "preview_gains",
     "solve_riccati_by_iteration",
 ]
-
-STANDARD_GRAVITY = 9.81  # [m/s^2]
 
 
 def _positive_finite(name: str, value: float) -> float:

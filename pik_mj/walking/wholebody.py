@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mink
 import numpy as np
@@ -29,53 +29,43 @@ import numpy as np
 from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_distance
 from pik_mj.dynamics import zmp_of_motion
 from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.ik import sole_size
 from pik_mj.robot import Robot
 from pik_mj.solve import solve
+from pik_mj.spatial import rot_z, yaw_of
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import MinkLimit, MinkTask
-from pik_mj.walking import footsteps as footstep_planning
 from pik_mj.walking.gait import DOUBLE_SUPPORT, Footstep, GaitParameters, GaitPlan, plan_gait
 
 __all__ = [
     "DEFAULT_FEET",
-    "SOLE_SIZE",
     "WalkPattern",
     "calc_walk_pattern",
     "feet_from_robot",
-    "go_pos",
     "sole_corners",
-    "straight_walk",
     "support_margin",
 ]
 
 DEFAULT_FEET: dict[str, str] = {"rleg": "rleg_end", "lleg": "lleg_end"}
 """Sole frame (site, z up, x forward) of each leg of the sample humanoid."""
 
-SOLE_SIZE: tuple[float, float] = (0.22, 0.12)
-"""Sole rectangle of the sample humanoid, length x width in [m]."""
-
-
-def _rot_z(yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 # ---------------------------------------------------------------------------
 # Support polygon
 
 
-def sole_corners(p_W: np.ndarray, yaw: float, size: Sequence[float] = SOLE_SIZE) -> np.ndarray:
-    """Corners (4, 2) [m] of a sole rectangle ``size`` centred on the sole frame."""
+def sole_corners(p_W: np.ndarray, yaw: float, size: Sequence[float]) -> np.ndarray:
+    """Corners (4, 2) [m] of a sole rectangle ``size`` (length, width) [m] centred
+    on the sole frame (:func:`pik_mj.ik.sole_size` measures a robot's)."""
     hx, hy = 0.5 * float(size[0]), 0.5 * float(size[1])
     local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-    return np.asarray(p_W, dtype=float)[:2] + local @ _rot_z(yaw)[:2, :2].T
+    return np.asarray(p_W, dtype=float)[:2] + local @ rot_z(yaw)[:2, :2].T
 
 
 def support_margin(
     plan: GaitPlan,
     zmp: np.ndarray,
-    sole_size: Sequence[float] = SOLE_SIZE,
+    sole_size: Sequence[float],
 ) -> np.ndarray:
     """Signed distance of the ZMP to the support polygon at every tick [m].
 
@@ -132,6 +122,7 @@ class WalkPattern:
         ik_feet_error: Largest sole position error per tick (K,) [m].
         ik_com_error: CoM position error per tick (K,) [m].
         solve_time: Wall time of the IK over all ticks [s].
+        sole_size: Length and width of the robot's soles [m] (its support polygons).
     """
 
     t: np.ndarray
@@ -152,20 +143,20 @@ class WalkPattern:
     ik_feet_error: np.ndarray
     ik_com_error: np.ndarray
     solve_time: float
+    sole_size: tuple[float, float]
 
     @property
     def duration(self) -> float:
         """Total duration [s]."""
         return float(self.t[-1])
 
-    def support_margin(
-        self, which: str = "computed", sole_size: Sequence[float] = SOLE_SIZE
-    ) -> np.ndarray:
-        """:func:`support_margin` of ``zmp_computed``, ``zmp_cart`` or ``zmp_ref`` [m]."""
+    def support_margin(self, which: str = "computed") -> np.ndarray:
+        """:func:`support_margin` of ``zmp_computed``, ``zmp_cart`` or ``zmp_ref`` [m]
+        with the robot's soles."""
         zmp = {"computed": self.zmp_computed, "cart": self.zmp_cart, "ref": self.zmp_ref}
         if which not in zmp:
             raise UnknownName("zmp", which, zmp)
-        return support_margin(self.plan, zmp[which], sole_size)
+        return support_margin(self.plan, zmp[which], self.sole_size)
 
     def zmp_tracking(self) -> dict[str, float]:
         """Max and RMS distance [m] of the cart-table and computed ZMPs to the reference."""
@@ -197,8 +188,7 @@ def feet_from_robot(
     out = {}
     for limb, site in feet_frames.items():
         X = robot.frame_pose(site, "site")
-        R = X.rotation().as_matrix()
-        out[limb] = Footstep(limb, X.translation(), float(np.arctan2(R[1, 0], R[0, 0])))
+        out[limb] = Footstep(limb, X.translation(), yaw_of(X.rotation().as_matrix()))
     return out
 
 
@@ -267,6 +257,8 @@ def calc_walk_pattern(
         The :class:`WalkPattern`.
     """
     params = GaitParameters() if params is None else params
+    if params.gravity is None:  # the robot's world
+        params = replace(params, gravity=float(np.linalg.norm(robot.model.opt.gravity)))
     if not robot.has_floating_base:
         raise InvalidInput("calc_walk_pattern needs a robot with a free joint on its root body")
     missing = [lb for lb in params.all_limbs if lb not in feet_frames]
@@ -278,6 +270,7 @@ def calc_walk_pattern(
     configuration = robot.configuration
     model = robot.model
     initial_feet = feet_from_robot(robot, feet_frames)
+    soles = sole_size(robot, params.all_limbs)
     ground_z = float(np.mean([f.p_W[2] for f in initial_feet.values()]))
     if com_height is None:
         com_height = float(robot.com()[2]) - ground_z
@@ -328,10 +321,10 @@ def calc_walk_pattern(
         yaw_mid = 0.0
         for lb, task in feet_tasks.items():
             yaw = float(plan.feet_yaw[lb][k])
-            task.set_target((plan.feet_p[lb][k], _rot_z(yaw)))
+            task.set_target((plan.feet_p[lb][k], rot_z(yaw)))
             yaw_mid += yaw / len(feet_tasks)
         com.set_target(com_ref[k])
-        upright.set_target((np.zeros(3), _rot_z(yaw_mid)))
+        upright.set_target((np.zeros(3), rot_z(yaw_mid)))
         result = solve(
             configuration,
             levels,
@@ -374,46 +367,5 @@ def calc_walk_pattern(
         ik_feet_error=feet_err,
         ik_com_error=np.linalg.norm(com_achieved - com_ref, axis=1),
         solve_time=solve_time,
+        sole_size=soles,
     )
-
-
-def go_pos(
-    robot: Robot,
-    x: float,
-    y: float,
-    theta: float,
-    params: GaitParameters | None = None,
-    *,
-    feet_frames: Mapping[str, str] = DEFAULT_FEET,
-    go_pos_args: Mapping[str, float] | None = None,
-    **kwargs,
-) -> WalkPattern:
-    """Walk to ``(x [m], y [m], theta [rad])`` in the current mid-feet frame.
-
-    :func:`pik_mj.walking.footsteps.go_pos` from the robot's current feet
-    (``go_pos_args`` are its keyword arguments), then :func:`calc_walk_pattern`
-    (``kwargs``).
-    """
-    feet = feet_from_robot(robot, feet_frames)
-    steps = footstep_planning.go_pos(x, y, theta, feet, **dict(go_pos_args or {}))
-    return calc_walk_pattern(robot, steps, params, feet_frames=feet_frames, **kwargs)
-
-
-def straight_walk(
-    robot: Robot,
-    n_steps: int,
-    stride: float,
-    params: GaitParameters | None = None,
-    *,
-    feet_frames: Mapping[str, str] = DEFAULT_FEET,
-    first_limb: str = "lleg",
-    **kwargs,
-) -> WalkPattern:
-    """Walk ``n_steps`` straight ahead by ``stride`` [m] and close the feet.
-
-    :func:`pik_mj.walking.footsteps.straight_steps`, then
-    :func:`calc_walk_pattern` (``kwargs``).
-    """
-    feet = feet_from_robot(robot, feet_frames)
-    steps = footstep_planning.straight_steps(n_steps, stride, feet, first_limb=first_limb)
-    return calc_walk_pattern(robot, steps, params, feet_frames=feet_frames, **kwargs)

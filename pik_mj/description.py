@@ -1,0 +1,237 @@
+"""A robot description: what a user writes when the kinematic tree is not enough.
+
+A few lines of TOML (or the same keys in JSON) name the robot's limbs (by their
+end frame, optionally their joints or first body), the keyframe to stand in,
+the root body and the collision geoms of each sole. Everything left out is
+found as usual (:func:`pik_mj.limbs.find_limbs`, :func:`pik_mj.keyframes.standing_pose`,
+:func:`pik_mj.ground.sole_polygons`)::
+
+    # h1_description.toml
+    model = "unitree_h1"              # a model name or an MJCF path (relative to this file)
+    keyframe = "stand"                # a keyframe name, or an index for an unnamed one
+    root_body = "pelvis"
+
+    [limbs.rarm]
+    end = "right_elbow_link"          # a site or body: the end frame
+    [limbs.larm]
+    end = "left_elbow_link"
+    joints = ["left_shoulder_pitch", "left_shoulder_roll", "left_shoulder_yaw", "left_elbow"]
+
+    [soles]
+    rleg = ["right_sole"]             # collision geoms the right foot stands on
+
+Load it with :func:`load_description`; :func:`robot_limbs` gives the limbs.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from .exceptions import InvalidInput
+from .keyframes import StandingPose, standing_pose
+from .limbs import HUMANOID_LIMBS, LimbsNotFound, find_limbs, limb_from_end
+from .models import _looks_like_path as looks_like_path
+from .robot import Limb
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python 3.10 only
+    import tomli as tomllib
+
+_TOP_KEYS = ("model", "root_body", "keyframe", "limbs", "soles")
+_LIMB_KEYS = ("end", "joints", "start")
+
+
+@dataclass(frozen=True)
+class LimbDescription:
+    """One limb: its end frame, and optionally its joints or its first body.
+
+    Attributes:
+        end: Site or body name of the end frame.
+        joints: Hinge/slide joint names, root first; empty: found from the tree.
+        start: First body of the chain when ``joints`` is empty; None: below the
+            nearest branching body above ``end``.
+    """
+
+    end: str
+    joints: tuple[str, ...] = ()
+    start: str | None = None
+
+
+@dataclass(frozen=True)
+class RobotDescription:
+    """What a user states about a robot (module docstring); None / empty = find it.
+
+    Attributes:
+        model: Model name or MJCF path the description is for.
+        root_body: The robot's top-level body.
+        keyframe: Keyframe name, or index, to stand in.
+        limbs: Limbs by name (``rarm``, ``larm``, ``rleg``, ``lleg``, ``torso``, ``head``).
+        soles: Collision geom names of each leg's sole, by leg name.
+    """
+
+    model: str | None = None
+    root_body: str | None = None
+    keyframe: str | int | None = None
+    limbs: Mapping[str, LimbDescription] = field(default_factory=dict)
+    soles: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], base_dir: str | os.PathLike[str] | None = None):
+        """Read the keys of a description file (module docstring).
+
+        Args:
+            data: The parsed file.
+            base_dir: Folder a relative MJCF path in ``model`` is relative to.
+
+        Raises:
+            InvalidInput: An unknown key or a value of the wrong type (the message
+                names the key and the valid ones).
+        """
+        if not isinstance(data, Mapping):
+            raise InvalidInput(f"a robot description is a table of keys, got {type(data).__name__}")
+        _only(data, _TOP_KEYS, "robot description")
+        model = _optional_str(data, "model")
+        if model is not None and base_dir is not None and looks_like_path(model):
+            model = str((Path(base_dir) / model).resolve())
+        keyframe = data.get("keyframe")
+        if keyframe is not None and (
+            isinstance(keyframe, bool) or not isinstance(keyframe, (str, int))
+        ):
+            raise InvalidInput(f"keyframe must be a name or an index, got {keyframe!r}")
+        limbs = {}
+        for name, limb in _table(data, "limbs").items():
+            where = f"limbs.{name}"
+            if not isinstance(limb, Mapping):
+                raise InvalidInput(f"{where} must be a table with an 'end' key, got {limb!r}")
+            _only(limb, _LIMB_KEYS, where)
+            end = _optional_str(limb, "end", where)
+            if end is None:
+                raise InvalidInput(f"{where} needs 'end': the site or body the limb ends at")
+            limbs[str(name)] = LimbDescription(
+                end, _names(limb.get("joints", ()), f"{where}.joints"), _optional_str(limb, "start")
+            )
+        soles = {str(k): _names(v, f"soles.{k}") for k, v in _table(data, "soles").items()}
+        return cls(model, _optional_str(data, "root_body"), keyframe, limbs, soles)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The keys of a description file (the inverse of :meth:`from_dict`)."""
+        out: dict[str, Any] = {
+            k: getattr(self, k)
+            for k in ("model", "root_body", "keyframe")
+            if getattr(self, k) is not None
+        }
+        if self.limbs:
+            out["limbs"] = {
+                n: {
+                    "end": x.end,
+                    **({"joints": list(x.joints)} if x.joints else {}),
+                    **({"start": x.start} if x.start else {}),
+                }
+                for n, x in self.limbs.items()
+            }
+        if self.soles:
+            out["soles"] = {n: list(g) for n, g in self.soles.items()}
+        return out
+
+    def standing_pose(self, model: mujoco.MjModel) -> StandingPose:
+        """:func:`pik_mj.keyframes.standing_pose` with this description's keyframe."""
+        return standing_pose(model, self.keyframe, root_body=self.root_body)
+
+
+def load_description(path: str | os.PathLike[str]) -> RobotDescription:
+    """Read a robot description from a ``.toml`` or ``.json`` file.
+
+    Raises:
+        InvalidInput: The file is missing, not TOML/JSON, or holds bad keys.
+    """
+    p = Path(path).expanduser()
+    if not p.is_file():
+        raise InvalidInput(f"robot description {str(p)!r} does not exist")
+    text = p.read_text(encoding="utf-8")
+    try:
+        if p.suffix.lower() == ".json":
+            data = json.loads(text)
+        elif p.suffix.lower() == ".toml":
+            data = tomllib.loads(text)
+        else:
+            raise InvalidInput(
+                f"robot description {str(p)!r}: use a .toml or .json file, got {p.suffix!r}"
+            )
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as err:
+        raise InvalidInput(f"robot description {str(p)!r} cannot be parsed: {err}") from err
+    return RobotDescription.from_dict(data, base_dir=p.resolve().parent)
+
+
+def robot_limbs(
+    model: mujoco.MjModel,
+    description: RobotDescription | None = None,
+    qpos: np.ndarray | None = None,
+    *,
+    required: Sequence[str] = HUMANOID_LIMBS,
+) -> dict[str, Limb]:
+    """The robot's limbs: the described ones, the others found from the tree.
+
+    Args:
+        model: The robot's model.
+        description: What the user described (None: find everything).
+        qpos: Standing configuration for the search; default the description's
+            (or the rule's) standing pose.
+        required: Limb names that must be there in the end.
+
+    Raises:
+        LimbsNotFound: A required limb is neither described nor found.
+        UnknownName: A described end frame, first body or joint does not exist.
+    """
+    description = description or RobotDescription()
+    described = {
+        name: limb_from_end(model, name, x.end, joints=x.joints, start=x.start)
+        for name, x in description.limbs.items()
+    }
+    if qpos is None:
+        qpos = description.standing_pose(model).qpos
+    still = [n for n in required if n not in described]
+    try:
+        found = find_limbs(model, qpos, root_body=description.root_body, required=still)
+    except LimbsNotFound as err:
+        if still:
+            raise
+        found = err.found
+    return {**found, **described}
+
+
+def _only(table: Mapping[str, Any], valid: Sequence[str], where: str) -> None:
+    unknown = [k for k in table if k not in valid]
+    if unknown:
+        raise InvalidInput(f"{where}: unknown keys {unknown}; valid keys are {list(valid)}")
+
+
+def _optional_str(table: Mapping[str, Any], key: str, where: str = "") -> str | None:
+    value = table.get(key)
+    if value is not None and not isinstance(value, str):
+        raise InvalidInput(f"{where + '.' if where else ''}{key} must be a string, got {value!r}")
+    return value
+
+
+def _table(data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
+    value = data.get(key, {})
+    if not isinstance(value, Mapping):
+        raise InvalidInput(f"{key} must be a table, got {value!r}")
+    return value
+
+
+def _names(value: Any, where: str) -> tuple[str, ...]:
+    if isinstance(value, str) or not isinstance(value, Sequence):
+        raise InvalidInput(f"{where} must be a list of names, got {value!r}")
+    if not all(isinstance(v, str) for v in value):
+        raise InvalidInput(f"{where} must hold names (strings), got {list(value)!r}")
+    return tuple(value)

@@ -1,0 +1,544 @@
+"""What the scenario scripts share: their result, their figures' summary, and
+the command line of their ``main``.
+
+A scenario (``scenarios/<name>.py``, installed as ``pik_mj.scenarios.<name>``)
+reads top to bottom: build the robot and its scene, the tasks, solve with
+``callback=[checks, recorder.solve_logger(...), Progress(...)]``, hold the final
+pose in physics (``scene.hold(...)``), then put the figures and checks into a
+:class:`ScenarioResult`. A failed check makes the scenario fail; it does not
+raise. Its ``main(argv)`` parses :func:`parser`'s options (rerun's
+``--save/--connect/--serve/--stdout/--headless``, ``--json``, ``--hold``,
+``--quiet``, ``--model``), records into :func:`open_recorder`'s stream and ends
+with :func:`report`.
+
+The user's options are checked here, once for every scenario, before any work
+starts: the output files can be written, ``--model`` is a model that loads and
+has what the scenario moves, numbers are in range (the argparse types
+:func:`count`, :func:`positive`, :func:`finite`, :func:`duration`). A bad option
+is a usage error (``SystemExit(2)`` from argparse, or :class:`OptionError`),
+which ``pik-mj run`` reports without a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import uuid
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rerun as rr
+
+from . import inputs
+from .balance import support_polygon
+from .exceptions import InvalidInput, PikError
+from .ik import sole_polygons
+from .record import Recorder
+from .robot import Robot
+from .sim import HoldCriteria, HoldReport, Scene, StaticChecks, StaticReport, balance_report
+from .sim.validate import describe_violation
+from .solve import SolveResult
+
+__all__ = [
+    "DEFAULT_HOLD",
+    "OptionError",
+    "ScenarioParser",
+    "ScenarioResult",
+    "balance_summary",
+    "com_margin",
+    "count",
+    "duration",
+    "finite",
+    "jsonable",
+    "open_recorder",
+    "parser",
+    "positive",
+    "report",
+]
+
+DEFAULT_HOLD = 3.0
+"""Physics hold of the final pose [s] of a scenario run."""
+
+
+def jsonable(value: Any, where: str = "value") -> Any:
+    """``value`` with numpy scalars/arrays turned into Python numbers/lists; non-finite
+    floats become None (JSON has no NaN); paths become strings.
+
+    Raises:
+        InvalidInput: A value JSON cannot hold (an object, a function, ...), named by
+            its place in ``value`` (``where``), before anything is written.
+    """
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v, f"{where}[{k!r}]") for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist(), where)
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    if isinstance(value, Path):
+        return str(value)
+    if value is None or isinstance(value, str):
+        return value
+    raise InvalidInput(
+        f"{where} is a {type(value).__name__}, which JSON cannot hold; use numbers, "
+        "strings, booleans, None, lists, dicts or numpy arrays"
+    )
+
+
+def com_margin(robot: Robot, point: np.ndarray | None = None) -> float:
+    """Signed distance [m] of the CoM's (or ``point``'s) ground projection to the edges
+    of the support polygon of both soles (:func:`pik_mj.ik.sole_polygons`),
+    positive inside."""
+    region = support_polygon(sole_polygons(robot))
+    return float(region.signed_distance(robot.com() if point is None else np.asarray(point)))
+
+
+@dataclass
+class ScenarioResult:
+    """Outcome of a scenario.
+
+    Attributes:
+        name: Scenario name.
+        passed: Every check held.
+        solves: The scenario's solves by label, in order.
+        figures: Measured numbers (JSON-ready after :meth:`to_dict`).
+        messages: One line per check (``ok``/``FAILED``) and notes.
+        main: Label of the solve whose state is reported at the top level of
+            :meth:`to_dict` (default: the last one).
+        recording: Path of the ``.rrd`` written, or None.
+        balance: The final pose's static check and physics hold
+            (:func:`pik_mj.sim.balance_report`), or None when no hold ran.
+        static_reports: Per solve label, the :class:`pik_mj.sim.StaticReport` of
+            every IK iteration's configuration.
+        static_check_times: Wall time of each per-iteration static check [s].
+        robot_state: The final pose and what rebuilds its scene (the robot's
+            source, ``q``, ``allowed_contacts``, ``grasps``, ``external``), what
+            ``pik-mj validate`` reads back; None without a scene.
+        robot: The robot in its final configuration (not serialized).
+    """
+
+    name: str
+    passed: bool = True
+    solves: dict[str, SolveResult] = field(default_factory=dict)
+    figures: dict[str, Any] = field(default_factory=dict)
+    messages: list[str] = field(default_factory=list)
+    main: str | None = None
+    recording: str | None = None
+    balance: dict[str, Any] | None = None
+    static_reports: dict[str, list[StaticReport]] = field(default_factory=dict)
+    static_check_times: list[float] = field(default_factory=list)
+    robot_state: dict[str, Any] | None = None
+    robot: Robot | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidInput(f"a scenario's name must be a non-empty string, got {self.name!r}")
+
+    def check(self, label: str, ok: bool, detail: str = "") -> bool:
+        """Record a check: ``ok`` False makes the scenario fail.
+
+        Raises:
+            InvalidInput: ``label`` or ``detail`` not a string, ``ok`` not a truth
+                value (an array of them is ambiguous).
+        """
+        if not isinstance(label, str) or not isinstance(detail, str):
+            raise InvalidInput(f"a check's label and detail must be strings, got {label!r}")
+        if not isinstance(ok, (bool, np.bool_)):
+            raise InvalidInput(f"check {label!r}: ok must be True or False, got {ok!r}")
+        ok = bool(ok)
+        self.messages.append(
+            f"[{'ok' if ok else 'FAILED'}] {label}" + (f": {detail}" if detail else "")
+        )
+        if not ok:
+            self.passed = False
+        return ok
+
+    def add_solve(
+        self,
+        label: str,
+        result: SolveResult,
+        checks: StaticChecks | None = None,
+        *,
+        finish: Sequence[Any] = (),
+    ) -> SolveResult:
+        """Keep solve ``label`` and, with ``checks``, its per-iteration static
+        reports; hand ``result`` to the ``finish`` method of each of ``finish``
+        (the solve's logger and progress display)."""
+        for callback in finish:
+            callback.finish(result)
+        self.solves[label] = result
+        if checks is not None:
+            self.static_reports[label] = list(checks.reports)
+            self.static_check_times += checks.times
+        return result
+
+    def add_balance(
+        self,
+        scene: Scene,
+        static: StaticReport,
+        hold: HoldReport | None,
+        criteria: HoldCriteria,
+        *,
+        external: Sequence[tuple[str, Any, Any]] = (),
+    ) -> None:
+        """Keep the final pose's static check and hold (a check on the hold's
+        verdict), and what ``pik-mj validate`` needs to redo them."""
+        allowed = scene.allowed_contacts if criteria.allowed is None else criteria.allowed
+        robot = scene.robot
+        self.robot = robot
+        source = robot.source.to_dict() if robot.source is not None else {}
+        self.robot_state = {
+            **source,
+            "q": static.q,
+            "allowed_contacts": list(allowed),
+            "grasps": [g.to_dict() for g in scene.grasps],
+            "external": [[f, np.asarray(F), np.asarray(M)] for f, F, M in external],
+        }
+        if hold is None:
+            return
+        self.balance = balance_report(static, hold, source or None)
+        self.check(
+            f"simulation: final pose in static equilibrium and held {hold.duration:g} s in physics",
+            self.balance["passed"],
+            balance_summary(self.balance).removeprefix("balance: "),
+        )
+
+    def main_solve(self) -> SolveResult | None:
+        if not self.solves:
+            return None
+        return (
+            self.solves[self.main] if self.main in self.solves else list(self.solves.values())[-1]
+        )
+
+    def simulation(self) -> dict[str, Any] | None:
+        """Summary of the per-iteration static checks, or None if none ran.
+
+        ``iterations_checked``, ``equilibrium_iterations`` (LP feasible),
+        ``min_margin_m`` (smallest CoM margin to the support polygon of the actual
+        ground contacts over all iterations; None = an iteration had no ground
+        contact), ``final_margin_m``, ``final_feasible``, check timing, and per
+        solve the ``margin_m`` and ``feasible`` series.
+        """
+        reports = [r for rs in self.static_reports.values() for r in rs]
+        if not reports:
+            return None
+        ms = [1e3 * t for t in self.static_check_times]
+        margins = [r.margin for r in reports]
+        return {
+            "iterations_checked": len(reports),
+            "equilibrium_iterations": sum(r.feasible for r in reports),
+            "min_margin_m": min(margins),
+            "final_margin_m": margins[-1],
+            "final_feasible": reports[-1].feasible,
+            "final_touching_geoms": reports[-1].touching_geoms,
+            "median_check_ms": float(np.median(ms)) if ms else 0.0,
+            "max_check_ms": max(ms, default=0.0),
+            "solves": {
+                label: {
+                    "iterations": len(rs),
+                    "equilibrium_iterations": sum(r.feasible for r in rs),
+                    "min_margin_m": min((r.margin for r in rs), default=None),
+                    "margin_m": [r.margin for r in rs],
+                    "feasible": [r.feasible for r in rs],
+                }
+                for label, rs in self.static_reports.items()
+            },
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary: ``converged``, ``iterations``, ``tasks`` (name, level,
+        error, satisfied, checked), ``timing`` of the main solve at the top level,
+        every solve under ``solves``, ``figures``, ``messages``, ``simulation``
+        (:meth:`simulation`), ``balance``, ``robot`` (:attr:`robot_state`)."""
+        main = self.main_solve()
+        main_dict = main.to_dict() if main is not None else {}
+        all_ms = [1e3 * t for s in self.solves.values() for t in s.iteration_times]
+        out: dict[str, Any] = {
+            "name": self.name,
+            "passed": self.passed,
+            "main_solve": self.main or (list(self.solves)[-1] if self.solves else None),
+            "converged": main_dict.get("converged", False),
+            "iterations": main_dict.get("iterations", 0),
+            "tasks": main_dict.get("tasks", []),
+            "timing": {
+                **main_dict.get("timing", {}),
+                "total_iterations": sum(s.iterations for s in self.solves.values()),
+                "all_median_iteration_ms": float(np.median(all_ms)) if all_ms else 0.0,
+            },
+            "solves": {k: v.to_dict() for k, v in self.solves.items()},
+            "figures": self.figures,
+            "messages": self.messages,
+            "recording": self.recording,
+            "simulation": self.simulation(),
+            "balance": self.balance,
+            "robot": self.robot_state,
+        }
+        return jsonable(out, "ScenarioResult")
+
+    def to_json(self, path: str | Path) -> Path:
+        """Write :meth:`to_dict` to ``path`` (directories created).
+
+        Raises:
+            InvalidInput: ``path`` cannot be written (a directory, no permission),
+                or a figure JSON cannot hold; nothing is written then.
+        """
+        p = inputs.output_path(path, "JSON summary")
+        text = json.dumps(self.to_dict(), indent=2)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(text)
+        return p
+
+    def summary(self, *, recording: bool = True) -> str:
+        """Readable summary; ``recording`` False leaves out the recording's path."""
+        lines = [f"scenario {self.name}: {'PASSED' if self.passed else 'FAILED'}"]
+        main = self.main_solve()
+        for label, res in self.solves.items():
+            text = res.summary() if res is main else res.summary().splitlines()[0]
+            lines.append(f"- solve {label!r}: " + text.replace("\n", "\n  "))
+        if self.figures:
+            lines.append("figures:")
+            for k, v in self.figures.items():
+                lines.append(f"  {k} = {_short(v)}")
+        sim = self.simulation()
+        if sim is not None:
+            lines.append(
+                f"simulation, every iteration: {sim['equilibrium_iterations']}/"
+                f"{sim['iterations_checked']} iterations in static equilibrium, min CoM "
+                f"margin {_mm(sim['min_margin_m'])}, {sim['median_check_ms']:.2f} ms per check"
+            )
+        if self.balance is not None:
+            lines.append(balance_summary(self.balance))
+        lines += self.messages
+        if recording and self.recording:
+            lines.append(f"recording: {self.recording}  (view with: rerun {self.recording})")
+        return "\n".join(lines)
+
+
+def _mm(x: float | None) -> str:
+    return "none (no ground contact)" if x is None or not math.isfinite(x) else f"{x * 1e3:.1f} mm"
+
+
+def balance_summary(balance: Mapping[str, Any]) -> str:
+    """One line: the static check and the physics hold of a balance report."""
+    if "error" in balance:
+        return f"balance: FAILED ({balance['error']})"
+    static, hold = balance["static"], balance["hold"]
+    limits = balance.get("joint_limits") or []
+    return (
+        f"balance: {'PASSED' if balance['passed'] else 'FAILED'} — static equilibrium "
+        f"{'feasible' if static['feasible'] else 'INFEASIBLE'}, CoM margin "
+        f"{_mm(static['margin'])}; hold {hold['simulated']:.2f} s: drift "
+        f"{hold['drift'] * 1e3:.1f} mm, slip {hold['slip'] * 1e3:.2f} mm, min margin "
+        f"{_mm(hold['min_margin'])}"
+        + (f"; {'; '.join(hold['failures'])}" if hold["failures"] else "")
+        + "".join(f"; {describe_violation(v)}" for v in limits)
+    )
+
+
+def _short(value: Any) -> str:
+    v = jsonable(value)
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    if isinstance(v, list) and v and all(isinstance(x, float) for x in v):
+        return "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
+    return str(v)
+
+
+# ---------------------------------------------------------------------------
+# The command line of a scenario's main
+
+
+class OptionError(InvalidInput):
+    """A scenario option the user gave cannot be used (e.g. no viewer at
+    ``--connect``'s address): ``pik-mj run`` exits 2 with the message, no traceback."""
+
+
+class ScenarioParser(argparse.ArgumentParser):
+    """The argument parser of a scenario's ``main`` (:func:`parser`): after parsing,
+    it checks that the output files (``--save``, ``--json``) can be written, before
+    any work starts (a usage error otherwise)."""
+
+    def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
+        ns = super().parse_args(args, namespace)
+        outputs = [
+            (option, getattr(ns, dest))
+            for option, dest in (("--save", "save"), ("--json", "json"))
+            if getattr(ns, dest, None) is not None
+        ]
+        for option, value in outputs:
+            try:
+                inputs.output_path(value, f"argument {option}:")
+            except InvalidInput as exc:
+                self.error(str(exc))
+        if len(outputs) == 2 and Path(outputs[0][1]).resolve() == Path(outputs[1][1]).resolve():
+            self.error(f"--save and --json name the same file {outputs[0][1]!r}; give two files")
+        return ns
+
+
+def parser(
+    doc: str | None,
+    *,
+    hold: bool = True,
+    model: str | None = None,
+    limbs: Sequence[str] = (),
+    floating_base: bool = False,
+) -> ScenarioParser:
+    """The options of a scenario's ``main``: rerun's (``--save FILE.rrd``,
+    ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
+    :func:`rerun.script_add_args`), ``--json FILE``, ``--quiet`` (no progress) and,
+    with ``hold``, ``--hold SECONDS`` (physics hold of the final pose, default 3;
+    0: none).
+
+    Args:
+        doc: The scenario's docstring (its first line describes it).
+        hold: Add ``--hold``.
+        model: Add ``--model NAME`` with this default: a model name or MJCF path,
+            checked when parsed (it loads and builds a robot that has ``limbs``,
+            and a floating base with ``floating_base``).
+        limbs: Limbs the scenario moves (checked on ``--model``).
+        floating_base: The scenario needs a floating base (checked on ``--model``).
+    """
+    p = ScenarioParser(description=(doc or "").strip().splitlines()[0])
+    rr.script_add_args(p)
+    p.add_argument("--json", help="JSON summary to write")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    if hold:
+        p.add_argument(
+            "--hold",
+            type=duration,
+            default=DEFAULT_HOLD,
+            help=f"physics hold of the final pose [s] (default {DEFAULT_HOLD:g}; 0: none)",
+        )
+    if model is not None:
+        p.add_argument(
+            "--model",
+            type=_model_option(tuple(limbs), floating_base),
+            default=model,
+            help=f"robot model name or MJCF path (default {model})",
+        )
+    return p
+
+
+def _argument_type(check: Any) -> Any:
+    """An argparse type from a check raising :class:`InvalidInput` (the message
+    becomes argparse's, after ``argument --name:``)."""
+
+    def convert(text: str) -> Any:
+        try:
+            return check(text)
+        except InvalidInput as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    convert.__name__ = check.__name__
+    return convert
+
+
+def _number(text: str) -> float | str:
+    try:
+        return float(text)
+    except ValueError:
+        return text  # refused by inputs.real, which names it
+
+
+@_argument_type
+def duration(text: str) -> float:
+    """An argparse type: a duration >= 0 [s]."""
+    return inputs.real(_number(text), "a duration", unit="s", low=0)
+
+
+@_argument_type
+def positive(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    return inputs.real(_number(text), "a value", low=0, low_open=True)
+
+
+@_argument_type
+def finite(text: str) -> float:
+    """An argparse type: a finite number."""
+    return inputs.real(_number(text), "a value")
+
+
+@_argument_type
+def count(text: str) -> int:
+    """An argparse type: an integer >= 1."""
+    try:
+        value: int | str = int(text)
+    except ValueError:
+        value = text
+    return inputs.integer(value, "a count", low=1)
+
+
+def _model_option(limbs: tuple[str, ...], floating_base: bool) -> Any:
+    """The argparse type of ``--model``: the name as given, once a robot was built
+    from it and has ``limbs`` (and a floating base if ``floating_base``)."""
+
+    def model(text: str) -> str:
+        try:
+            robot = Robot.from_model(text)
+        except PikError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        missing = [x for x in limbs if x not in robot.limbs]
+        if missing:
+            raise argparse.ArgumentTypeError(
+                f"model {text!r} has no limb {', '.join(missing)}, which this scenario "
+                f"moves (its limbs: {', '.join(robot.limbs) or 'none'})"
+            )
+        if floating_base and not robot.has_floating_base:
+            raise argparse.ArgumentTypeError(
+                f"model {text!r} has no floating base (a free joint at its root "
+                f"{robot.root_body!r}), which this scenario needs"
+            )
+        return text
+
+    return model
+
+
+def open_recorder(args: argparse.Namespace, name: str) -> Recorder:
+    """A :class:`Recorder` on a new stream where rerun's options send it
+    (as :func:`rerun.script_setup`, but the stream is not made the global one):
+    ``--save FILE.rrd``, ``--stdout``, ``--serve`` (a web viewer), ``--connect``
+    (a running viewer), a spawned viewer, or nothing kept with ``--headless``.
+
+    Raises:
+        OptionError: The sink cannot be opened (a bad ``--url``, no viewer to
+            spawn, a file that cannot be created); rerun's reason is given.
+    """
+    stream = rr.RecordingStream(f"pik_mj_{name}", recording_id=uuid.uuid4())
+    try:
+        if args.stdout:
+            stream.stdout()
+        elif args.serve:
+            rr.serve_web_viewer(open_browser=True, connect_to=stream.serve_grpc())
+        elif args.connect:
+            stream.connect_grpc(args.url)
+        elif args.save is not None:
+            Path(args.save).parent.mkdir(parents=True, exist_ok=True)
+            stream.save(args.save)
+        elif not args.headless:
+            stream.spawn()
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise OptionError(f"cannot open the recording's destination: {exc}") from None
+    return Recorder(stream, owns_stream=True)
+
+
+def report(result: ScenarioResult, args: argparse.Namespace) -> int:
+    """Print the summary (and where the recording and JSON went); 0 iff passed."""
+    if args.save:
+        result.recording = str(args.save)
+    print(result.summary(recording=False))
+    if args.json:
+        print(f"JSON summary: {result.to_json(args.json)}")
+    if result.recording:
+        print(f"recording: {result.recording}  (view with: rerun {result.recording})")
+    rr.script_teardown(args)
+    return 0 if result.passed else 1

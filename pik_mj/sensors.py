@@ -1,0 +1,598 @@
+"""A robot's MJCF sensors (seed 001 ``:force-sensors``, ``:imu-sensors``,
+``bumper-model``) and the ZMP from foot force sensors
+(``:calc-zmp-from-forces-moments``).
+
+MuJoCo computes every reading (``data.sensordata``, after ``mj_forward`` or
+``mj_step``); this module names them, groups them the way the seed does, and
+turns force/torque readings into the wrench the environment applies.
+
+* **Force sensor** (:class:`ForceSensor`): a MuJoCo ``force`` and ``torque``
+  sensor on one site, a 6-axis force/torque sensor. MuJoCo reports the wrench
+  ``(f_S, n_S)`` that the parent body exerts on the subtree of the site's body
+  (the *distal part* ``D``: a foot, a hand), in the site frame, the moment about
+  the site origin. The wrench the environment applies to ``D`` then follows
+  from ``D``'s equilibrium (:meth:`ForceSensor.contact_wrench`):
+
+  .. math::
+
+      f_{env} = -R_{WS} f_S - m_D\\, g, \\qquad
+      n_{env} = -R_{WS} n_S - (c_D - p_{WS}) \\times m_D\\, g
+
+  with ``m_D``, ``c_D`` the mass and CoM of ``D`` and ``g`` the model's gravity
+  (``model.opt.gravity``). This is exact at rest; in motion it leaves out
+  ``m_D a_D`` of the distal part, as a real sensor's weight compensation does.
+* **IMU** (:class:`Imu`): ``accelerometer`` (``a − g`` in the site frame
+  [m/s²]: ``R_WSᵀ (−g)`` at rest), ``gyro`` (angular velocity in the site
+  frame [rad/s]) and ``framequat`` (orientation ``q_WS``, w x y z) on one site.
+* **Bumper** (:class:`Bumper`): a MuJoCo ``touch`` sensor, the normal force [N]
+  of the contacts inside its site's volume, read on/off with a threshold (the
+  seed's bumper returns 1/0; its threshold is a distance, MuJoCo's touch
+  sensor measures force).
+* **ZMP** (:func:`zmp_from_wrenches`, :func:`zmp_from_force_sensors`): the
+  point of the floor plane ``z = h`` about which the horizontal moment of the
+  summed contact wrenches vanishes. With every wrench ``(f_i, n_i)`` taken about
+  a common point ``P = (0, 0, h)``:
+
+  .. math::
+
+      f = \\sum_i f_i, \\quad n_P = \\sum_i n_i + (p_i - P) \\times f_i, \\qquad
+      p_{zmp} = P + \\left(-\\frac{n_{P,y}}{f_z},\\; \\frac{n_{P,x}}{f_z},\\; 0\\right)
+
+  One wrench gives one foot's centre of pressure; the ZMP of double support is
+  the same formula over both feet (equal to the ``f_z``-weighted mean of the
+  feet's centres of pressure, as the seed computes it). A sensor whose
+  ``f_z`` is below a threshold takes no part; with none left the ZMP is
+  undefined (the seed returns nil, this module None).
+
+Sensors that a robot's MJCF lacks are added to its ``MjSpec`` on the sites the
+caller names with :func:`add_sensors`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from .dynamics import _zmp_from_wrench
+from .exceptions import InvalidInput, UnknownName
+from .frames import names_of
+
+__all__ = [
+    "DEFAULT_BUMPER_THRESHOLD",
+    "DEFAULT_FZ_THRESHOLD",
+    "FORCE_TORQUE",
+    "IMU",
+    "KINDS",
+    "TOUCH",
+    "Bumper",
+    "ContactWrench",
+    "ForceSensor",
+    "Imu",
+    "ImuReading",
+    "RobotSensors",
+    "SensorChannel",
+    "SensorZmp",
+    "add_sensors",
+    "zmp_from_force_sensors",
+    "zmp_from_wrenches",
+]
+
+KINDS: dict[str, mujoco.mjtSensor] = {
+    "force": mujoco.mjtSensor.mjSENS_FORCE,
+    "torque": mujoco.mjtSensor.mjSENS_TORQUE,
+    "accelerometer": mujoco.mjtSensor.mjSENS_ACCELEROMETER,
+    "gyro": mujoco.mjtSensor.mjSENS_GYRO,
+    "framequat": mujoco.mjtSensor.mjSENS_FRAMEQUAT,
+    "touch": mujoco.mjtSensor.mjSENS_TOUCH,
+}
+"""The MuJoCo sensor types this module reads, by their MJCF element name."""
+
+_UNITS = {
+    "force": "N",
+    "torque": "N·m",
+    "accelerometer": "m/s²",
+    "gyro": "rad/s",
+    "framequat": "1",
+    "touch": "N",
+}
+
+FORCE_TORQUE = ("force", "torque")
+"""Kinds of a 6-axis force/torque sensor."""
+IMU = ("accelerometer", "gyro", "framequat")
+"""Kinds of an IMU."""
+TOUCH = ("touch",)
+"""Kind of a bumper."""
+
+DEFAULT_BUMPER_THRESHOLD = 1.0
+"""Touch force [N] at and above which a bumper reads on."""
+
+DEFAULT_FZ_THRESHOLD = 1.0
+"""Normal force [N] below which a force sensor takes no part in the ZMP (the
+seed's ``fz-thre``; 1 N rather than its 1 mN, because a compensated swing foot
+still reads its own ``m_D a_D``)."""
+
+
+# ----------------------------------------------------------------------------
+# one MuJoCo sensor
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SensorChannel:
+    """One MuJoCo sensor of a kind in :data:`KINDS`, on a site.
+
+    Attributes:
+        name: MJCF sensor name.
+        kind: ``"force"``, ``"torque"``, ``"accelerometer"``, ``"gyro"``,
+            ``"framequat"`` or ``"touch"``.
+        id: Sensor id.
+        adr: First index in ``data.sensordata``.
+        dim: Number of values.
+        site: The site it sits on.
+        site_id: Its id.
+        body: The site's body.
+        body_id: Its id.
+        frame: What the values are expressed in: ``"site"`` (the site frame), or
+            ``"world"`` for ``framequat`` (the orientation ``q_WS`` of the site).
+        unit: SI unit of the values.
+    """
+
+    name: str
+    kind: str
+    id: int
+    adr: int
+    dim: int
+    site: str
+    site_id: int
+    body: str
+    body_id: int
+    frame: str
+    unit: str
+
+    def read(self, data: mujoco.MjData) -> np.ndarray:
+        """The values ``(dim,)`` in :attr:`unit` (a copy of ``data.sensordata``)."""
+        return data.sensordata[self.adr : self.adr + self.dim].copy()
+
+
+def _channels(model: mujoco.MjModel) -> list[SensorChannel]:
+    """Every sensor of a kind in :data:`KINDS` attached to a site (framequat: of a
+    site, with no reference frame)."""
+    kind_of = {int(t): k for k, t in KINDS.items()}
+    out = []
+    for i in range(model.nsensor):
+        kind = kind_of.get(int(model.sensor_type[i]))
+        if kind is None or int(model.sensor_objtype[i]) != int(mujoco.mjtObj.mjOBJ_SITE):
+            continue
+        if kind == "framequat" and int(model.sensor_refid[i]) >= 0:
+            continue
+        site = int(model.sensor_objid[i])
+        body = int(model.site_bodyid[site])
+        out.append(
+            SensorChannel(
+                name=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i) or f"sensor {i}",
+                kind=kind,
+                id=i,
+                adr=int(model.sensor_adr[i]),
+                dim=int(model.sensor_dim[i]),
+                site=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, site) or f"site {site}",
+                site_id=site,
+                body=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}",
+                body_id=body,
+                frame="world" if kind == "framequat" else "site",
+                unit=_UNITS[kind],
+            )
+        )
+    return out
+
+
+# ----------------------------------------------------------------------------
+# sensors as the seed groups them
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ContactWrench:
+    """A wrench acting on the robot, world frame.
+
+    Attributes:
+        force: ``f`` (3,) [N].
+        moment: ``n`` (3,) [N·m] about :attr:`point`.
+        point: ``p_W`` (3,) [m] (the sensor site's origin).
+    """
+
+    force: np.ndarray
+    moment: np.ndarray
+    point: np.ndarray
+
+
+@dataclass(frozen=True)
+class ForceSensor:
+    """A 6-axis force/torque sensor: MuJoCo ``force`` + ``torque`` sensors on one
+    site (either may be missing). Named after the site.
+
+    Attributes:
+        name: The site's name.
+        site_id: The site's id.
+        body: The site's body (the root of the distal part ``D``).
+        body_id: Its id.
+        force: The ``force`` channel, or None.
+        torque: The ``torque`` channel, or None.
+    """
+
+    name: str
+    site_id: int
+    body: str
+    body_id: int
+    force: SensorChannel | None
+    torque: SensorChannel | None
+
+    def reading(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """MuJoCo's reading ``(f_S [N], n_S [N·m])`` in the site frame: the wrench
+        the parent body exerts on the distal part, about the site origin. A
+        missing channel reads NaN."""
+        f = self.force.read(data) if self.force is not None else np.full(3, np.nan)
+        n = self.torque.read(data) if self.torque is not None else np.full(3, np.nan)
+        return f, n
+
+    def contact_wrench(
+        self, model: mujoco.MjModel, data: mujoco.MjData, *, compensate: bool = True
+    ) -> ContactWrench:
+        """The wrench the environment applies to the distal part (module
+        docstring), world frame, about the site origin.
+
+        Args:
+            model: The model.
+            data: State after ``mj_forward``/``mj_step`` (sensors and kinematics).
+            compensate: Remove the weight of the distal part. Without it the
+                result is ``−R_WS (f_S, n_S)``: the wrench the distal part applies
+                to the robot above the sensor.
+        """
+        f_S, n_S = self.reading(data)
+        R_WS = data.site_xmat[self.site_id].reshape(3, 3)
+        p_WS = data.site_xpos[self.site_id].copy()
+        f, n = -R_WS @ f_S, -R_WS @ n_S
+        if compensate:
+            weight = model.body_subtreemass[self.body_id] * np.asarray(model.opt.gravity)
+            f = f - weight
+            n = n - np.cross(data.subtree_com[self.body_id] - p_WS, weight)
+        return ContactWrench(force=f, moment=n, point=p_WS)
+
+
+@dataclass(frozen=True)
+class ImuReading:
+    """One IMU's values (None where the IMU lacks that sensor).
+
+    Attributes:
+        acceleration: ``a − g`` in the site frame (3,) [m/s²].
+        angular_velocity: ``ω`` in the site frame (3,) [rad/s].
+        orientation: ``q_WS`` (4,), (w, x, y, z).
+    """
+
+    acceleration: np.ndarray | None
+    angular_velocity: np.ndarray | None
+    orientation: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class Imu:
+    """An IMU: ``accelerometer``, ``gyro`` and ``framequat`` sensors on one site
+    (any may be missing). Named after the site.
+
+    Attributes:
+        name: The site's name.
+        site_id, body, body_id: Where it sits.
+        accelerometer, gyro, framequat: The channels, or None.
+    """
+
+    name: str
+    site_id: int
+    body: str
+    body_id: int
+    accelerometer: SensorChannel | None
+    gyro: SensorChannel | None
+    framequat: SensorChannel | None
+
+    def read(self, data: mujoco.MjData) -> ImuReading:
+        """The current :class:`ImuReading`."""
+
+        def get(channel: SensorChannel | None) -> np.ndarray | None:
+            return None if channel is None else channel.read(data)
+
+        return ImuReading(get(self.accelerometer), get(self.gyro), get(self.framequat))
+
+
+@dataclass(frozen=True)
+class Bumper:
+    """A touch sensor read as on/off (seed ``bumper-model``). Named after the site.
+
+    Attributes:
+        name: The site's name (its volume is the sensing zone).
+        site_id, body, body_id: Where it sits.
+        touch: The ``touch`` channel.
+        threshold: Force [N] at and above which it reads on.
+    """
+
+    name: str
+    site_id: int
+    body: str
+    body_id: int
+    touch: SensorChannel
+    threshold: float
+
+    def force(self, data: mujoco.MjData) -> float:
+        """Normal force [N] of the contacts inside the site's volume."""
+        return float(self.touch.read(data)[0])
+
+    def is_on(self, data: mujoco.MjData) -> bool:
+        """The seed's reading: True (1) when the force reaches the threshold."""
+        return self.force(data) >= self.threshold
+
+
+@dataclass(frozen=True)
+class RobotSensors:
+    """A robot's force sensors, IMUs and bumpers, found in its model.
+
+    Build with :meth:`from_model`. Readings of every channel by MJCF name come
+    from :meth:`read`; :meth:`by_limb` groups the sensors by limb.
+
+    Attributes:
+        force_sensors: One per site carrying a ``force`` or ``torque`` sensor.
+        imu_sensors: One per site carrying an ``accelerometer``, ``gyro`` or
+            ``framequat`` sensor.
+        bumpers: One per ``touch`` sensor.
+        channels: Every sensor read (the union of the above).
+    """
+
+    force_sensors: tuple[ForceSensor, ...]
+    imu_sensors: tuple[Imu, ...]
+    bumpers: tuple[Bumper, ...]
+    channels: tuple[SensorChannel, ...]
+
+    @classmethod
+    def from_model(
+        cls,
+        model: mujoco.MjModel,
+        *,
+        bodies: Iterable[str] | None = None,
+        bumper_threshold: float = DEFAULT_BUMPER_THRESHOLD,
+    ) -> RobotSensors:
+        """The sensors of ``model`` (on sites of ``bodies`` when given, e.g. the
+        robot's bodies in a scene holding other sensors too).
+
+        Raises:
+            UnknownName: A body of ``bodies`` does not exist.
+            InvalidInput: ``bumper_threshold`` is not a finite number >= 0.
+        """
+        if not (math.isfinite(bumper_threshold) and bumper_threshold >= 0):
+            raise InvalidInput(f"bumper_threshold must be >= 0 [N], got {bumper_threshold}")
+        channels = _channels(model)
+        if bodies is not None:
+            keep = set()
+            for name in bodies:
+                b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+                if b < 0:
+                    raise UnknownName("body", name, names_of(model, "body"))
+                keep.add(b)
+            channels = [c for c in channels if c.body_id in keep]
+        by_site: dict[int, dict[str, SensorChannel]] = {}
+        for c in channels:
+            if c.kind != "touch":
+                # the first sensor of a kind on a site serves it
+                by_site.setdefault(c.site_id, {}).setdefault(c.kind, c)
+        force_sensors, imus = [], []
+        for kinds in by_site.values():
+            c = next(iter(kinds.values()))
+            where = {"name": c.site, "site_id": c.site_id, "body": c.body, "body_id": c.body_id}
+            if any(k in kinds for k in FORCE_TORQUE):
+                force_sensors.append(
+                    ForceSensor(**where, force=kinds.get("force"), torque=kinds.get("torque"))
+                )
+            if any(k in kinds for k in IMU):
+                imus.append(
+                    Imu(
+                        **where,
+                        accelerometer=kinds.get("accelerometer"),
+                        gyro=kinds.get("gyro"),
+                        framequat=kinds.get("framequat"),
+                    )
+                )
+        bumpers = [
+            Bumper(c.site, c.site_id, c.body, c.body_id, c, float(bumper_threshold))
+            for c in channels
+            if c.kind == "touch"
+        ]
+        return cls(tuple(force_sensors), tuple(imus), tuple(bumpers), tuple(channels))
+
+    # ----------------------------------------------------------- look-ups
+    def force_sensor(self, name: str) -> ForceSensor:
+        """The force sensor on site ``name`` (seed ``:force-sensor``)."""
+        return _by_name("force sensor", self.force_sensors, name)
+
+    def imu_sensor(self, name: str) -> Imu:
+        """The IMU on site ``name`` (seed ``:imu-sensor``)."""
+        return _by_name("IMU", self.imu_sensors, name)
+
+    def bumper(self, name: str) -> Bumper:
+        """The bumper on site ``name``."""
+        return _by_name("bumper", self.bumpers, name)
+
+    def by_limb(self, limbs: Mapping[str, Iterable[str]]) -> dict[str, RobotSensors]:
+        """The sensors of each limb, given as ``{limb: its body names}`` (seed
+        ``(send robot :rleg :force-sensors)``). A sensor belongs to the limb
+        holding its site's body; sensors of no limb are left out."""
+        limb_of: dict[str, str] = {}
+        for limb, bodies in limbs.items():
+            for body in bodies:
+                limb_of.setdefault(body, limb)
+
+        def pick(items: Sequence, limb: str) -> tuple:
+            return tuple(s for s in items if limb_of.get(s.body) == limb)
+
+        return {
+            limb: RobotSensors(
+                pick(self.force_sensors, limb),
+                pick(self.imu_sensors, limb),
+                pick(self.bumpers, limb),
+                pick(self.channels, limb),
+            )
+            for limb in limbs
+        }
+
+    def read(self, data: mujoco.MjData) -> dict[str, np.ndarray]:
+        """Every channel's values by MJCF sensor name (see each channel's
+        ``unit`` and ``frame``)."""
+        return {c.name: c.read(data) for c in self.channels}
+
+
+def _by_name(kind: str, items: Sequence, name: str):
+    for item in items:
+        if item.name == name:
+            return item
+    raise UnknownName(kind, name, [i.name for i in items])
+
+
+# ----------------------------------------------------------------------------
+# ZMP (seed :calc-zmp-from-forces-moments)
+# ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SensorZmp:
+    """The ZMP from force sensors.
+
+    Attributes:
+        point: ZMP ``(x, y, h)`` on the floor plane [m].
+        force: Summed force of the sensors taking part (3,) [N].
+        cops: Centre of pressure ``(x, y, h)`` [m] of each sensor taking part, by name.
+        normal_forces: ``f_z`` [N] of every sensor, by name.
+    """
+
+    point: np.ndarray
+    force: np.ndarray
+    cops: dict[str, np.ndarray]
+    normal_forces: dict[str, float]
+
+
+def zmp_from_wrenches(wrenches: Sequence[ContactWrench], z: float = 0.0) -> np.ndarray:
+    """ZMP ``(x, y, z)`` [m] of contact wrenches on the plane at height ``z``
+    (module docstring).
+
+    Raises:
+        InvalidInput: No wrench, or a summed ``f_z <= 0`` (the ZMP is undefined).
+    """
+    if not wrenches:
+        raise InvalidInput("the ZMP needs at least one contact wrench")
+    f = np.sum([w.force for w in wrenches], axis=0)
+    n_0 = np.sum([w.moment + np.cross(w.point, w.force) for w in wrenches], axis=0)
+    if not f[2] > 0:
+        raise InvalidInput(f"the contact wrenches do not push up (f_z = {f[2]:.3g} N): no ZMP")
+    return np.array([*_zmp_from_wrench(f, n_0, float(z)), float(z)])
+
+
+def zmp_from_force_sensors(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    sensors: Sequence[ForceSensor],
+    *,
+    z: float = 0.0,
+    fz_threshold: float = DEFAULT_FZ_THRESHOLD,
+    compensate: bool = True,
+) -> SensorZmp | None:
+    """The ZMP from foot force sensors (seed ``:calc-zmp-from-forces-moments``).
+
+    Each sensor's :meth:`ForceSensor.contact_wrench` whose ``f_z`` reaches
+    ``fz_threshold`` takes part; its centre of pressure and the combined ZMP
+    come from :func:`zmp_from_wrenches` on the plane ``z``.
+
+    Args:
+        model: The model.
+        data: State after ``mj_forward``/``mj_step``.
+        sensors: The feet's force sensors (each with force and torque).
+        z: Floor height [m].
+        fz_threshold: Normal force [N] below which a sensor is left out.
+        compensate: Remove the distal parts' weight (see :class:`ForceSensor`).
+
+    Returns:
+        A :class:`SensorZmp`, or None when no sensor reaches the threshold.
+
+    Raises:
+        InvalidInput: No sensors, a sensor without force or torque channel, or a
+            bad ``z``/``fz_threshold``.
+    """
+    if not sensors:
+        raise InvalidInput("zmp_from_force_sensors needs at least one force sensor")
+    if not (math.isfinite(z) and math.isfinite(fz_threshold) and fz_threshold > 0):
+        raise InvalidInput(f"z must be finite and fz_threshold > 0 [N], got {z}, {fz_threshold}")
+    for s in sensors:
+        if s.force is None or s.torque is None:
+            raise InvalidInput(
+                f"force sensor {s.name!r} needs both a force and a torque sensor for a ZMP"
+            )
+    wrenches = {s.name: s.contact_wrench(model, data, compensate=compensate) for s in sensors}
+    normal = {name: float(w.force[2]) for name, w in wrenches.items()}
+    used = {name: w for name, w in wrenches.items() if normal[name] >= fz_threshold}
+    if not used:
+        return None
+    return SensorZmp(
+        point=zmp_from_wrenches(list(used.values()), z),
+        force=np.sum([w.force for w in used.values()], axis=0),
+        cops={name: zmp_from_wrenches([w], z) for name, w in used.items()},
+        normal_forces=normal,
+    )
+
+
+# ----------------------------------------------------------------------------
+# adding sensors to a model
+# ----------------------------------------------------------------------------
+
+
+def add_sensors(
+    spec: mujoco.MjSpec, sites: Iterable[str], kinds: Iterable[str] = FORCE_TORQUE
+) -> list[str]:
+    """Add MuJoCo sensors of ``kinds`` on each named site of ``spec``, named
+    ``<site>_<kind>`` (the naming of ``models/sample_humanoid.xml``).
+
+    E.g. ``add_sensors(spec, ["rleg_end", "lleg_end"])`` gives a robot
+    without force sensors 6-axis sensors at its soles, and
+    ``add_sensors(spec, ["imu"], IMU)`` an IMU. A touch sensor senses the
+    contacts inside its site's volume: give it a site enclosing the part.
+
+    Args:
+        spec: The robot's spec (edited in place).
+        sites: Names of existing sites.
+        kinds: Sensor kinds from :data:`KINDS`.
+
+    Returns:
+        The names of the added sensors.
+
+    Raises:
+        UnknownName: A site or kind that does not exist.
+        InvalidInput: A sensor of that name exists already (nothing is added).
+    """
+    kinds = list(kinds)
+    sites = list(sites)
+    for kind in kinds:
+        if kind not in KINDS:
+            raise UnknownName("sensor kind", kind, KINDS)
+    valid = [s.name for s in spec.sites]
+    for site in sites:
+        if site not in valid:
+            raise UnknownName("site", site, valid)
+    existing = {s.name for s in spec.sensors}
+    names = [f"{site}_{kind}" for site in sites for kind in kinds]
+    clash = [n for n in names if n in existing]
+    if clash:
+        raise InvalidInput(f"the spec already has sensors named {clash}")
+    for site in sites:
+        for kind in kinds:
+            spec.add_sensor(
+                name=f"{site}_{kind}",
+                type=KINDS[kind],
+                objtype=mujoco.mjtObj.mjOBJ_SITE,
+                objname=site,
+            )
+    return names

@@ -1,0 +1,38 @@
+"""Simulation of a robot's world in MuJoCo (DESIGN.md §5): the physics scene,
+the static check, the physics hold, and the guard around MuJoCo's steps.
+
+* :mod:`.environment` — environment specs (floor, boxes, walls), attaching one
+  into a robot's spec, placing the robot;
+* :mod:`.scene` — :class:`Scene`: the robot's world with servos and contacts;
+* :mod:`.static` — :class:`StaticReport`, :class:`StaticChecks` (per iteration);
+* :mod:`.hold` — :class:`HoldCriteria`, :class:`HoldSample`, :class:`HoldReport`;
+* :mod:`.guard` — MuJoCo's warnings routed to Python, the invalid-state check;
+* :mod:`.validate` — :func:`validate_pose` (``pik-mj validate``).
+"""
+
+from .environment import add_box, add_wall, floor_environment
+from .guard import StateGuard, mujoco_warnings
+from .hold import HoldCriteria, HoldReport, HoldSample
+from .scene import DEFAULT_CONTACT, ContactParams, Grasp, Scene
+from .static import ContactInfo, StaticChecks, StaticReport
+from .validate import balance_report, validate_pose
+
+__all__ = [
+    "DEFAULT_CONTACT",
+    "ContactInfo",
+    "ContactParams",
+    "Grasp",
+    "HoldCriteria",
+    "HoldReport",
+    "HoldSample",
+    "Scene",
+    "StateGuard",
+    "StaticChecks",
+    "StaticReport",
+    "add_box",
+    "add_wall",
+    "balance_report",
+    "floor_environment",
+    "mujoco_warnings",
+    "validate_pose",
+]

@@ -1,0 +1,269 @@
+"""pik_mj.ground: lowest points, floor gap and sole polygons of collision geometry,
+checked against MuJoCo's own distances (mj_geomDistance) and contacts on a floor."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+from local_menagerie import menagerie_model
+
+from pik_mj import ground
+from pik_mj.balance import convex_hull_2d, polygon_area
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.frames import Frame
+from pik_mj.ik import sole_polygons as bounding_box_soles
+from pik_mj.keyframes import standing_pose
+from pik_mj.limbs import find_limbs
+from pik_mj.models import load_model, load_spec
+from pik_mj.robot import Limb, Robot
+
+# A free body carrying one geom of each kind (and a mesh box), visual geoms
+# larger than the collision ones, plus a plane: the floor z = 0.
+_SHAPES = """
+<mujoco><compiler angle="radian"/>
+<asset><mesh name="box" vertex="-.05 -.03 -.02  .05 -.03 -.02  -.05 .03 -.02  .05 .03 -.02
+                               -.05 -.03  .02  .05 -.03  .02  -.05 .03  .02  .05 .03  .02"/></asset>
+<worldbody>
+  <geom name="floor" type="plane" size="5 5 .1"/>
+  <body name="thing" pos="0 0 1"><freejoint/>
+    <geom name="sphere" type="sphere" size=".04" pos=".3 0 0"/>
+    <geom name="capsule" type="capsule" size=".02 .1" pos="0 .3 0" euler=".3 .5 .1"/>
+    <geom name="cylinder" type="cylinder" size=".05 .08" pos="-.3 0 0" euler=".4 -.2 0"/>
+    <geom name="box" type="box" size=".1 .05 .02" pos="0 -.3 0" euler=".2 .3 .4"/>
+    <geom name="ellipsoid" type="ellipsoid" size=".03 .06 .09" pos=".3 .3 0" euler="-.5 .2 .7"/>
+    <geom name="mesh" type="mesh" mesh="box" pos="-.3 .3 0" euler=".1 .6 -.3"/>
+    <geom name="visual" type="box" size=".5 .5 .5" contype="0" conaffinity="0"/>
+  </body>
+</worldbody></mujoco>
+"""
+
+# A foot of each contact kind: flat box, three capsules (H1-like), four spheres
+# (G1-like), an upright cylinder, a mesh block; each foot also carries a large
+# visual box that must never count.
+_FEET = """
+<mujoco><compiler angle="radian"/>
+<asset><mesh name="block" vertex="-.08 -.04 0  .12 -.04 0  -.08 .04 0  .12 .04 0
+                                  -.06 -.03 .03  .1 -.03 .03  -.06 .03 .03  .1 .03 .03"/></asset>
+<worldbody>
+  <body name="robot" pos="0 0 .5"><freejoint/>
+    <geom type="box" size=".1 .1 .1" contype="0" conaffinity="0"/>
+    <body name="box_foot" pos="0 0 -.3"><joint type="hinge" axis="0 1 0"/>
+      <geom type="box" size=".11 .05 .015"/>
+      <geom type="box" size=".15 .08 .05" pos="0 0 -.02" contype="0" conaffinity="0"/>
+    </body>
+    <body name="capsule_foot" pos=".5 0 -.3">
+      <geom type="capsule" size=".014" fromto="-.035 0 -.056 .02 0 -.045"/>
+      <geom type="capsule" size=".014" fromto=".02 0 -.045 .115 0 -.056"/>
+      <geom type="capsule" size=".014" fromto=".14 -.03 -.056 .14 .03 -.056"/>
+    </body>
+    <body name="sphere_foot" pos="1 0 -.3">
+      <geom name="heel" type="sphere" size=".005" pos="-.05 .025 -.03"/>
+      <geom type="sphere" size=".005" pos="-.05 -.025 -.03"/>
+      <geom type="sphere" size=".005" pos=".12 .03 -.03"/>
+      <geom type="sphere" size=".005" pos=".12 -.03 -.03"/>
+    </body>
+    <body name="cylinder_foot" pos="1.5 0 -.3"><geom type="cylinder" size=".04 .02"/></body>
+    <body name="mesh_foot" pos="2 0 -.3"><geom type="mesh" mesh="block"/></body>
+  </body>
+</worldbody></mujoco>
+"""
+
+
+def _data(model: mujoco.MjModel, qpos: np.ndarray | None = None) -> mujoco.MjData:
+    data = mujoco.MjData(model)
+    if qpos is not None:
+        data.qpos[:] = qpos
+    mujoco.mj_forward(model, data)
+    return data
+
+
+def _distance_to_polygon(p: np.ndarray, poly: np.ndarray) -> float:
+    """Distance [m] from a point to a convex ccw polygon (0 inside), brute force."""
+    n = len(poly)
+    edges = [(poly[i], poly[(i + 1) % n]) for i in range(n)]
+    cross = [(b - a)[0] * (p - a)[1] - (b - a)[1] * (p - a)[0] for a, b in edges]
+    inside = min(cross) >= -1e-12
+    if inside:
+        return 0.0
+    best = np.inf
+    for i in range(n):
+        a, b = poly[i], poly[(i + 1) % n]
+        t = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+        best = min(best, float(np.linalg.norm(p - (a + t * (b - a)))))
+    return best
+
+
+def _outside(points: np.ndarray, poly: np.ndarray) -> float:
+    """Largest distance of ``points`` (k, 2) outside ``poly`` [m]."""
+    return max(_distance_to_polygon(p, poly) for p in points)
+
+
+def _floor_contacts(spec: mujoco.MjSpec, qpos: np.ndarray, foot: str) -> np.ndarray:
+    """MuJoCo's contact points (k, 3) between a floor plane z = 0 and the geoms of
+    ``foot`` and its children, at ``qpos``."""
+    spec = spec.copy()
+    spec.worldbody.add_geom(name="test_floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[9, 9, 1])
+    model = spec.compile()
+    data = _data(model, qpos)
+    floor = model.geom("test_floor").id
+    feet = ground.subtree_bodies(model, model.body(foot).id)
+    points = []
+    for c in data.contact[: data.ncon]:
+        other = c.geom2 if c.geom1 == floor else c.geom1 if c.geom2 == floor else -1
+        if other >= 0 and model.geom_bodyid[other] in feet:
+            points.append(c.pos.copy())
+    return np.array(points)
+
+
+# ----------------------------------------------------------------- lowest points
+@pytest.mark.parametrize("kind", ["sphere", "capsule", "cylinder", "box", "ellipsoid", "mesh"])
+def test_lowest_height_is_mujocos_distance_to_the_floor(kind):
+    """Random orientations of the body: the formula's height equals MuJoCo's
+    signed distance of the geom to the plane z = 0."""
+    model = mujoco.MjModel.from_xml_string(_SHAPES)
+    rng = np.random.default_rng(3)
+    g, floor = model.geom(kind).id, model.geom("floor").id
+    for _ in range(20):
+        q = model.qpos0.copy()
+        q[:3] = [0.0, 0.0, 1.0]
+        quat = rng.normal(size=4)
+        q[3:] = quat / np.linalg.norm(quat)
+        data = _data(model, q)
+        expected = mujoco.mj_geomDistance(model, data, g, floor, 10.0, None)
+        assert ground.lowest_height(model, data, g) == pytest.approx(expected, abs=1e-6)
+        bottom = ground.bottom_points(model, data, g)
+        assert np.all(np.abs(bottom[:, 2] - expected) <= ground.DEFAULT_TOLERANCE + 1e-9)
+
+
+def test_lowest_height_refuses_a_plane():
+    model = mujoco.MjModel.from_xml_string(_SHAPES)
+    with pytest.raises(InvalidInput, match="PLANE"):
+        ground.lowest_height(model, _data(model), model.geom("floor").id)
+
+
+def test_floor_gap_of_a_floating_robot():
+    """The lowest collision geom (the capsule foot's), not the larger visual
+    boxes; against MuJoCo's distance of each collision geom to a floor."""
+    model = mujoco.MjModel.from_xml_string(_FEET)
+    data = _data(model)
+    gap = ground.floor_gap(model, data, "robot")
+    spec = mujoco.MjSpec.from_string(_FEET)
+    spec.worldbody.add_geom(name="f", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[9, 9, 1])
+    m2 = spec.compile()
+    d2 = _data(m2)
+    robot_geoms = ground.collision_geoms(m2, ground.subtree_bodies(m2, m2.body("robot").id))
+    floor = m2.geom("f").id
+    expected = min(mujoco.mj_geomDistance(m2, d2, g, floor, 10.0, None) for g in robot_geoms)
+    assert gap == pytest.approx(expected, abs=1e-9)
+    assert gap == pytest.approx(0.5 - 0.3 - 0.056 - 0.014, abs=1e-9)  # the capsule foot
+    # lowering the root by the gap puts the robot on the floor
+    q = model.qpos0.copy()
+    q[2] -= gap
+    assert ground.floor_gap(model, _data(model, q), "robot") == pytest.approx(0.0, abs=1e-12)
+
+
+# ------------------------------------------------------------------ sole polygons
+@pytest.mark.parametrize(
+    ("foot", "area", "n"),
+    [
+        ("box_foot", 0.22 * 0.10, 4),
+        # heel point and the cross capsule's two ends (the toe point lies inside)
+        ("capsule_foot", 0.5 * 0.06 * 0.175, 3),
+        ("sphere_foot", 0.5 * (0.05 + 0.06) * 0.17, 4),
+        ("cylinder_foot", ground.CYLINDER_RIM_POINTS / 2 * 0.04**2 * np.sin(2 * np.pi / 16), 16),
+        ("mesh_foot", 0.20 * 0.08, 4),
+    ],
+)
+def test_sole_polygon_matches_mujoco_contacts(foot, area, n):
+    """Each foot, put 2 mm into a floor: the polygon has the expected area, and
+    MuJoCo's contact points of the same pose lie on it (within 1 mm); for all but
+    the cylinder (MuJoCo makes at most 4 contacts on a disc) the two hulls agree
+    both ways within 1 mm."""
+    model = mujoco.MjModel.from_xml_string(_FEET)
+    q = model.qpos0.copy()
+    body = model.body(foot).id
+    heights = ground.geom_heights(model, _data(model), ground.subtree_bodies(model, body))
+    q[2] -= min(heights.values()) + 0.002
+    data = _data(model, q)
+    poly = ground.sole_polygon(model, data, foot)
+    assert len(poly) == n
+    assert polygon_area(poly[:, :2]) == pytest.approx(area, rel=1e-6)
+    contacts = _floor_contacts(mujoco.MjSpec.from_string(_FEET), q, foot)
+    assert len(contacts) >= 3
+    assert _outside(contacts[:, :2], poly[:, :2]) <= 1e-3
+    if foot != "cylinder_foot":
+        hull = convex_hull_2d(contacts[:, :2])
+        assert _outside(poly[:, :2], hull) <= 1e-3
+
+
+def test_sole_polygon_ignores_visual_geoms_that_the_bounding_box_takes():
+    model = mujoco.MjModel.from_xml_string(_FEET)
+    robot = Robot(model, limbs={"leg": Limb("leg", (), "box_foot", "body", "box_foot")})
+    new = ground.sole_polygons(robot, ["leg"])[0]
+    old = bounding_box_soles(robot, ["leg"])[0]
+    assert np.ptp(new[:, :2], axis=0) == pytest.approx([0.22, 0.10], abs=1e-9)
+    assert np.ptp(old[:, :2], axis=0) == pytest.approx([0.30, 0.16], abs=1e-9)  # the visual box
+
+
+def test_sole_geoms_given_by_name_and_bad_names():
+    model = mujoco.MjModel.from_xml_string(_FEET)
+    data = _data(model)
+    only_heel = ground.sole_polygon(model, data, "sphere_foot", geoms=["heel"])
+    assert only_heel.shape == (1, 3)
+    with pytest.raises(UnknownName, match="heel"):
+        ground.sole_polygon(model, data, "sphere_foot", geoms=["toe"])
+    robot = Robot(model, limbs={"leg": Limb("leg", (), "sphere_foot", "body", "sphere_foot")})
+    with pytest.raises(InvalidInput, match="no area to stand on"):
+        ground.sole_polygons(robot, ["leg"], soles={"leg": ["heel"]})
+
+
+def test_tilted_foot_has_no_area():
+    model = mujoco.MjModel.from_xml_string(_FEET)
+    q = model.qpos0.copy()
+    q[model.jnt_qposadr[1]] = 0.2  # the box foot's hinge: pitched 0.2 rad
+    robot = Robot(model, limbs={"leg": Limb("leg", (), "box_foot", "body", "box_foot")})
+    robot.configuration.update(q)
+    with pytest.raises(InvalidInput, match="tilted"):
+        ground.sole_polygons(robot, ["leg"])
+
+
+def test_sample_humanoid_soles_are_its_box_soles():
+    """Box feet without visual geoms: the old bounding-box rule was right here."""
+    robot = Robot(load_model("sample_humanoid"))
+    for new, old in zip(ground.sole_polygons(robot), bounding_box_soles(robot), strict=True):
+        assert np.allclose(np.sort(new[:, :2], axis=0), np.sort(old[:, :2], axis=0), atol=1e-9)
+
+
+# ---------------------------------------------------------------- real robots
+# (foot length x width of the new polygon [m], of the old bounding boxes [m], area [m²])
+_MENAGERIE_SOLES = {
+    "unitree_g1": ((0.170, 0.060), (0.213, 0.076), 0.0094),
+    "unitree_h1": ((0.175, 0.060), (0.248, 0.088), 0.0053),
+    "booster_t1": ((0.223, 0.100), (0.229, 0.100), 0.0223),
+}
+
+
+@pytest.mark.parametrize("name", list(_MENAGERIE_SOLES))
+def test_menagerie_soles_against_mujoco_contacts(name):
+    """In the standing pose put 3 mm into a floor: each sole polygon and the hull
+    of MuJoCo's contact points on that foot agree within 1 mm both ways; the old
+    bounding boxes (visual meshes included) are larger by the measured amounts."""
+    model = menagerie_model(name)
+    pose = standing_pose(model)
+    q = pose.qpos.copy()
+    q[2] -= pose.floor_gap + ground.DEFAULT_TOLERANCE
+    robot = Robot(model, limbs=find_limbs(model, pose.qpos))
+    robot.configuration.update(q)
+    size, old_size, area = _MENAGERIE_SOLES[name]
+    spec = load_spec(name)
+    for leg, poly, old in zip(
+        ("rleg", "lleg"), ground.sole_polygons(robot), bounding_box_soles(robot), strict=True
+    ):
+        assert np.ptp(poly[:, :2], axis=0) == pytest.approx(size, abs=1e-3)
+        assert np.ptp(old[:, :2], axis=0) == pytest.approx(old_size, abs=1e-3)
+        assert polygon_area(poly[:, :2]) == pytest.approx(area, abs=1e-4)
+        foot = Frame.find(model, robot.limb(leg).end_frame).body_id
+        contacts = _floor_contacts(spec, q, model.body(foot).name)
+        assert _outside(contacts[:, :2], poly[:, :2]) <= 1e-3
+        assert _outside(poly[:, :2], convex_hull_2d(contacts[:, :2])) <= 1e-3
