@@ -142,7 +142,7 @@ def test_cases_cross_points_stacks_robots_and_seed_points_alone():
     assert Sweep.from_dict(rand.to_dict()) == rand and Sweep.from_dict(grid.to_dict()) == grid
 
 
-def test_bad_sweeps_say_what_is_valid():
+def test_bad_sweeps_say_what_is_valid(tmp_path):
     with pytest.raises(InvalidInput, match=r"unknown sweep parameter 'w'.*x \(hand target"):
         Grid({"w": [1.0], "x": [0.3], "y": [0.0], "z": [1.0]})
     with pytest.raises(InvalidInput, match=r"must set \['z'\]"):
@@ -153,6 +153,28 @@ def test_bad_sweeps_say_what_is_valid():
         Uniform({"x": (0.7, 0.2), "y": (0, 0), "z": (1, 1)}, 5)
     with pytest.raises(InvalidInput, match="finite"):
         Grid({"x": [float("nan")], "y": [0.0], "z": [1.0]})
+    with pytest.raises(InvalidInput, match=r"grid value of 'x' must be a finite number \[m\]"):
+        Grid({"x": ["0.3"], "y": [0.0], "z": [1.0]})  # a string is not a number
+    with pytest.raises(InvalidInput, match=r"a Grid needs a mapping name -> values"):
+        Grid([("x", [0.3])])
+    with pytest.raises(InvalidInput, match=r"range of 'x' must be \(low, high\) \[m\]"):
+        Uniform({"x": "0:1", "y": (0, 0), "z": (1, 1)}, 5)
+    with pytest.raises(InvalidInput, match=r"n must be an integer >= 1, got 2.5"):
+        Uniform({"x": (0, 1), "y": (0, 0), "z": (1, 1)}, 2.5)
+    with pytest.raises(InvalidInput, match=r"robots must be a list of names, got 'sample_"):
+        Sweep(Grid(GRID), robots="sample_humanoid")
+    with pytest.raises(InvalidInput, match=r"seed must be an integer >= 0, got -1"):
+        Sweep(Grid(GRID), seed=-1)
+    with pytest.raises(InvalidInput, match=r"hold must be a finite number > 0 \[s\], got 0"):
+        Sweep(Grid(GRID), hold=0)
+    # run_sweep's own arguments are refused before the directory is made
+    with pytest.raises(InvalidInput, match=r"sweep must be a pik_mj.sweep.Sweep"):
+        run_sweep(GRID, tmp_path / "never")
+    with pytest.raises(InvalidInput, match=r"workers=3 but num_cpus=2"):
+        run_sweep(SWEEP, tmp_path / "never", workers=3, num_cpus=2)
+    with pytest.raises(InvalidInput, match=r"batch_size must be an integer >= 1, got 0"):
+        run_sweep(SWEEP, tmp_path / "never", batch_size=0)
+    assert not (tmp_path / "never").exists()
 
 
 def test_sweep_rows_are_the_cases_solved_checked_and_held(reference):

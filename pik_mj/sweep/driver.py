@@ -195,6 +195,8 @@ def run_sweep(
         InvalidInput: Bad arguments, ``out`` holding another sweep, or more
             workers than the cluster has CPUs.
     """
+    if sweep is not None and not isinstance(sweep, Sweep):
+        raise InvalidInput(f"sweep must be a pik_mj.sweep.Sweep or None, got {sweep!r}")
     batch_size = inputs.integer(batch_size, "batch_size", low=1)
     if workers is not None:
         workers = inputs.integer(workers, "workers", low=1)

@@ -58,10 +58,11 @@ class Grid:
     axes: Mapping[str, Sequence[float]]
 
     def __post_init__(self) -> None:
-        if not self.axes:
-            raise InvalidInput("a Grid needs at least one parameter axis")
+        if not isinstance(self.axes, Mapping) or not self.axes:
+            raise InvalidInput(f"a Grid needs a mapping name -> values, got {self.axes!r}")
         axes = {}
         for name, values in self.axes.items():
+            key = _name(name)
             vals = tuple(
                 inputs.real(v, f"grid value of {name!r}", unit="m") for v in _values(values, name)
             )
@@ -69,7 +70,7 @@ class Grid:
                 raise InvalidInput(f"grid axis {name!r} has no values")
             if len(set(vals)) != len(vals):
                 raise InvalidInput(f"grid axis {name!r} repeats a value: {vals}")
-            axes[_name(name)] = vals
+            axes[key] = vals
         object.__setattr__(self, "axes", axes)
 
     @property
@@ -104,12 +105,15 @@ class Uniform:
     n: int
 
     def __post_init__(self) -> None:
-        if not self.bounds:
-            raise InvalidInput("a Uniform set needs at least one parameter range")
+        if not isinstance(self.bounds, Mapping) or not self.bounds:
+            raise InvalidInput(
+                f"a Uniform set needs a mapping name -> (low, high), got {self.bounds!r}"
+            )
         n = inputs.integer(self.n, "n", low=1)
         bounds = {}
         for name, pair in self.bounds.items():
-            if isinstance(pair, (str, bytes)) or not isinstance(pair, Sequence) or len(pair) != 2:
+            pair_like = isinstance(pair, (Sequence, np.ndarray)) and not isinstance(pair, str)
+            if not pair_like or len(pair) != 2:
                 raise InvalidInput(f"range of {name!r} must be (low, high) [m], got {pair!r}")
             lo, hi = (inputs.real(v, f"range of {name!r}", unit="m") for v in pair)
             if lo > hi:
