@@ -179,7 +179,7 @@ class TrustRegion:
 
     Attributes:
         radius: Initial radius [rad or m, per coordinate of Δq] (0.5: on the
-            reference reaching stacks, 1.0 needed 15 % more iterations on the
+            reference reaching stacks, 1.0 needed 15-20 % more iterations on the
             62-DoF CMU humanoid with ``daqp-hqp``, and no fewer elsewhere).
         max_radius: Largest radius [rad or m].
         min_radius: Smallest radius kept for the next iterations [rad or m]
