@@ -143,8 +143,8 @@ class NullSpaceCascade:
     """The cascade's levels, one after the other.
 
     Keeps ``x`` (the step so far) and ``P``, the orthogonal projector onto the
-    null space of every kept equality row (None while it is ``I``). Level ``k`` (equality rows
-    ``Â = W^½ A_k``, ``r = W^½ (b_k − A_k x)``) minimizes
+    null space of every kept equality row (None while it is ``I``). Level
+    ``k`` (equality rows ``Â = W^½ A_k``, ``r = W^½ (b_k − A_k x)``) minimizes
     ``‖Â (x + P v) − W^½ b_k‖² + λ_k ‖x + P v‖²``; with ``B = Â P``:
 
     .. math::
