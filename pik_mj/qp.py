@@ -364,7 +364,10 @@ class OSQPBackend:
         fresh setup, bit for bit (tested)."""
         ext = cached.solver._solver
         ext.update_rho(float(self.settings.get("rho", _OSQP_RHO)))
-        ext.warm_start(np.zeros(problem.P.shape[0]), np.zeros(problem.A.shape[0]))
+        if ext.get_settings().warm_starting:
+            # (warm_start() also turns warm starting on: a workspace without
+            # it, the correction's, cold-starts every solve by itself)
+            ext.warm_start(np.zeros(problem.P.shape[0]), np.zeros(problem.A.shape[0]))
 
     def _setup(
         self, problem: LevelProblem, key: tuple, P_mask: np.ndarray, A_mask: np.ndarray

@@ -375,6 +375,17 @@ def test_osqp_workspaces_serve_later_solves_with_the_result_of_a_fresh_setup():
     # the same problem warm-started from others: the same up to OSQP's tolerance
     assert np.abs(again[-1] - first[0]).max() <= 1e-4
 
+    # the correction's workspaces (no warm start) too: the same sequence of
+    # problems gives what a fresh backend gives
+    def corrections(b):
+        b.start()
+        return [solve_cascade(hard, s, regs, b, 1e-5, "correction", False).x for s in stacks]
+
+    fixes = [corrections(backend) for _ in range(2)]
+    assert backend.setups == 6
+    np.testing.assert_array_equal(fixes[0], fixes[1])
+    np.testing.assert_array_equal(fixes[1], corrections(OSQPBackend()))
+
 
 def test_osqp_workspaces_of_a_grown_pattern_serve_later_solves():
     """A level whose pattern grows within a solve (a coincidental zero of the
