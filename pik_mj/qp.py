@@ -229,6 +229,7 @@ class _OSQPLevel:
     P_pattern: _Pattern
     A_pattern: _Pattern
     epoch: int = 0  # the solve this workspace last served
+    key: tuple = ()  # its key in OSQPBackend._levels (level and pattern)
 
 
 @dataclass
@@ -298,7 +299,9 @@ class OSQPBackend:
                 cached = self._workspace(key, P_mask, A_mask, problem)
                 self._current[key] = cached
         except osqp.OSQPException as exc:
-            self._current.pop(key, None)
+            failed = self._current.pop(key, None)
+            if failed is not None:  # its state is unknown: never serve it again
+                self._levels.pop(failed.key, None)
             code = int(exc.args[0]) if exc.args else 0
             return QPSolution(None, f"OSQP: {_OSQP_ERRORS.get(code, f'error {code}')}", False)
         cached.epoch = self._epoch
@@ -332,12 +335,9 @@ class OSQPBackend:
         if cached is None:
             return self._setup(problem, pattern, P_mask, A_mask)
         self._levels.move_to_end(pattern)
-        try:
-            self._update(cached, problem)
-            self._reset(cached, problem)
-        except osqp.OSQPException:
-            del self._levels[pattern]  # its state is unknown: never serve it again
-            raise
+        self._current[key] = cached  # (dropped by solve() if the update fails)
+        self._update(cached, problem)
+        self._reset(cached, problem)
         return cached
 
     def _update(self, cached: _OSQPLevel, problem: LevelProblem) -> None:
@@ -391,7 +391,7 @@ class OSQPBackend:
             **settings,
         )
         self.setups += 1
-        level = _OSQPLevel(solver, P_pattern, A_pattern, self._epoch)
+        level = _OSQPLevel(solver, P_pattern, A_pattern, self._epoch, key)
         self._levels[key] = level
         self._levels.move_to_end(key)
         while len(self._levels) > self.capacity:
