@@ -28,7 +28,7 @@ import rerun as rr
 
 from ._record_adapter import Recorder
 from .balance import support_polygon
-from .ik import sole_polygons
+from .ground import sole_polygons
 from .robot import Robot
 from .sim import HoldCriteria, HoldReport, Scene, StaticChecks, StaticReport, balance_report
 from .solve import SolveResult
@@ -69,7 +69,7 @@ def jsonable(value: Any) -> Any:
 
 def com_margin(robot: Robot, point: np.ndarray | None = None) -> float:
     """Signed distance [m] of the CoM's (or ``point``'s) ground projection to the edges
-    of the support polygon of both soles (:func:`pik_mj.ik.sole_polygons`),
+    of the support polygon of both soles (:func:`pik_mj.ground.sole_polygons`),
     positive inside."""
     region = support_polygon(sole_polygons(robot))
     return float(region.signed_distance(robot.com() if point is None else np.asarray(point)))

@@ -47,6 +47,7 @@ it), and only the pairs that have come inside the yellow zone give rows.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -232,29 +233,21 @@ def pair_distance(
     is zero. At exact contact (``p_a = p_b``) the normal falls back to the
     direction between the geom centres.
     """
-    fromto = np.zeros(6)
+    fromto = np.empty(6)
     d = float(mujoco.mj_geomDistance(model, data, pair.geom1, pair.geom2, distmax, fromto))
     if d >= distmax:
         return PairDistance(d, fromto[:3], fromto[3:], np.zeros(3))
-    p_a, p_b = fromto[:3].copy(), fromto[3:].copy()
+    p_a, p_b = fromto[:3], fromto[3:]
     delta = p_a - p_b
-    norm = float(np.linalg.norm(delta))
+    norm = math.sqrt(delta @ delta)
     if norm < 1e-9:
         delta = data.geom_xpos[pair.geom1] - data.geom_xpos[pair.geom2]
-        norm = float(np.linalg.norm(delta))
+        norm = math.sqrt(delta @ delta)
         sign = 1.0
     else:
         sign = 1.0 if d >= 0 else -1.0  # penetrating: fromto runs the other way
-    normal = sign * delta / norm if norm > 0 else np.zeros(3)
+    normal = (sign / norm) * delta if norm > 0 else np.zeros(3)
     return PairDistance(d, p_a, p_b, normal)
-
-
-def _point_jacobian(
-    model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray, body: int
-) -> np.ndarray:
-    jacp = np.zeros((3, model.nv))
-    mujoco.mj_jac(model, data, jacp, None, point, body)
-    return jacp
 
 
 class CollisionAvoidanceTask(Task):
@@ -317,6 +310,8 @@ class CollisionAvoidanceTask(Task):
         self.name = name
         self._g1 = np.array([p.geom1 for p in self.pairs], dtype=int)
         self._g2 = np.array([p.geom2 for p in self.pairs], dtype=int)
+        self._b1 = model.geom_bodyid[self._g1].tolist()
+        self._b2 = model.geom_bodyid[self._g2].tolist()
         self.keep_start_distances(configuration)
 
     def keep_start_distances(self, configuration: mink.Configuration) -> None:
@@ -406,13 +401,14 @@ class CollisionAvoidanceTask(Task):
         self.row_pairs = np.union1d(self.row_pairs, np.fromiter(measured, int, len(measured)))
         C = np.zeros((len(self.row_pairs), m.nv))
         lower = np.full(len(self.row_pairs), -self.yellow)
-        for r, i in enumerate(self.row_pairs):
-            if i not in measured:
+        J_a, J_b = np.empty((3, m.nv)), np.empty((3, m.nv))
+        for r, i in enumerate(self.row_pairs.tolist()):
+            pd = measured.get(i)
+            if pd is None:
                 continue
-            pd, pair = measured[i], self.pairs[i]
-            J_a = _point_jacobian(m, data, pd.p_a, int(m.geom_bodyid[pair.geom1]))
-            J_b = _point_jacobian(m, data, pd.p_b, int(m.geom_bodyid[pair.geom2]))
-            C[r] = pd.normal @ (J_a - J_b)
+            mujoco.mj_jac(m, data, J_a, None, pd.p_a, self._b1[i])
+            mujoco.mj_jac(m, data, J_b, None, pd.p_b, self._b2[i])
+            C[r] = pd.normal @ J_a - pd.normal @ J_b
             lower[r] = -self.gain * (pd.distance - self.bounds[i])
         return TaskRows.inequality(C.reshape(-1, m.nv), lower, np.inf, self.weight)
 
