@@ -59,6 +59,12 @@ _FRAME_OBJ = {
     "geom": mujoco.mjtObj.mjOBJ_GEOM,
 }
 _FRAME_COUNT = {"site": "nsite", "body": "nbody", "geom": "ngeom"}
+_QPOS_SIZE = {
+    int(mujoco.mjtJoint.mjJNT_FREE): 7,
+    int(mujoco.mjtJoint.mjJNT_BALL): 4,
+    int(mujoco.mjtJoint.mjJNT_SLIDE): 1,
+    int(mujoco.mjtJoint.mjJNT_HINGE): 1,
+}
 _ANGLE_JOINTS = (
     int(mujoco.mjtJoint.mjJNT_HINGE),
     int(mujoco.mjtJoint.mjJNT_SLIDE),
@@ -247,6 +253,7 @@ class Robot:
         self.spec: mujoco.MjSpec | None = None
         self.source: RobotSource | None = None
         self.placement: tuple[float, float, float, float] | None = None
+        self._own_nq: int | None = None
         self.description = description
         top_level = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
         if not top_level:
@@ -423,6 +430,7 @@ class Robot:
         )
         out.keyframe_rule = robot.keyframe_rule
         out.spec = spec
+        out._own_nq = int(alone.nq)
         out.source = RobotSource(
             _source_name(model),
             None if environment is None else _source_name(environment),
@@ -579,10 +587,16 @@ class Robot:
 
     @property
     def own_nq(self) -> int:
-        """Length of the robot's own part of ``q``: its joints come first, the
+        """Length of the robot's own part of ``q``: its MJCF's joints (the robot's,
+        and those of other top-level bodies its MJCF has) come first, the
         environment's (e.g. the room's kettle) after them."""
-        k = len(self._robot_joint_ids)
-        return int(self.model.nq if k == self.model.njnt else self.model.jnt_qposadr[k])
+        if self._own_nq is not None:
+            return self._own_nq
+        ends = [
+            int(self.model.jnt_qposadr[j]) + _QPOS_SIZE[int(self.model.jnt_type[j])]
+            for j in self._robot_joint_ids
+        ]
+        return max(ends, default=0)
 
     @property
     def has_floating_base(self) -> bool:
