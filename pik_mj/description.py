@@ -20,7 +20,9 @@ found as usual (:func:`pik_mj.limbs.find_limbs`, :func:`pik_mj.keyframes.standin
     [soles]
     rleg = ["right_sole"]             # collision geoms the right foot stands on
 
-Load it with :func:`load_description`; :func:`robot_limbs` gives the limbs.
+Pass the file to :meth:`pik_mj.Robot.from_model` (``description=PATH``) or to a
+scenario (``pik-mj run fullbody_reach --description PATH``); :func:`load_description`
+reads it, :func:`robot_limbs` gives the limbs.
 """
 
 from __future__ import annotations

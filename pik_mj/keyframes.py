@@ -11,8 +11,10 @@ Rule, first match wins:
 4. the zero pose ``qpos0`` (Unitree H1 and dm_control's humanoids have no keyframe).
 
 The chosen pose is returned as it is written, with its gap to the floor
-(:func:`pik_mj.ground.floor_gap`): putting the robot down on the floor (Robotis
-OP3's zero pose floats 21 mm) is the scene's job.
+(:func:`pik_mj.ground.floor_gap`). :meth:`pik_mj.Robot.from_model` makes it a
+pose standing on the floor: a zero pose whose soles are tilted gets its feet
+turned flat (keyframe ``pik_mj_standing``; dm_control's humanoid, 8 mrad), and
+the robot is put down onto z = 0 (Robotis OP3's zero pose floats 21 mm).
 """
 
 from __future__ import annotations

@@ -79,7 +79,8 @@ OVERRIDE_HINT = (
     "    [limbs.rleg]\n"
     '    end = "right_foot"\n'
     '    joints = ["right_hip", "right_knee", "right_ankle"]   # optional\n'
-    "loaded with pik_mj.description.load_description(path), or pass limbs= to Robot"
+    "given as Robot.from_model(model, description=PATH), or on the command line as\n"
+    "    pik-mj run fullbody_reach --model MODEL --description PATH"
 )
 
 _ANGLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))

@@ -211,12 +211,16 @@ class Robot:
 
     Args:
         model: The compiled model (a robot alone or with an environment).
-        root_body: Name of the robot's top-level body. By default the top-level
-            body holding the joints of the detected limbs, or, without limbs, as
-            :func:`robot_root_body`.
-        limbs: Explicit limb table ``{name: Limb}``; detected from names if None.
-        keyframe: Keyframe of the start pose (:meth:`reset_pose`); default
-            ``reset_pose`` if the model has one, else ``qpos0``.
+        root_body: Name of the robot's top-level body (default: the
+            description's, else :func:`robot_root_body`).
+        limbs: Explicit limb table ``{name: Limb}``; None: the description's
+            limbs, the others found from the kinematic tree in the start pose
+            (:func:`pik_mj.description.robot_limbs`; none required).
+        keyframe: Keyframe of the start pose (:meth:`reset_pose`), by name or
+            index (default: the description's, else
+            :func:`pik_mj.keyframes.choose_keyframe`).
+        description: What a robot description file states
+            (:class:`~pik_mj.description.RobotDescription`), or None.
 
     Attributes:
         model: The compiled model.
@@ -226,7 +230,11 @@ class Robot:
         source: The :class:`RobotSource` that rebuilds it, or None.
         placement: ``(x, y, z, yaw)`` [m, rad] where the robot's model frame was
             put (``at``), or None.
-        keyframe: The start pose's keyframe (:meth:`reset_pose`), or None for ``qpos0``.
+        keyframe: The start pose's keyframe (:meth:`reset_pose`): name, index of an
+            unnamed one, or None for ``qpos0``.
+        keyframe_rule: Why that keyframe (:func:`pik_mj.keyframes.choose_keyframe`).
+        description: The robot description, or None.
+        limbs: ``{name: Limb}``, in the order of :data:`pik_mj.limbs.LIMB_NAMES`.
 
     Raises:
         UnknownName: ``root_body``, ``keyframe`` or a limb's joint/frame does not exist.

@@ -333,7 +333,7 @@ def test_limbs_not_found_is_said_before_any_work(tmp_path):
     message = str(err.value)
     assert "['larm']" in message  # what is missing
     assert "rleg (5 joints" in message and "lleg (5 joints" in message  # what was found
-    assert "[limbs.rarm]" in message and "load_description" in message  # how to describe it
+    assert "[limbs.rarm]" in message and "--description PATH" in message  # how to describe it
     with pytest.raises(LimbsNotFound, match="larm"):
         robot.limb("larm")
 

@@ -211,7 +211,7 @@ def test_no_limbs_is_a_clear_error_naming_what_was_found():
     message = str(err.value)
     assert "['foot']" in message  # the body touching the floor
     assert "touched by 1 leg(s), not 2" in message
-    assert "[limbs.rarm]" in message and "load_description" in message
+    assert "[limbs.rarm]" in message and "description=PATH" in message
     assert err.value.found == {}
     assert isinstance(err.value, InvalidInput)
 
