@@ -3,11 +3,13 @@
 The solve is ``scenarios/fullbody_reach.py``'s (sample humanoid, waist 10°, both
 feet fixed, centroid x-y over the feet, left hand to the seed's (0.4, 0.1, -0.6) m
 from the pelvis, position only, ``stop=100``). It is timed without a callback and
-recorded exactly as ``pik-mj run`` records it: through the recorder's
-``solve_logger`` (every body's pose and,
-from them, every geom's; the CoM and its target; every task's error from the
-solve loop's own evaluation; each frame task's current and target frame; the
-blueprint) into a temporary ``.rrd``.
+recorded as a scenario script records it: a :class:`pik_mj.record.Recorder` on a
+temporary ``.rrd`` with the robot's geometry, the solve's
+:meth:`~pik_mj.record.Recorder.solve_logger` as callback (every body's pose
+and, from them, every geom's; the CoM and its target; every task's error from
+the solve loop's own evaluation; each frame task's current and target frame),
+its ``finish`` (final pose, outcome) and :meth:`~pik_mj.record.Recorder.close`
+(the blueprint, the end of the file).
 The per-iteration static check and the physics hold are simulation, not
 recording, and are off here.
 
@@ -15,9 +17,10 @@ Times are medians over ``--reps`` repetitions (alternating order, after one
 warm-up each):
 
 * ``plain``: the solve alone;
-* ``recorded``: the solve with the callback, plus the final flush and close (the
+* ``recorded``: the solve with the callback, plus ``finish`` and the close (the
   buffered rows are sent there);
-* ``setup``: opening the file and logging the model geometry (once per run).
+* ``setup``: opening the file, logging the model geometry and the start pose
+  (once per run).
 
 .. math::
 
@@ -25,8 +28,10 @@ warm-up each):
 
 Also printed: the median of the paired ratios ``t_recorded,i / t_plain,i - 1`` of
 the two runs of each repetition (they run back to back, so it is less sensitive
-to the machine's load drifting during the benchmark), and the time spent inside
-the callback and in the final flush/close.
+to the machine's load drifting during the benchmark), the same ratio in CPU time
+of the process (all threads, rerun's included: less sensitive to other
+processes competing for the cores), and the time spent inside the callback and
+in ``finish`` + ``close``.
 
 Run: ``python benchmarks/bench_record.py [--reps 20]``
 """
@@ -40,8 +45,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pik_mj import Recorder
 from pik_mj.ik import fullbody_inverse_kinematics
+from pik_mj.record import Recorder
 from pik_mj.robot import Robot
 from pik_mj.solve import IterationInfo, SolveResult
 
@@ -74,21 +79,25 @@ def solve(robot: Robot, target: np.ndarray, p_mid: np.ndarray, callback=None) ->
     )
 
 
-def time_plain(robot: Robot) -> tuple[float, SolveResult]:
+def time_plain(robot: Robot) -> tuple[float, float, SolveResult]:
+    """Returns (wall, CPU) times of the solve [s], result."""
     target, p_mid = start(robot)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     result = solve(robot, target, p_mid)
-    return time.perf_counter() - t0, result
+    return time.perf_counter() - t0, time.process_time() - c0, result
 
 
-def time_recorded(robot: Robot, path: Path) -> tuple[float, float, float, float, SolveResult]:
-    """Returns (setup, solve + flush/close, in the callback, flush/close) times [s], result."""
+def time_recorded(
+    robot: Robot, path: Path, cpu: list[float] | None = None
+) -> tuple[float, float, float, float, SolveResult]:
+    """Returns (setup, solve + finish/close, in the callback, finish/close) times [s],
+    result; appends the CPU time of the solve + finish/close (all threads) to ``cpu``."""
     target, p_mid = start(robot)
     t0 = time.perf_counter()
-    rec = Recorder.to_file(path, application_id="bench_record")
+    rec = Recorder.to_file(path, "bench_record")
     rec.log_model_geometry(robot.model, robot_root_body=robot.root_body)
-    rec.flush()  # as a scenario run: the geometry is on disk before the solve
-    callback = rec.solve_logger("reach")
+    rec.flush()  # the geometry on disk before the solve, as a scenario does
+    callback = rec.solve_logger("reach", start=robot)
     spent: list[float] = []
 
     def timed(info: IterationInfo) -> None:
@@ -96,11 +105,14 @@ def time_recorded(robot: Robot, path: Path) -> tuple[float, float, float, float,
         callback(info)
         spent.append(time.perf_counter() - t)
 
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     result = solve(robot, target, p_mid, timed)
     t2 = time.perf_counter()
+    callback.finish(result)
     rec.close()
-    t3 = time.perf_counter()
+    t3, c3 = time.perf_counter(), time.process_time()
+    if cpu is not None:
+        cpu.append(c3 - c1)
     return t1 - t0, t3 - t1, sum(spent), t3 - t2, result
 
 
@@ -113,18 +125,20 @@ def main(argv=None) -> dict:
 
     robot = Robot.from_model(MODEL)
     plain, recorded, setup, in_callback, closing = [], [], [], [], []
+    cpu_plain, cpu_recorded = [], []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench_record.rrd"
-        _, ref = time_plain(robot)  # warm-up
+        _, _, ref = time_plain(robot)  # warm-up
         time_recorded(robot, path)
         for i in range(args.reps):
             order = (0, 1) if i % 2 == 0 else (1, 0)
             for which in order:
                 if which == 0:
-                    t, result = time_plain(robot)
+                    t, c, result = time_plain(robot)
                     plain.append(t)
+                    cpu_plain.append(c)
                 else:
-                    s, t, cb, close, result = time_recorded(robot, path)
+                    s, t, cb, close, result = time_recorded(robot, path, cpu_recorded)
                     setup.append(s)
                     recorded.append(t)
                     in_callback.append(cb)
@@ -152,6 +166,7 @@ def main(argv=None) -> dict:
         "overhead_paired": float(np.median(np.array(recorded) / np.array(plain) - 1.0)),
         "overhead_in_callback": t_cb / t_plain,
         "overhead_with_setup": (t_rec + t_setup) / t_plain - 1.0,
+        "overhead_cpu_paired": float(np.median(np.array(cpu_recorded) / np.array(cpu_plain) - 1.0)),
         "rrd_bytes": rrd_bytes,
     }
     print(
@@ -159,11 +174,12 @@ def main(argv=None) -> dict:
         f"({'converged' if ref.converged else 'NOT converged'}), median of {args.reps}"
     )
     print(f"{'solve, unrecorded [ms]':40}{1e3 * t_plain:>10.2f}")
-    print(f"{'solve, recorded + flush/close [ms]':40}{1e3 * t_rec:>10.2f}")
+    print(f"{'solve, recorded + finish/close [ms]':40}{1e3 * t_rec:>10.2f}")
     print(f"{'recording overhead':40}{figures['overhead']:>10.1%}   (target <= 30%)")
     print(f"{'  median of the paired ratios':40}{figures['overhead_paired']:>10.1%}")
+    print(f"{'  in CPU time (all threads), paired':40}{figures['overhead_cpu_paired']:>10.1%}")
     print(f"{'  of which in the callback [ms]':40}{1e3 * t_cb:>10.2f}")
-    print(f"{'  of which flush + close [ms]':40}{1e3 * t_close:>10.2f}")
+    print(f"{'  of which finish + close [ms]':40}{1e3 * t_close:>10.2f}")
     print(f"{'overhead of the callback alone':40}{figures['overhead_in_callback']:>10.1%}")
     print(f"{'file + model geometry, once [ms]':40}{1e3 * t_setup:>10.2f}")
     print(f"{'overhead including that':40}{figures['overhead_with_setup']:>10.1%}")

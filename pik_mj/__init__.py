@@ -12,7 +12,6 @@ Internals (the cascade's QP problems and backends, the virtual root) are one
 import deeper: :mod:`pik_mj.cascade`, :mod:`pik_mj.qp`, :mod:`pik_mj.virtual_root`.
 """
 
-from ._record_adapter import Recorder  # TEMPORARY: pik_mj.record.Recorder once rec lands
 from .exceptions import (
     InfeasibleHardConstraints,
     InvalidInput,
@@ -24,7 +23,7 @@ from .exceptions import (
 from .ik import fullbody_inverse_kinematics, inverse_kinematics
 from .models import load_model
 from .progress import Progress
-from .record import read_recording
+from .record import Recorder, read_recording
 from .robot import Limb, Robot, RobotSource
 from .sim import (
     ContactParams,

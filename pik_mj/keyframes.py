@@ -93,7 +93,9 @@ def _find_keyframe(model: mujoco.MjModel, keyframe: str | int) -> int:
             )
         return int(keyframe)
     if not isinstance(keyframe, str):
-        raise InvalidInput(f"keyframe must be a name or an index, got {keyframe!r}")
+        raise InvalidInput(
+            f"keyframe must be a keyframe name (a string) or an index, got {keyframe!r}"
+        )
     names = keyframe_names(model)
     if keyframe in names:
         return names.index(keyframe)

@@ -44,7 +44,7 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
     forces = [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
 
     checks = scene.static_checker()
-    log = recorder.solve_logger("reach with forces", checks=checks)
+    log = recorder.solve_logger("reach with forces", checks=checks, start=robot)
     progress = Progress("reach with forces", total=100, stream=None if quiet else sys.stderr)
     res = fullbody_inverse_kinematics(
         robot,

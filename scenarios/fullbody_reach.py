@@ -71,7 +71,7 @@ def run(
         target = p_hand + length * np.array(OTHER_MODELS)
 
     checks = scene.static_checker()
-    log = recorder.solve_logger("reach", checks=checks)
+    log = recorder.solve_logger("reach", checks=checks, start=robot)
     progress = Progress("reach", total=100, stream=None if quiet else sys.stderr)
     res = fullbody_inverse_kinematics(
         robot,
@@ -129,26 +129,18 @@ def run(
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(__doc__)
-    p.add_argument(
-        "--model",
-        default=None,
-        help="robot: a model name (sample_humanoid, dm_humanoid, a MuJoCo Menagerie robot "
-        "such as unitree_g1) or an MJCF path (default: the description's model, else "
-        "sample_humanoid)",
-    )
-    p.add_argument(
-        "--description",
-        default=None,
-        help="robot description file (.toml/.json): limbs, keyframe, soles the "
-        "kinematic tree does not tell",
+    p = parser(
+        __doc__,
+        model="sample_humanoid",
+        limbs=(*FEET, HAND),
+        floating_base=True,
+        description=True,
     )
     args = p.parse_args(argv)
-    model = args.model if args.model or args.description else "sample_humanoid"
     with open_recorder(args, NAME) as recorder:
         result = run(
             recorder,
-            model=model,
+            model=args.model,
             description=args.description,
             hold=args.hold,
             quiet=args.quiet,

@@ -52,7 +52,10 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
     X_kettle0 = robot.frame_pose("kettle", "body")
 
     checks = scene.static_checker()
-    log, progress = recorder.solve_logger("look", checks=checks), Progress("look", stream=err)
+    log, progress = (
+        recorder.solve_logger("look", checks=checks, start=robot),
+        Progress("look", stream=err),
+    )
     look = inverse_kinematics(
         robot, [], look_at=p_kettle, joints="chain", callback=[checks, log, progress]
     )
@@ -60,7 +63,10 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
     gaze_look = gaze_angle(robot, p_kettle)
 
     checks = scene.static_checker()
-    log, progress = recorder.solve_logger("grasp", checks=checks), Progress("grasp", stream=err)
+    log, progress = (
+        recorder.solve_logger("grasp", checks=checks, start=robot),
+        Progress("grasp", stream=err),
+    )
     grasp = inverse_kinematics(
         robot,
         (p_handle, R_grasp),
@@ -78,12 +84,16 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         return p_kettle + r.frame_pose("rarm_end").translation() - X_grasp.translation()
 
     checks = scene.static_checker()
-    log, progress = recorder.solve_logger("lift", checks=checks), Progress("lift", stream=err)
+    log, progress = (
+        recorder.solve_logger("lift", checks=checks, start=robot),
+        Progress("lift", stream=err),
+    )
     lift = inverse_kinematics(
         robot,
-        (p_handle + np.array([0.0, 0.0, LIFT]), R_grasp),
+        # the grasped hand's whole pose, lifted: the kettle hangs from it
+        (p_handle + np.array([0.0, 0.0, LIFT]), X_grasp.rotation().wxyz),
         move_targets="rarm_end",
-        rotation_axis="x",
+        rotation_axis=True,
         look_at=kettle_now,
         stop=100,
         callback=[checks, log, progress],

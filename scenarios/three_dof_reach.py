@@ -34,7 +34,10 @@ def run(recorder: Recorder, *, quiet: bool = True, samples: int = 16) -> Scenari
 
     def solve(label: str, target, **options):
         """``inverse_kinematics`` with the logger and the progress."""
-        log, progress = recorder.solve_logger(label), Progress(label, total=50, stream=err)
+        log, progress = (
+            recorder.solve_logger(label, start=robot),
+            Progress(label, total=50, stream=err),
+        )
         res = inverse_kinematics(robot, target, callback=[log, progress], **options)
         return result.add_solve(label, res, finish=[log, progress])
 

@@ -61,7 +61,7 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
     scfr_task = ScfrTask(robot.configuration, contacts, root_body=robot.root_body, margin=0.01)
     lean_task = CentroidTask(robot.configuration, lean, root_body=robot.root_body, check=False)
     checks = scene.static_checker()
-    log = recorder.solve_logger("hand on the wall", checks=checks)
+    log = recorder.solve_logger("hand on the wall", checks=checks, start=robot)
     progress = Progress("hand on the wall", total=100, stream=None if quiet else sys.stderr)
     res = fullbody_inverse_kinematics(
         robot,

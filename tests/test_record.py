@@ -18,8 +18,8 @@ import rerun as rr
 from scipy.spatial.transform import Rotation
 
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
-from pik_mj.record import PATHS, EntityData, Recorder, blueprint, read_recording
-from pik_mj.record_geometry import right_mul_matrix
+from pik_mj.record import PATHS, EntityData, Recorder, blueprint, read_recording, style
+from pik_mj.record.geometry import right_mul_matrix
 
 TET = np.array([[0, 0, 0], [0.2, 0, 0], [0, 0.2, 0], [0, 0, 0.2]], dtype=float)
 TET_POS = np.array([0.0, 0.0, 0.1])
@@ -165,17 +165,22 @@ def geometry_recording(model, tmp_path_factory):
 # Entity paths
 
 
-def test_paths_are_escaped_and_nested():
+def test_paths_are_readable_and_nested():
     assert PATHS.geoms("capsules") == "world/robot/capsules"
     assert PATHS.geoms("boxes", robot=False, moving=False) == "world/scene/boxes"
     assert PATHS.geoms("boxes", robot=False) == "world/scene/moving/boxes"
     assert PATHS.bodies() == "world/robot/bodies"
     assert PATHS.bodies(robot=False) == "world/scene/moving/bodies"
     assert PATHS.task_target("rarm") == "world/tasks/rarm/target"
-    assert PATHS.task_target("left hand/x") == "world/tasks/left\\ hand\\/x/target"
+    # names rerun would escape become plain parts: the viewer shows them as written
+    assert PATHS.task_target("left hand/x") == "world/tasks/left_hand_x/target"
+    assert PATHS.task_error(0, "limits: 30 joints") == "errors/level_0/limits_30_joints"
+    assert all(rr.escape_entity_path_part(p) == p for p in ("target_larm_end", "é.x-1"))
     assert PATHS.task_current("rarm") == "world/tasks/rarm/current"
     assert PATHS.task_error(2, "com") == "errors/level_2/com"
+    assert PATHS.task_error(2, "com", log10=True) == "errors_log10/level_2/com"
     assert PATHS.hold_metric("drift") == "hold/drift"
+    assert PATHS.walk_series("x", "zmp_reference") == "walk/x/zmp_reference"
 
 
 def test_right_mul_matrix_is_mujocos_quaternion_product():
@@ -444,11 +449,17 @@ def test_com_scalars_frames_and_text(model, tmp_path):
     np.testing.assert_allclose([x[0] for x in e], [0.0, 0.1, 0.2, 0.3, 0.4])
     _, e = out[PATHS.task_error(2, "posture")].series("Scalars:scalars", "iteration")
     np.testing.assert_allclose([x[0] for x in e], [0, 1, 4, 9, 16])
+    # log10 of each error, 1e-16 for an error of 0 (the plots' log scale)
+    _, e = out[PATHS.task_error(2, "posture", log10=True)].series("Scalars:scalars", "iteration")
+    np.testing.assert_allclose([x[0] for x in e], [-16, 0, np.log10(4), np.log10(9), np.log10(16)])
     # the style goes with every row, in the chunk of the data (no static chunk)
     _, radii = out[PATHS.com].series("Points3D:radii", "iteration")
     _, colors = out[PATHS.com].series("Points3D:colors", "iteration")
-    assert [x[0] for x in radii] == pytest.approx([0.03] * 5)
-    assert {x[0] for x in colors} == {0xE62828FF}  # (230, 40, 40), opaque
+    assert [x[0] for x in radii] == pytest.approx([style.COM_RADIUS] * 5)
+    r, g, b = style.COM
+    assert {x[0] for x in colors} == {(r << 24) | (g << 16) | (b << 8) | 0xFF}  # opaque
+    # no geometry logged: no ground known, no projection of the CoM
+    assert "Arrows3D:vectors" not in out[PATHS.com].temporal
     hand = out[PATHS.task_target("hand")]
     assert not hand.static
     _, lengths = hand.series("TransformAxes3D:axis_length", "iteration")
@@ -474,10 +485,12 @@ def test_polygon_and_contacts(tmp_path):
         rec.log_polygon(square, margin_vertices=0.5 + 0.8 * (square - 0.5))
         rec.log_contacts(points, forces, scale=2e-3)
     out = read_recording(path)
+    # drawn LIFT above the ground, the loop closed
     strip = out[PATHS.support_polygon].temporal["LineStrips3D:strips"][0][1][0]
-    np.testing.assert_allclose(strip, np.vstack([square, square[:1]]))
+    up = np.array([0.0, 0.0, style.LIFT])
+    np.testing.assert_allclose(strip, np.vstack([square, square[:1]]) + up)
     margin = out[f"{PATHS.support_polygon}/margin"].temporal["LineStrips3D:strips"]
-    np.testing.assert_allclose(margin[0][1][0][0], [0.1, 0.1, 0.1], rtol=1e-6)
+    np.testing.assert_allclose(margin[0][1][0][0], [0.1, 0.1, 0.1 + style.LIFT], rtol=1e-6)
     c = out[PATHS.contact_forces].temporal
     np.testing.assert_allclose(c["Arrows3D:origins"][0][1], points)
     np.testing.assert_allclose(c["Arrows3D:vectors"][0][1], forces * 2e-3)
@@ -509,11 +522,12 @@ def test_sim_time_is_seconds_and_timelines_can_be_dropped(model, tmp_path):
 
 
 def test_rrd_verify_and_blueprint(model, tmp_path):
+    # the blueprint sent at close lays out what was logged
     path = tmp_path / "full.rrd"
     with Recorder.to_file(path) as rec:
         rec.log_model_geometry(model)
-        rec.send_blueprint(levels=[1, 2, 3])
         rec.log_body_poses(_posed_data(model, 1), time=0)
+        rec.log_task_errors({(k, "task"): 0.5 for k in (1, 2, 3)})
     result = _verify(path)
     assert result.returncode == 0, result.stderr
     bp = read_recording(path, blueprint=True)
@@ -527,9 +541,9 @@ def test_rrd_verify_and_blueprint(model, tmp_path):
     }
     assert views == {
         "world": "3D",
-        "errors/level_1": "TimeSeries",
-        "errors/level_2": "TimeSeries",
-        "errors/level_3": "TimeSeries",
+        "errors_log10/level_1": "TimeSeries",
+        "errors_log10/level_2": "TimeSeries",
+        "errors_log10/level_3": "TimeSeries",
     }
     assert isinstance(blueprint([]), rr.blueprint.Blueprint)
 
@@ -537,9 +551,10 @@ def test_rrd_verify_and_blueprint(model, tmp_path):
 def test_blueprint_read_back_is_the_last_one_sent(tmp_path):
     # every send_blueprint makes its own store, listed in no set order
     path = tmp_path / "resent.rrd"
-    with Recorder.to_file(path) as rec:
-        for n in range(1, 6):
-            rec.send_blueprint(levels=range(1, n + 1))
+    rec = Recorder.to_file(path)
+    for n in range(1, 6):
+        rec.send_blueprint(levels=range(1, n + 1))
+    rec.close(blueprint=False)
     bp = read_recording(path, blueprint=True)
     origins = {
         e.temporal["ViewBlueprint:space_origin"][-1][1][0]
@@ -567,6 +582,15 @@ def test_recording_is_valid_after_an_exception(model, tmp_path):
     assert times.tolist() == list(range(10))
     _, e = out[PATHS.task_error(1, "com")].series("Scalars:scalars", "iteration")
     assert [x[0] for x in e] == [float(k) for k in range(10)]
+    # the failure is in the text log, at the last time logged, and the layout was sent
+    ((t, text),) = out[PATHS.events].temporal["TextLog:text"]
+    assert text == ["run raised RuntimeError: solver exploded"] and t["iteration"] == 9
+    bp = read_recording(path, blueprint=True)
+    assert "errors/level_1" in {
+        e.temporal["ViewBlueprint:space_origin"][-1][1][0]
+        for e in bp.values()
+        if "ViewBlueprint:space_origin" in e.temporal
+    }
     with pytest.raises(PikError, match="closed"):
         rec.log_scalar("x", 1.0)
 
@@ -605,8 +629,14 @@ def test_rows_of_many_entities_sent_together_read_back_per_entity(model, tmp_pat
     # the point style went with its rows, the static geometry in the same sends
     times, radii = out[PATHS.com].series("Points3D:radii", "iteration")
     assert times.tolist() == [0, 2, 4] and not out[PATHS.com].static
-    assert [r[0] for r in radii] == pytest.approx([0.03] * 3)
+    assert [r[0] for r in radii] == pytest.approx([style.COM_RADIUS] * 3)
     assert "Boxes3D:half_sizes" in out["world/robot/boxes"].static
+    # a floating base: the CoM's plumb line to the floor plane (z = 0), lifted
+    times, vectors = out[PATHS.com].series("Arrows3D:vectors", "iteration")
+    _, origins = out[PATHS.com].series("Arrows3D:origins", "iteration")
+    assert times.tolist() == [0, 2, 4]
+    np.testing.assert_allclose([o[0] for o in origins], [[k, 0, 1] for k in (0, 2, 4)])
+    np.testing.assert_allclose([v[0] for v in vectors], [[0, 0, style.LIFT - 1]] * 3, atol=1e-7)
 
 
 def test_explicit_stream_is_not_the_global_one_and_stays_open(tmp_path):

@@ -26,7 +26,7 @@ import pytest
 from tmp_scenarios import add_scenario
 
 from pik_mj import Recorder, Robot, cli
-from pik_mj.record import PATHS, EntityData, read_recording
+from pik_mj.record import PATHS, EntityData, read_recording, style
 from pik_mj.scenario import ScenarioResult
 
 HOLD = 3.0  # [s], as pik-mj run
@@ -88,7 +88,7 @@ def _check_iterations(rec: dict[str, EntityData], result: ScenarioResult) -> Non
     frames = rec[PATHS.bodies()]
     assert robot.root_body in frames.static["Ellipsoids3D:labels"]
     pose_times, _ = frames.series("Ellipsoids3D:centers", "iteration")
-    assert set(pose_times.tolist()) == set(range(1, end + 1))  # + the final poses
+    assert set(pose_times.tolist()) == set(range(end + 1))  # + start and final poses
     # every task's last logged error is the SolveResult's error of that task
     for label, s in result.solves.items():
         if s.iterations == 0:
@@ -128,13 +128,19 @@ def _check_simulation(rec: dict[str, EntityData], result: ScenarioResult) -> Non
     strip = np.array(
         _at(rec[PATHS.support_polygon], "LineStrips3D:strips", "iteration", ticks[-1])[0]
     )
-    assert np.allclose(strip[:-1], final.support_polygon, atol=1e-6)
+    # drawn above the floor and the soles
+    assert np.allclose(strip[:-1, :2], final.support_polygon[:, :2], atol=1e-6)
+    lift = strip[:, 2] - final.support_polygon[0, 2]
+    assert np.allclose(lift, lift[0], atol=1e-6) and style.LIFT <= lift[0] < 0.2
     assert np.allclose(strip[-1], strip[0])  # closed outline
     if final.forces is not None:
         arrows = np.array(
             _at(rec[PATHS.contact_forces], "Arrows3D:vectors", "iteration", ticks[-1])
         )
-        assert np.allclose(arrows / 1e-3, final.forces, atol=1e-2)  # float32, 1 mm per N
+        # one scale for all (the robot's weight drawn as a fraction of its height)
+        scale = arrows[:, 2].sum() / final.forces[:, 2].sum()
+        assert 5e-4 < scale < 5e-3
+        assert np.allclose(arrows / scale, final.forces, atol=1e-2)  # float32
         # the LP's forces balance the weight (no external wrench in the check)
         mass = result.robot.mass
         assert final.forces.sum(axis=0) == pytest.approx([0, 0, mass * 9.81], abs=1e-3 * mass)
@@ -208,7 +214,9 @@ def test_every_scenario_passes_and_writes_a_valid_recording(name, tmp_path):
     }
     n_levels = max(len({t.level for t in s.tasks}) for s in result.solves.values())
     assert origins[PATHS.world] == "3D"
-    assert all(origins[PATHS.level_errors(k)] == "TimeSeries" for k in range(1, n_levels))
+    assert all(
+        origins[PATHS.level_errors(k, log10=True)] == "TimeSeries" for k in range(1, n_levels)
+    )
     if result.robot.has_floating_base:
         assert origins[PATHS.balance] == "TimeSeries"
         _check_simulation(rec, result)

@@ -36,14 +36,13 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from pik_mj.balance import convex_hull_2d
 from pik_mj.dynamics import joint_torques, root_wrench
 from pik_mj.exceptions import InvalidInput
-from pik_mj.record import PATHS, Recorder
+from pik_mj.record import Recorder
 from pik_mj.sim import ContactParams, Scene
 from pik_mj.spatial import yaw_of
 from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle
-from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern, sole_corners
+from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern
 
 __all__ = [
     "WALK_CONTACT",
@@ -230,11 +229,10 @@ def play_walk_pattern(
         feet_frames: Sole site of each limb.
         fall_ratio: Root height ratio below which the robot counts as fallen;
             the simulation stops there.
-        recorder: If given, logged on the ``sim_time`` timeline: body poses,
-            CoM (target: planned CoM), the contact ZMP (``world/zmp``), the
-            reference and inverse-dynamics ZMPs of the pattern
-            (``world/zmp/reference``, ``world/zmp/inverse_dynamics``) and the
-            planned support polygon.
+        recorder: If given, logged on the ``sim_time`` timeline: the body poses
+            every ``record_every`` ticks, then the walk's series
+            (:meth:`pik_mj.record.Recorder.log_walk`: footsteps, ZMPs, CoM,
+            support polygon, margins).
         record_every: Log every n-th pattern tick.
 
     Returns:
@@ -326,7 +324,7 @@ def play_walk_pattern(
         if k < K:
             joint_err = max(joint_err, float(np.max(np.abs(data.qpos[q_adr] - q_ref[k]))))
         if recorder is not None and k % record_every == 0:
-            _record(recorder, data, pattern, min(k, K - 1), t_samples[k], com[k], zmp[k])
+            recorder.log_body_poses(data, timeline="sim_time", time=t_samples[k])
         if root_p[k, 2] < fall_ratio * standing:
             n_done = k + 1
             break
@@ -362,7 +360,7 @@ def play_walk_pattern(
             d = np.linalg.norm(xy - plan.feet_p[lb][a:b, :2], axis=1)
             ferr = max(ferr, float(d.max()))
     fell = bool(heights.min() < fall_ratio * standing or bad)
-    return PlaybackReport(
+    report = PlaybackReport(
         t=t_samples[sl],
         root_p=root_p[sl],
         com=com[sl],
@@ -388,35 +386,9 @@ def play_walk_pattern(
             "torque_feedforward": torque_feedforward,
         },
     )
-
-
-def _record(
-    recorder: Recorder,
-    data: mujoco.MjData,
-    pattern: WalkPattern,
-    k: int,
-    t: float,
-    com: np.ndarray,
-    zmp: np.ndarray,
-) -> None:
-    """Log one sample on the ``sim_time`` timeline."""
-    recorder.log_body_poses(data, timeline="sim_time", time=t)
-    recorder.log_com(com, target=pattern.com_ref[k])
-    z = pattern.plan.ground_z
-    if np.all(np.isfinite(zmp)):
-        recorder.log_point(PATHS.zmp, [zmp[0], zmp[1], z], radius=0.02, color=(255, 0, 255))
-    for name, p_xy, color in (
-        ("reference", pattern.zmp_ref[k], (40, 200, 40)),
-        ("inverse_dynamics", pattern.zmp_computed[k], (255, 140, 0)),
-    ):
-        recorder.log_point(f"{PATHS.zmp}/{name}", [p_xy[0], p_xy[1], z], radius=0.015, color=color)
-    plan = pattern.plan
-    limbs = plan.params.all_limbs if plan.support[k] == DOUBLE_SUPPORT else (plan.support[k],)
-    corners = np.vstack(
-        [sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k], pattern.sole_size) for lb in limbs]
-    )
-    hull = convex_hull_2d(corners)
-    recorder.log_polygon(np.column_stack([hull, np.full(len(hull), z)]))
+    if recorder is not None:
+        recorder.log_walk(pattern, report)
+    return report
 
 
 def evaluate_walk(

@@ -1,4 +1,4 @@
-"""MuJoCo geoms as rerun primitives, grouped: one entity per primitive kind.
+"""MuJoCo geoms and bodies as rerun primitives, grouped: one entity per primitive kind.
 
 Every visible geom is one instance of a multi-instance rerun primitive
 (``Boxes3D``, ``Capsules3D``, ``Cylinders3D``, ``Ellipsoids3D``), or one instance
@@ -36,13 +36,23 @@ import numpy as np
 import numpy.typing as npt
 import rerun as rr
 
+from . import style
+from .paths import path_part
+
 __all__ = [
+    "BODY_MARKER_RADIUS",
+    "BodyFrames",
     "GeomGroup",
     "InstancePoses",
+    "Measures",
+    "body_markers",
     "geom_groups",
     "geom_rgba",
     "hfield_mesh",
+    "measure",
     "right_mul_matrix",
+    "subtree",
+    "unique_names",
     "vertex_normals",
 ]
 
@@ -228,11 +238,11 @@ def _primitive(
         return "boxes", rr.Boxes3D, fields, (0.0, 0.0, -PLANE_THICKNESS)
     if t == G.mjGEOM_MESH:
         name = model.mesh(int(model.geom_dataid[g])).name or f"mesh_{model.geom_dataid[g]}"
-        return f"meshes/{rr.escape_entity_path_part(name)}", rr.Mesh3D, {}, (0.0, 0.0, 0.0)
+        return f"meshes/{path_part(name)}", rr.Mesh3D, {}, (0.0, 0.0, 0.0)
     if t == G.mjGEOM_HFIELD:
         h = int(model.geom_dataid[g])
         name = model.hfield(h).name or f"hfield_{h}"
-        return f"hfields/{rr.escape_entity_path_part(name)}", rr.Mesh3D, {}, (0.0, 0.0, 0.0)
+        return f"hfields/{path_part(name)}", rr.Mesh3D, {}, (0.0, 0.0, 0.0)
     return None
 
 
@@ -333,3 +343,137 @@ def geom_groups(
             )
         )
     return out, skipped
+
+
+# ---------------------------------------------------------------------------
+# Bodies
+
+
+def subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
+    """Boolean mask of the bodies in the kinematic subtree of ``root``."""
+    inside = np.zeros(model.nbody, dtype=bool)
+    inside[root] = True
+    for b in range(root + 1, model.nbody):  # parents have smaller ids
+        inside[b] = inside[model.body_parentid[b]]
+    return inside
+
+
+def unique_names(kind: str, names: Sequence[str]) -> list[str]:
+    """MJCF names with ``<kind>_<id>`` for unnamed ones, made unique."""
+    out: list[str] = []
+    seen: set[str] = set()
+    for i, name in enumerate(names):
+        n = name or f"{kind}_{i}"
+        if n in seen:
+            n = f"{n}_{i}"
+        seen.add(n)
+        out.append(n)
+    return out
+
+
+#: Radius [m] of the marker drawn at each body frame.
+BODY_MARKER_RADIUS = 0.01
+
+
+def body_markers(names: Sequence[str]) -> Any:
+    """Small wireframe spheres labelled with the body names (their poses are
+    logged per row)."""
+    return rr.Ellipsoids3D(
+        half_sizes=np.full((len(names), 3), BODY_MARKER_RADIUS),
+        colors=[(230, 230, 230)],
+        labels=list(names),
+        show_labels=False,
+    )
+
+
+@dataclass
+class BodyFrames:
+    """The frames of the moving bodies of the robot (or of the scene), and the
+    geometry they carry: its instance poses follow from the body poses."""
+
+    path: str
+    ids: np.ndarray  # body ids, one instance each
+    groups: list[GeomGroup]  # the moving geom groups on these bodies
+    instances: InstancePoses
+
+    def geometry(self, frames: np.ndarray) -> list[tuple[GeomGroup, np.ndarray]]:
+        """Each group with its (rows, k, 7) poses, from body poses (rows, bodies, 7)."""
+        return list(zip(self.groups, self.instances(frames), strict=True))
+
+
+# ---------------------------------------------------------------------------
+# Sizes the layout and the overlays are scaled by
+
+
+@dataclass(frozen=True)
+class Measures:
+    """What a recording's camera, floor and force arrows are scaled by.
+
+    Attributes:
+        height: Vertical extent of the robot's geoms [m] (bounding spheres).
+        ground_z: Height of the ground under a floating-base robot [m]: the
+            highest plane of the scene at or below its lowest point, else that
+            lowest point; None for a robot fixed to the world.
+        weight: The robot's weight ``m |g|`` [N].
+        floor_half_size: Half extent [m] drawn for an infinite plane: the scene's
+            other geoms plus half a metre, at least one metre.
+        lift: Height [m] above the ground at which overlays on the ground
+            (support polygon, ZMP, the CoM's projection) are drawn: just above
+            the top of the geoms the robot stands on (its soles), which would
+            hide them, else :data:`~pik_mj.record.style.LIFT`.
+    """
+
+    height: float
+    ground_z: float | None
+    weight: float
+    floor_half_size: float
+    lift: float = style.LIFT
+
+
+def _aabb(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+    """World axis-aligned boxes of the geoms: (low (n, 3), high (n, 3)) [m], from
+    MuJoCo's geom-frame boxes ``geom_aabb`` (centre ``c``, half sizes ``h``):
+    centre ``p + R c``, half sizes ``|R| h``."""
+    box = np.asarray(model.geom_aabb).reshape(-1, 6)
+    R = np.asarray(data.geom_xmat).reshape(-1, 3, 3)
+    centre = np.asarray(data.geom_xpos) + np.einsum("nij,nj->ni", R, box[:, :3])
+    half = np.einsum("nij,nj->ni", np.abs(R), box[:, 3:])
+    return centre - half, centre + half
+
+
+def measure(model: mujoco.MjModel, data: mujoco.MjData, robot: np.ndarray) -> Measures:
+    """:class:`Measures` of the robot (per-body mask ``robot``) in ``data``'s pose.
+
+    .. math::
+        h = \\max_g z^{hi}_g - \\min_g z^{lo}_g, \\qquad W = |g| \\sum_{b \\in robot} m_b
+
+    over the world bounding boxes ``[lo, hi]`` of the robot's geoms ``g``.
+    """
+    body = np.asarray(model.geom_bodyid)
+    plane = np.asarray(model.geom_type) == mujoco.mjtGeom.mjGEOM_PLANE
+    mine = robot[body] & ~plane
+    lo, hi = _aabb(model, data)
+    if mine.any():
+        low, high = float(lo[mine, 2].min()), float(hi[mine, 2].max())
+    else:  # a robot without geoms: its bodies
+        zb = np.asarray(data.xpos)[robot, 2]
+        low, high = (float(zb.min()), float(zb.max())) if len(zb) else (0.0, 0.0)
+    weight = float(np.linalg.norm(model.opt.gravity) * np.asarray(model.body_mass)[robot].sum())
+    ground = None
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    floating = any(
+        model.body_jntnum[b] > 0 and model.jnt_type[model.body_jntadr[b]] == free
+        for b in np.unique(np.asarray(model.body_rootid)[robot])
+    )
+    lift = style.LIFT
+    if floating:
+        floors = np.asarray(data.geom_xpos)[plane & ~robot[body], 2]
+        below = floors[floors <= low + 0.02]
+        ground = float(below.max()) if len(below) else low
+        feet = mine & (lo[:, 2] <= ground + 0.01)  # the geoms it stands on
+        if feet.any():
+            lift = max(lift, float(hi[feet, 2].max()) - ground + 0.005)
+    solid = ~plane
+    reach = np.maximum(np.abs(lo[solid, :2]), np.abs(hi[solid, :2])).max(axis=1)
+    floor = max(1.0, float(reach.max()) + 0.5) if len(reach) else 1.0
+    return Measures(max(high - low, 1e-3), ground, weight, floor, lift)

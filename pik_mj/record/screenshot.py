@@ -1,0 +1,315 @@
+"""Screenshots of a recording, rendered by rerun's own headless viewer.
+
+``pik-mj screenshot FILE.rrd --out PNG`` (or ``python -m
+pik_mj.record.screenshot``) starts ``rerun --headless`` on a free port, opens
+the file (with the blueprint it was recorded with), moves the time cursor,
+waits until the picture stops changing (the viewer loads chunks on demand),
+and saves a PNG of the whole viewer or of one view::
+
+    pik-mj screenshot out/fullbody_reach.rrd --out reach.png --time last \\
+        --view "solve:" --size 1280x800
+
+The viewer needs a graphics adapter; without a GPU, Mesa's software Vulkan
+rasterizer (``apt-get install mesa-vulkan-drivers``) does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..exceptions import InvalidInput, PikError
+
+__all__ = ["Shot", "main", "screenshots"]
+
+
+@dataclass(frozen=True)
+class Shot:
+    """One picture of a recording.
+
+    Attributes:
+        out: PNG file to write.
+        timeline: Timeline to put the cursor on (None: the one the recording
+            opens on).
+        time: Time on it: an iteration number, seconds on ``sim_time``, or
+            ``"last"`` (the end of the timeline).
+        view: Name (or the start of the name) of a view to show maximized, or
+            None for the whole layout.
+        tab: Name (or its start) of the blueprint tab to show first, or None.
+        panels: Keep the viewer's side panels and full time panel.
+    """
+
+    out: Path
+    timeline: str | None = None
+    time: float | str = "last"
+    view: str | None = None
+    tab: str | None = None
+    panels: bool = False
+
+
+#: Seconds the headless viewer shows its start notice (kept off the pictures).
+NOTICE_SECONDS = 7.0
+
+
+def _rerun_executable() -> str:
+    """The ``rerun`` CLI of this Python environment (else the one on PATH)."""
+    beside = Path(sys.executable).parent / "rerun"
+    found = str(beside) if beside.is_file() else shutil.which("rerun")
+    if found is None:
+        raise PikError("the rerun viewer (the `rerun` executable of rerun-sdk) is not installed")
+    return found
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@contextlib.contextmanager
+def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
+    """A ``rerun --headless`` viewer of ``size`` (points) on a free port, as a
+    :class:`rerun.experimental.ViewerClient`; stopped on leaving the block."""
+    from rerun.experimental import ViewerClient
+
+    port = _free_port()
+    command = [
+        _rerun_executable(),
+        "--headless",
+        "--port",
+        str(port),
+        "--window-size",
+        f"{size[0]}x{size[1]}",
+        "--hide-welcome-screen",
+    ]
+    env = dict(os.environ, RERUN_ANALYTICS="0")
+    # its own process group: the `rerun` script starts the viewer binary as a
+    # child, which must stop with it
+    process = subprocess.Popen(
+        command,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
+    started = time.monotonic()
+    try:
+        client = None
+        deadline = time.monotonic() + 30.0
+        while client is None:
+            if process.poll() is not None:
+                raise PikError(
+                    f"the headless rerun viewer exited ({process.returncode}): "
+                    f"{(process.stderr.read() if process.stderr else '')[-2000:]}"
+                )
+            try:
+                candidate = ViewerClient(f"rerun+http://127.0.0.1:{port}/proxy")
+                candidate.get_state()
+                client = candidate
+            except Exception:  # not listening yet
+                if time.monotonic() > deadline:
+                    raise PikError("the headless rerun viewer did not start in 30 s") from None
+                time.sleep(0.2)
+        # the viewer's "running headless" notice fades out after a few seconds
+        time.sleep(max(0.0, started + NOTICE_SECONDS - time.monotonic()))
+        yield client
+    finally:
+        _stop(process)
+
+
+def _stop(process: subprocess.Popen) -> None:
+    """Stop the viewer's process group (the script and the viewer binary)."""
+    for sig, wait in ((signal.SIGTERM, 10.0), (signal.SIGKILL, 5.0)):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, sig)
+        try:
+            process.wait(timeout=wait)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+
+
+def _settled_png(client: Any, *, tries: int = 12) -> bytes:
+    """A screenshot of the viewer once two in a row are the same (chunks still
+    arriving or the first frames after a change differ)."""
+    last = b""
+    time.sleep(1.0)
+    for _ in range(tries):
+        png = client.take_screenshot()
+        if png == last:
+            return png
+        last = png
+        time.sleep(0.5)
+    return last
+
+
+def _find(names: dict[str, str], wanted: str, what: str) -> str:
+    hits = [key for key, name in names.items() if name.startswith(wanted)]
+    if not hits:
+        raise InvalidInput(f"no {what} named {wanted!r}; there are {sorted(names.values())}")
+    return hits[0]
+
+
+def _open(client: Any, path: Path) -> Any:
+    """Open ``path`` and wait until its timelines are loaded; its recording's state."""
+    client.open(str(path.resolve()))
+    deadline = time.monotonic() + 60.0
+    while True:
+        state = client.get_state()
+        recordings = [r for r in state.recordings if r.store_id == state.active_recording]
+        if recordings and recordings[0].timelines and not state.loading:
+            return recordings[0]
+        if time.monotonic() > deadline:
+            raise PikError(f"the viewer did not finish loading {str(path)!r} in 60 s")
+        time.sleep(0.3)
+
+
+def _arrange(client: Any, tab: str | None, view: str | None, panels: bool) -> str | None:
+    """Show the blueprint tab whose name starts with ``tab``, maximize the view
+    whose name starts with ``view``; without ``panels``, hide the side and top
+    panels and collapse the time panel (the picture is the recording's
+    layout). Returns the id of the maximized view."""
+    layout = client.get_blueprint(of="recording").blueprint
+    view_id = None
+    if view is not None:
+        names = {
+            key.rsplit("/", 1)[1]: str(v["ViewBlueprint"].get("display_name", key))
+            for key, v in layout.items()
+            if "ViewBlueprint" in v
+        }
+        view_id = _find(names, view, "view")
+        # the viewport (absent from what the viewer reads out) keeps its root
+        children = {
+            child
+            for v in layout.values()
+            for child in v.get("ContainerBlueprint", {}).get("contents", [])
+        }
+        roots = [
+            key.rsplit("/", 1)[1]
+            for key, v in layout.items()
+            if "ContainerBlueprint" in v and key.lstrip("/") not in children
+        ]
+        layout["/viewport"] = {
+            "ViewportBlueprint": {"root_container": roots[0], "maximized": view_id}
+        }
+    if tab is not None:
+        tabs = [
+            c["ContainerBlueprint"]
+            for c in layout.values()
+            if c.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"
+        ]
+        if not tabs:
+            raise InvalidInput("the recording's blueprint has no tabs")
+        names = {
+            child: str(
+                layout.get(f"/{child}", {}).get("ContainerBlueprint", {}).get("display_name", child)
+            )
+            for child in tabs[0].get("contents", [])
+        }
+        tabs[0]["active_tab"] = _find(names, tab, "tab")
+    if not panels:
+        for panel in ("blueprint_panel", "selection_panel", "top_panel"):
+            layout[f"/{panel}"] = {"PanelBlueprint": {"state": "Hidden"}}
+        time_panel = layout.setdefault("/time_panel", {}).setdefault("TimePanelBlueprint", {})
+        time_panel["state"] = "Collapsed"
+    client.set_blueprint(layout, of="recording")
+    return view_id
+
+
+def screenshots(recording: str | Path, shots: Sequence[Shot], *, size=(1600, 900)) -> list[Path]:
+    """Render ``shots`` of ``recording`` with one headless viewer; the PNGs written.
+
+    Raises:
+        InvalidInput: No such file, timeline, view or tab.
+        PikError: The viewer did not start or load the file.
+    """
+    path = Path(recording)
+    if not path.is_file():
+        raise InvalidInput(f"recording {str(path)!r} does not exist")
+    written = []
+    with headless_viewer(size) as client:
+        rec = _open(client, path)
+        timelines = {t.name: t for t in rec.timelines}
+        for shot in shots:
+            _arrange(client, shot.tab, shot.view, shot.panels)
+            name = shot.timeline or rec.current_timeline
+            if name not in timelines:
+                raise InvalidInput(f"no timeline {name!r}; the recording has {sorted(timelines)}")
+            tl = timelines[name]
+            if tl.time_type == "sequence":
+                t = tl.end if shot.time == "last" else int(shot.time)
+                client.set_time(name, sequence=int(t), play_state="paused")
+            else:
+                seconds = tl.end * 1e-9 if shot.time == "last" else float(shot.time)
+                client.set_time(name, duration=seconds, play_state="paused")
+            png = _settled_png(client)
+            out = Path(shot.out)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            out.write_bytes(png)
+            written.append(out)
+    return written
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must be WIDTHxHEIGHT, got {text!r}") from None
+    return w, h
+
+
+def _time(text: str) -> float | str:
+    if text == "last":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"time must be a number or 'last', got {text!r}") from None
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The screenshot options (shared by ``pik-mj screenshot``)."""
+    parser.add_argument("recording", help="the .rrd file")
+    parser.add_argument("--out", required=True, help="PNG file to write")
+    parser.add_argument("--timeline", help="timeline (default: the one the recording opens on)")
+    parser.add_argument(
+        "--time", type=_time, default="last", help="iteration, seconds, or 'last' (default)"
+    )
+    parser.add_argument("--view", help="show only the view whose name starts with this, maximized")
+    parser.add_argument("--tab", help="show the blueprint tab whose name starts with this")
+    parser.add_argument(
+        "--size", type=_size, default=(1600, 900), help="viewer size in points (1600x900)"
+    )
+    parser.add_argument(
+        "--panels", action="store_true", help="keep the viewer's side panels and time panel"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Take the screenshot ``args`` describe; 0 on success."""
+    shot = Shot(Path(args.out), args.timeline, args.time, args.view, args.tab, args.panels)
+    (out,) = screenshots(args.recording, [shot], size=args.size)
+    print(f"wrote {out}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_arguments(parser)
+    return run(parser.parse_args(argv))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
