@@ -105,6 +105,13 @@ class SolveResult:
         failure: Message of a QP failure that ended the loop (with revert), or None.
         q: Final configuration (``nq``).
         step_lengths: ``α`` of each iteration's accepted step (1: the full step).
+        evaluations: How many times each level (0..K) was evaluated (every
+            task's rows and error at one configuration). Each configuration is
+            evaluated once per level at most: the evaluation that accepts a
+            step is the next iteration's linearization, so levels evaluated
+            only at accepted configurations count ``iterations + 1``.
+        corrections: Correction solves (Newton projections) over all iterations.
+        rejected: Trial steps rejected by the trust region over all iterations.
     """
 
     converged: bool
@@ -118,6 +125,9 @@ class SolveResult:
     failure: str | None = None
     q: np.ndarray = field(default_factory=lambda: np.zeros(0))
     step_lengths: list[float] = field(default_factory=list)
+    evaluations: list[int] = field(default_factory=list)
+    corrections: int = 0
+    rejected: int = 0
 
     @property
     def median_iteration_ms(self) -> float:
@@ -359,9 +369,12 @@ class _Point:
     moves it only to the next point).
     """
 
-    def __init__(self, q: np.ndarray, configuration: mink.Configuration, levels, stacks):
+    def __init__(
+        self, q: np.ndarray, configuration: mink.Configuration, levels, stacks, counts: list[int]
+    ):
         configuration.update(q)
         self.q, self.configuration, self.levels, self.stacks = q, configuration, levels, stacks
+        self.counts = counts  # evaluations of each level, shared by the solve's points
         n = len(levels)
         self.rows: list[TaskRows] = [None] * n  # type: ignore[list-item]
         self.level_reports: list[list[TaskReport]] = [None] * n  # type: ignore[list-item]
@@ -373,6 +386,7 @@ class _Point:
             self.rows[j], self.level_reports[j] = evaluate_level(
                 self.configuration, j, self.levels[j], self.stacks[j], validate
             )
+            self.counts[j] += 1
         self.done = max(self.done, min(k, len(self.levels) - 1) + 1)
         return self
 
@@ -545,6 +559,8 @@ def solve(
     model = configuration.model
     q0 = configuration.q.copy()
     stacks = [_Stack() for _ in task_levels]
+    counts = [0] * len(task_levels)
+    n_corrections = n_rejected = 0
     history: list[list[float]] = []
     times: list[float] = []
     qp_times: list[float] = []
@@ -559,7 +575,7 @@ def solve(
     fix_above = 0.5 * drift if trust_region is not None else 1e-5
 
     def point(q: np.ndarray) -> _Point:
-        return _Point(q, configuration, task_levels, stacks)
+        return _Point(q, configuration, task_levels, stacks, counts)
 
     try:
         # every task's rows validated once, where they enter
@@ -599,6 +615,7 @@ def solve(
                                 "correction",
                             )
                             qp_time += time.perf_counter() - t2
+                            n_corrections += 1
                             q = q.copy()
                             mujoco.mj_integratePos(model, q, fix.x, 1.0)
                             there = point(q).upto(prefix)
@@ -636,6 +653,7 @@ def solve(
                             radius = min(trust_region.max_radius, max(radius, 2.0 * alpha * size))
                         break
                     alpha *= trust_region.shrink  # rejected: retry shorter
+                    n_rejected += 1
                     radius = max(trust_region.min_radius, alpha * size)
                 else:  # no acceptable step: the iteration keeps its configuration
                     configuration.update(here.q)
@@ -687,6 +705,9 @@ def solve(
         failure=failure,
         q=configuration.q.copy(),
         step_lengths=lengths,
+        evaluations=counts,
+        corrections=n_corrections,
+        rejected=n_rejected,
     )
 
 
