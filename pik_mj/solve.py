@@ -234,6 +234,7 @@ class _Stack:
     def __init__(self) -> None:
         self.buffers: list[tuple[tuple, TaskRows] | None] = [None, None]
         self.slot = 0
+        self.checked_C: np.ndarray | None = None  # a read-only C found finite
 
     def stack(self, rows: list[TaskRows], nv: int) -> TaskRows:
         if len(rows) == 1:
@@ -295,10 +296,13 @@ def evaluate_level(
         stacked = stack.stack(rows, nv) if stack is not None else TaskRows.stack(rows, nv)
     except ValueError:
         stacked = None
-    if stacked is None or not _finite(stacked, nv):
+    known = stack.checked_C if stack is not None else None
+    if stacked is None or not _finite(stacked, nv, known):
         for task, r in zip(level, rows, strict=True):
             r.validate(nv, task.name)
         raise InvalidInput(f"level {k}: rows are not finite")  # pragma: no cover
+    if stack is not None and not stacked.C.flags.writeable and stacked.C.base is None:
+        stack.checked_C = stacked.C
     return stacked, reports
 
 
@@ -331,15 +335,17 @@ def evaluate_levels(
     return stacked, reports
 
 
-def _finite(rows: TaskRows, nv: int) -> bool:
+def _finite(rows: TaskRows, nv: int, known: np.ndarray | None = None) -> bool:
     """Cheap check of stacked rows: shapes agree with ``nv``; no NaN or inf in
-    the matrices and targets, no NaN in the bounds (sums propagate them)."""
+    the matrices and targets, no NaN in the bounds (sums propagate them).
+    ``known``: a read-only matrix already found finite (a limit's constant
+    ``C``, handed back as the same object), not summed again."""
     if rows.A.shape[1:] != (nv,) or rows.C.shape[1:] != (nv,):
         return False
     if rows.n_eq and not math.isfinite(rows.A.sum() + rows.b.sum()):
         return False
     if rows.n_in:
-        total = rows.C.sum()
+        total = 0.0 if rows.C is known else rows.C.sum()
         return not (
             math.isnan(total)
             or math.isinf(total)
