@@ -142,6 +142,9 @@ class SolveResult:
             "failure": self.failure,
             "tasks": [vars(t) for t in self.tasks],
             "level_errors": self.level_errors,
+            "evaluations": list(self.evaluations),
+            "corrections": self.corrections,
+            "rejected": self.rejected,
             "timing": {
                 "iteration_ms": [1e3 * t for t in self.iteration_times],
                 "median_iteration_ms": self.median_iteration_ms,

@@ -102,6 +102,7 @@ def test_result_summary_and_dict(model):
     assert d["converged"] and d["iterations"] == result.iterations
     assert [t["level"] for t in d["tasks"]] == [0, 1, 1, 2, 3]
     assert len(d["timing"]["iteration_ms"]) == result.iterations
+    assert d["evaluations"] == result.evaluations and len(d["evaluations"]) == 4
     assert "converged after" in result.summary()
 
 
