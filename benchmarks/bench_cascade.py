@@ -57,6 +57,8 @@ class Run:
     converged: bool
     iterations: int
     seconds: float
+    evaluations: list[int] | None = None  # per level (pik only)
+    corrections: int = 0
 
 
 def satisfied(task, cfg) -> bool:
@@ -73,7 +75,7 @@ def run_cascade(model, target, qp_solver="osqp", stop=STOP, callback=None) -> Ru
         cfg, stack.levels, stop=stop, revert_if_fail=False, callback=callback, qp_solver=qp_solver
     )
     seconds = time.perf_counter() - t0
-    return Run(result.converged, result.iterations, seconds)
+    return Run(result.converged, result.iterations, seconds, result.evaluations, result.corrections)
 
 
 def run_mink(
@@ -166,6 +168,13 @@ def summarize(rounds: list[dict[str, list[Run]]]) -> dict[str, dict[str, float]]
         "pik osqp / mink osqp": ("pik osqp", "mink osqp"),
         "pik daqp-hqp / mink daqp": ("pik daqp-hqp", "mink daqp"),
     }
+    for s in ("pik osqp", "pik daqp-hqp"):
+        runs = [r for rnd in rounds for r in rnd[s]]
+        its = sum(r.iterations for r in runs)
+        out[s]["evaluations_per_iteration"] = [
+            float(v) / its for v in np.sum([r.evaluations for r in runs], axis=0)
+        ]
+        out[s]["corrections_per_iteration"] = sum(r.corrections for r in runs) / its
     out["ratio_runs"] = {label: ratios(a, b) for label, (a, b) in pairs.items()}
     out["ratios"] = {label: float(np.median(r)) for label, r in out["ratio_runs"].items()}
     return out
@@ -181,6 +190,12 @@ def print_table(name: str, n: int, rounds: int, s: dict) -> None:
         ("ms_to_solution", "ms to solution", "{:>14.3f}"),
     ):
         print(f"{label:26}" + "".join(fmt.format(s[k][key]) for k in SOLVERS))
+    for k in ("pik osqp", "pik daqp-hqp"):
+        evals = ", ".join(f"{v:.2f}" for v in s[k]["evaluations_per_iteration"])
+        print(
+            f"  {k}, per iteration: evaluations of levels 0..3 {evals}; "
+            f"corrections {s[k]['corrections_per_iteration']:.2f}"
+        )
     for label, value in s["ratios"].items():
         runs = s["ratio_runs"][label]
         print(

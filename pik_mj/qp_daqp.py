@@ -138,6 +138,11 @@ class _Layout:
                 break_points.append(n + i)
                 self.levels.append(k)
         self.A_shape = (i, n)
+        # the soft rows (after the hard general rows): first row and size of each
+        # non-empty level block, for the per-level row norms in one pass
+        sized = [(first - self.n_general, size) for first, _, size in self.blocks if size]
+        self.block_starts = np.array([f for f, _ in sized], dtype=np.intp)
+        self.block_sizes = np.array([z for _, z in sized], dtype=np.intp)
         self.n_bounds = n + i
         self.sense = np.zeros(n + i, dtype=np.intc)
         self.sense[n : n + n_eq0] = 5
@@ -243,8 +248,12 @@ class HierarchicalProblem:
                 np.multiply(sw_C[:, None], rows.C, out=block[n_eq:, :nv])
                 upper[j + n_eq : j + size] = sw_C * rows.d_upper
                 lower[j + n_eq : j + size] = sw_C * rows.d_lower
-            norms = np.einsum("ij,ij->i", block[:, :nv], block[:, :nv])
-            np.sqrt(np.maximum(max(float(norms.max()), 1e-300) - norms, 0.0), out=block[:, nv])
+        if layout.block_sizes.size:  # β_i = √(D_k − ‖row_i‖²), D_k the level's largest
+            soft = A[g:]
+            norms = np.einsum("ij,ij->i", soft[:, :nv], soft[:, :nv])
+            D = np.maximum(np.maximum.reduceat(norms, layout.block_starts), 1e-300)
+            np.subtract(np.repeat(D, layout.block_sizes), norms, out=norms)
+            np.sqrt(np.maximum(norms, 0.0, out=norms), out=soft[:, nv])
         np.clip(upper, -_DAQP_INF, _DAQP_INF, out=upper)
         np.clip(lower, -_DAQP_INF, _DAQP_INF, out=lower)
         return cls(

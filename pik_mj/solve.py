@@ -105,6 +105,13 @@ class SolveResult:
         failure: Message of a QP failure that ended the loop (with revert), or None.
         q: Final configuration (``nq``).
         step_lengths: ``α`` of each iteration's accepted step (1: the full step).
+        evaluations: How many times each level (0..K) was evaluated (every
+            task's rows and error at one configuration). Each configuration is
+            evaluated once per level at most: the evaluation that accepts a
+            step is the next iteration's linearization, so levels evaluated
+            only at accepted configurations count ``iterations + 1``.
+        corrections: Correction solves (Newton projections) over all iterations.
+        rejected: Trial steps rejected by the trust region over all iterations.
     """
 
     converged: bool
@@ -118,6 +125,9 @@ class SolveResult:
     failure: str | None = None
     q: np.ndarray = field(default_factory=lambda: np.zeros(0))
     step_lengths: list[float] = field(default_factory=list)
+    evaluations: list[int] = field(default_factory=list)
+    corrections: int = 0
+    rejected: int = 0
 
     @property
     def median_iteration_ms(self) -> float:
@@ -132,6 +142,9 @@ class SolveResult:
             "failure": self.failure,
             "tasks": [vars(t) for t in self.tasks],
             "level_errors": self.level_errors,
+            "evaluations": list(self.evaluations),
+            "corrections": self.corrections,
+            "rejected": self.rejected,
             "timing": {
                 "iteration_ms": [1e3 * t for t in self.iteration_times],
                 "median_iteration_ms": self.median_iteration_ms,
@@ -224,6 +237,7 @@ class _Stack:
     def __init__(self) -> None:
         self.buffers: list[tuple[tuple, TaskRows] | None] = [None, None]
         self.slot = 0
+        self.checked_C: np.ndarray | None = None  # a read-only C found finite
 
     def stack(self, rows: list[TaskRows], nv: int) -> TaskRows:
         if len(rows) == 1:
@@ -285,10 +299,13 @@ def evaluate_level(
         stacked = stack.stack(rows, nv) if stack is not None else TaskRows.stack(rows, nv)
     except ValueError:
         stacked = None
-    if stacked is None or not _finite(stacked, nv):
+    known = stack.checked_C if stack is not None else None
+    if stacked is None or not _finite(stacked, nv, known):
         for task, r in zip(level, rows, strict=True):
             r.validate(nv, task.name)
         raise InvalidInput(f"level {k}: rows are not finite")  # pragma: no cover
+    if stack is not None and not stacked.C.flags.writeable and stacked.C.base is None:
+        stack.checked_C = stacked.C
     return stacked, reports
 
 
@@ -321,15 +338,17 @@ def evaluate_levels(
     return stacked, reports
 
 
-def _finite(rows: TaskRows, nv: int) -> bool:
+def _finite(rows: TaskRows, nv: int, known: np.ndarray | None = None) -> bool:
     """Cheap check of stacked rows: shapes agree with ``nv``; no NaN or inf in
-    the matrices and targets, no NaN in the bounds (sums propagate them)."""
+    the matrices and targets, no NaN in the bounds (sums propagate them).
+    ``known``: a read-only matrix already found finite (a limit's constant
+    ``C``, handed back as the same object), not summed again."""
     if rows.A.shape[1:] != (nv,) or rows.C.shape[1:] != (nv,):
         return False
     if rows.n_eq and not math.isfinite(rows.A.sum() + rows.b.sum()):
         return False
     if rows.n_in:
-        total = rows.C.sum()
+        total = 0.0 if rows.C is known else rows.C.sum()
         return not (
             math.isnan(total)
             or math.isinf(total)
@@ -359,9 +378,12 @@ class _Point:
     moves it only to the next point).
     """
 
-    def __init__(self, q: np.ndarray, configuration: mink.Configuration, levels, stacks):
+    def __init__(
+        self, q: np.ndarray, configuration: mink.Configuration, levels, stacks, counts: list[int]
+    ):
         configuration.update(q)
         self.q, self.configuration, self.levels, self.stacks = q, configuration, levels, stacks
+        self.counts = counts  # evaluations of each level, shared by the solve's points
         n = len(levels)
         self.rows: list[TaskRows] = [None] * n  # type: ignore[list-item]
         self.level_reports: list[list[TaskReport]] = [None] * n  # type: ignore[list-item]
@@ -373,6 +395,7 @@ class _Point:
             self.rows[j], self.level_reports[j] = evaluate_level(
                 self.configuration, j, self.levels[j], self.stacks[j], validate
             )
+            self.counts[j] += 1
         self.done = max(self.done, min(k, len(self.levels) - 1) + 1)
         return self
 
@@ -545,6 +568,8 @@ def solve(
     model = configuration.model
     q0 = configuration.q.copy()
     stacks = [_Stack() for _ in task_levels]
+    counts = [0] * len(task_levels)
+    n_corrections = n_rejected = 0
     history: list[list[float]] = []
     times: list[float] = []
     qp_times: list[float] = []
@@ -559,7 +584,7 @@ def solve(
     fix_above = 0.5 * drift if trust_region is not None else 1e-5
 
     def point(q: np.ndarray) -> _Point:
-        return _Point(q, configuration, task_levels, stacks)
+        return _Point(q, configuration, task_levels, stacks, counts)
 
     try:
         # every task's rows validated once, where they enter
@@ -599,6 +624,7 @@ def solve(
                                 "correction",
                             )
                             qp_time += time.perf_counter() - t2
+                            n_corrections += 1
                             q = q.copy()
                             mujoco.mj_integratePos(model, q, fix.x, 1.0)
                             there = point(q).upto(prefix)
@@ -636,6 +662,7 @@ def solve(
                             radius = min(trust_region.max_radius, max(radius, 2.0 * alpha * size))
                         break
                     alpha *= trust_region.shrink  # rejected: retry shorter
+                    n_rejected += 1
                     radius = max(trust_region.min_radius, alpha * size)
                 else:  # no acceptable step: the iteration keeps its configuration
                     configuration.update(here.q)
@@ -687,6 +714,9 @@ def solve(
         failure=failure,
         q=configuration.q.copy(),
         step_lengths=lengths,
+        evaluations=counts,
+        corrections=n_corrections,
+        rejected=n_rejected,
     )
 
 

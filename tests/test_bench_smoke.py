@@ -153,5 +153,10 @@ def test_bench_cascade_small(capsys):
         assert 0.0 <= f[solver]["success"] <= 1.0 and f[solver]["ms_to_solution"] > 0.0
     assert f["pik osqp"]["success"] == f["pik daqp-hqp"]["success"] == 1.0
     assert all(r > 0 for r in f["ratios"].values())
+    for solver in ("pik osqp", "pik daqp-hqp"):
+        # levels below the feet once per accepted configuration; the hard rows
+        # and the feet also at every trial step and correction
+        e, c = f[solver]["evaluations_per_iteration"], f[solver]["corrections_per_iteration"]
+        assert e[2] == e[3] > 1.0 and e[0] == e[1] >= e[2] + c - 1e-12
     # the step rule: the feet never move more than 1e-4 m, raw mink tasks included
     assert f["foot_drift_m"] <= 1e-4 and f["foot_drift_raw_mink_m"] <= 1e-4

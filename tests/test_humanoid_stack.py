@@ -13,6 +13,7 @@ import pytest
 
 import pik_mj
 from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.mink_adapter import as_task
 
 
 @pytest.fixture(scope="module")
@@ -101,6 +102,7 @@ def test_result_summary_and_dict(model):
     assert d["converged"] and d["iterations"] == result.iterations
     assert [t["level"] for t in d["tasks"]] == [0, 1, 1, 2, 3]
     assert len(d["timing"]["iteration_ms"]) == result.iterations
+    assert d["evaluations"] == result.evaluations and len(d["evaluations"]) == 4
     assert "converged after" in result.summary()
 
 
@@ -363,3 +365,46 @@ def test_a_callback_that_moves_the_robot_is_followed(model):
     result = pik_mj.solve(cfg, stack.levels, callback=nudge)
     assert result.converged and nudged
     assert all(t.satisfied for t in result.tasks if t.checked)
+
+
+class _Recorded(pik_mj.Task):
+    """A task of the stack, unchanged, that notes every configuration it is
+    evaluated at (the loop's only entry into a task is ``evaluate``)."""
+
+    def __init__(self, inner):
+        self.inner = as_task(inner)
+        self.name, self.check = self.inner.name, self.inner.check
+        self.seen: list[bytes] = []
+
+    def compute_rows(self, configuration):
+        return self.inner.compute_rows(configuration)
+
+    def evaluate(self, configuration):
+        self.seen.append(configuration.q.tobytes())
+        return self.inner.evaluate(configuration)
+
+
+@pytest.mark.parametrize("qp_solver", ["osqp", "daqp-hqp"])
+def test_no_task_is_evaluated_twice_at_one_configuration(model, targets, qp_solver):
+    """The evaluation that accepts a step is the next iteration's
+    linearization: every task sees each configuration once; the levels below
+    the satisfied feet are evaluated only at accepted configurations (once per
+    iteration, plus the start); the hard rows and the feet once per trial step
+    and once per correction (the counts the result reports)."""
+    cfg = mink.Configuration(model)
+    for target in targets[:4]:
+        cfg.update(cases.stance(model))
+        stack = cases.reach_stack(cfg, target)
+        levels = [[_Recorded(t) for t in level] for level in stack.levels]
+        result = pik_mj.solve(cfg, levels, qp_solver=qp_solver)
+        assert result.converged and result.iterations >= 2, result.summary()
+        for k, level in enumerate(levels):
+            for task in level:
+                assert len(task.seen) == len(set(task.seen)), (k, task.name)
+                assert len(task.seen) == result.evaluations[k], (k, task.name)
+        n = result.iterations
+        assert result.evaluations[2] == result.evaluations[3] == n + 1
+        gave_up = result.step_lengths.count(0.0)
+        trials = n - gave_up + result.rejected
+        assert result.evaluations[0] == result.evaluations[1] == 1 + trials + result.corrections
+        assert result.corrections >= 1  # the feet drift beyond drift/2 on a 0.5 rad step

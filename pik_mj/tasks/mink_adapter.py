@@ -18,7 +18,7 @@ import numpy as np
 from mink.tasks.task import BaseTask
 
 from ..exceptions import InvalidInput
-from .task import Task, TaskRows, TaskState, no_inequality
+from .task import Task, TaskRows, TaskState, no_equality, no_inequality
 
 
 class MinkTask(Task):
@@ -163,16 +163,17 @@ class MinkLimit(Task):
         if self._bounds is None or self._bounds[0].shape != h.shape:
             self._bounds = (np.full(h.shape, -np.inf), np.full(h.shape, float(self.slack_weight)))
         lower, weights = self._bounds
-        # The same G object while its values stay (ConfigurationLimit builds
-        # the same matrix every call): users of the rows may cache what they
-        # derive from it.
-        if self._G is not None and self._G.shape == G.shape and np.array_equal(self._G, G):
-            G = self._G
+        # The same (read-only) G object while its values stay (ConfigurationLimit
+        # builds the same matrix every call): users of the rows may cache what
+        # they derive from it, and checks of its values need not be repeated.
+        held = self._G
+        if held is not None and held.shape == G.shape and (held == G).all():
+            G = held
         else:
             G.flags.writeable = False
             self._G = G
-        empty = np.zeros(0)
-        return TaskRows(np.zeros((0, G.shape[1])), empty, empty, G, lower, h, weights)
+        A, b, w = no_equality(G.shape[1])
+        return TaskRows(A, b, w, G, lower, h, weights)
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
         return self.evaluate(configuration).satisfied

@@ -314,6 +314,19 @@ def no_inequality(nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
     return empty
 
 
+_NO_EQUALITY: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def no_equality(nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(A, b, w_A)`` of rows without equalities (shared, read-only empty arrays)."""
+    empty = _NO_EQUALITY.get(nv)
+    if empty is None:
+        A = np.zeros((0, nv))
+        A.flags.writeable = False
+        empty = _NO_EQUALITY[nv] = (A, _EMPTY, _EMPTY)
+    return empty
+
+
 def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
     """``v`` scaled in place to norm ``limit`` if longer (seed ``p-limit``)."""
     norm = math.sqrt(float(v @ v))
