@@ -7,8 +7,8 @@ the floating base moves within the seed's root-link bounds. The seed first bends
 the waist by 10° (done where the robot has ``torso_waist_p``). dm_control's
 humanoid has its root at the chest, not the waist, and cannot crouch as deep
 within the root bounds: its hand target is (0.3, 0.1, -0.5) m from its root.
-Every iteration is checked statically in the robot's scene; the final pose is
-held in physics.
+Every iteration is checked statically in the robot's scene; the iterates are
+played in physics as a motion, and the final pose is held in physics.
 """
 
 from __future__ import annotations
@@ -23,9 +23,18 @@ from pik_mj import (
     Recorder,
     Robot,
     Scene,
+    Waypoints,
     fullbody_inverse_kinematics,
 )
-from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, com_margin, open_recorder, parser, report
+from pik_mj.scenario import (
+    DEFAULT_HOLD,
+    DEFAULT_SPEED,
+    ScenarioResult,
+    com_margin,
+    open_recorder,
+    parser,
+    report,
+)
 
 NAME = "fullbody_reach"
 HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
@@ -46,6 +55,7 @@ def run(
     *,
     model: str = "sample_humanoid",
     hold: float = DEFAULT_HOLD,
+    speed: float = DEFAULT_SPEED,
     quiet: bool = True,
 ) -> ScenarioResult:
     result = ScenarioResult(NAME)
@@ -62,6 +72,7 @@ def run(
     checks = scene.static_checker()
     log = recorder.solve_logger("reach", checks=checks, start=robot)
     progress = Progress("reach", total=100, stream=None if quiet else sys.stderr)
+    path = Waypoints(robot)
     res = fullbody_inverse_kinematics(
         robot,
         [(target, np.array([1.0, 0.0, 0.0, 0.0]))],
@@ -70,9 +81,14 @@ def run(
         target_centroid_pos=p_mid,
         centroid_axes="z",
         stop=100,
-        callback=[checks, log, progress],
+        callback=[checks, log, progress, path.segment("reach")],
     )
-    result.add_solve("reach", res, checks, finish=[log, progress])
+    result.add_solve("reach", res, checks, finish=[log, progress, path])
+
+    # The iterates as a motion in physics.
+    if speed:
+        log = recorder.motion_logger()
+        result.add_motion("reach", scene.play(path, speed=speed, callback=log), finish=[log])
 
     # The final pose in physics; the contacts the solve made are intended.
     q = robot.configuration.q.copy()
@@ -122,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--model", default="sample_humanoid", help="robot model name or MJCF path")
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, model=args.model, hold=args.hold, quiet=args.quiet)
+        result = run(recorder, model=args.model, hold=args.hold, speed=args.speed, quiet=args.quiet)
     return report(result, args)
 
 

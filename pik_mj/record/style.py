@@ -45,3 +45,7 @@ CONTACT_RADIUS = 0.012
 FORCE_PER_WEIGHT = 0.6
 #: Contact force scale [m/N] when the robot's weight is unknown.
 DEFAULT_FORCE_SCALE = 1e-3
+
+#: The reference pose of a motion, drawn as a second robot: translucent, with
+#: its primitives' major wireframe (RGBA).
+REFERENCE = (80, 160, 255, 90)
