@@ -1,31 +1,61 @@
-"""The priority cascade against mink's single weighted QP, in one run.
+"""Time to solution: the priority cascade against mink's single weighted QP.
 
-Stack (dm_control's humanoid, 27 DoF, floating base): joint limits hard; both
-feet (pose) at level 1; the right hand (pose) at level 2; posture at level 3.
-mink gets the same tasks in one QP (``mink.solve_ik``, solver "osqp") with the
-same limits.
+Stack, on dm_control's humanoid (27 DoF) and CMU humanoid (62 DoF), floating
+base: joint limits hard; both feet (pose) at level 1; the right hand (pose) at
+level 2; posture at level 3. mink gets the same tasks in one QP
+(``mink.solve_ik``) with the same limits, the feet at cost 10 (``--feet-cost``),
+hand 1, posture 1e-2.
 
-Prints, side by side:
-* reachable targets (forward kinematics of random feet-consistent postures):
-  success rate to 1 mm / 1 degree within 50 iterations, median iterations;
-* an unreachable hand target 2 m away: the worst foot drift over 50 iterations;
-* the median time of one iteration and the ratio cascade / mink.
+Four solvers in the same run, on the same FK-reachable hand targets, every one
+starting from the same stance and stopping when both feet and the hand are
+within 1 mm / 1 degree (at most 50 iterations):
 
-Run: ``python benchmarks/bench_cascade.py [--targets 100]``
+* ``pik osqp``: ``pik_mj.solve`` with the default backend (one OSQP QP per level);
+* ``pik daqp-hqp``: ``pik_mj.solve(qp_solver="daqp-hqp")`` (the whole
+  hierarchy in one DAQP call);
+* ``mink osqp`` and ``mink daqp``: ``mink.solve_ik`` + ``integrate_inplace`` +
+  the same stop test, per iteration.
+
+Time to solution is the wall time of the whole loop (the solve call, or mink's
+loop with its stop test), tasks built beforehand for both. Each figure is the
+median over targets in one round; the table shows the median over ``--rounds``
+rounds, and each ratio is the median of the ratios measured within a round.
+
+Also measured: the worst foot drift over 50 iterations when the hand target is
+2 m out of reach, with pik_mj's FrameTasks and with raw ``mink.FrameTask``s in
+the cascade.
+
+Run: ``python benchmarks/bench_cascade.py [--targets 20] [--rounds 5]``
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import cases
 import mink
 import numpy as np
+from qpsolvers.warnings import SparseConversionWarning
 
 import pik_mj
 
 THRE, RTHRE = 1e-3, np.deg2rad(1.0)
+STOP = 50
+SOLVERS = ("pik osqp", "pik daqp-hqp", "mink osqp", "mink daqp")
+MODELS = {"dm_control humanoid (27 DoF)": cases.DM, "CMU humanoid (62 DoF)": cases.CMU}
+
+
+@dataclass
+class Run:
+    """One solve: converged, iterations, wall time [s]."""
+
+    converged: bool
+    iterations: int
+    seconds: float
 
 
 def satisfied(task, cfg) -> bool:
@@ -33,103 +63,148 @@ def satisfied(task, cfg) -> bool:
     return bool(np.linalg.norm(e[:3]) <= THRE and np.linalg.norm(e[3:]) <= RTHRE)
 
 
-def run_cascade(model, target, stop=50, callback=None, qp_solver="osqp"):
+def run_cascade(model, target, qp_solver="osqp", stop=STOP, callback=None) -> Run:
     cfg = mink.Configuration(model)
     cfg.update(cases.stance(model))
     stack = cases.reach_stack(cfg, target)
+    t0 = time.perf_counter()
     result = pik_mj.solve(
         cfg, stack.levels, stop=stop, revert_if_fail=False, callback=callback, qp_solver=qp_solver
     )
-    return result, stack, cfg
+    seconds = time.perf_counter() - t0
+    return Run(result.converged, result.iterations, seconds)
 
 
-def run_mink(model, target, stop=50, callback=None):
-    """mink's loop with the same stop test as the cascade."""
+def run_mink(
+    model, target, solver="osqp", feet_cost=10.0, stop=STOP, callback: Callable | None = None
+) -> Run:
+    """mink's loop with the same stop test as the cascade (mink's own errors)."""
     cfg = mink.Configuration(model)
     cfg.update(cases.stance(model))
-    stack = cases.reach_stack(cfg, target)  # only for its error functions
-    tasks = cases.mink_reach_tasks(cfg, target)
+    tasks = cases.mink_reach_tasks(cfg, target, feet_cost=feet_cost)
+    checked = tasks[:3]  # feet and hand
     limits = [mink.ConfigurationLimit(model)]
-    times = []
-    converged = False
-    iterations = 0
+    # mink hands qpsolvers dense matrices, and qpsolvers calls OSQP's solve()
+    # without raise_error: both warn on every call
+    warnings.filterwarnings("ignore", category=SparseConversionWarning)
+    warnings.filterwarnings("ignore", "The default value of raise_error", PendingDeprecationWarning)
+    converged, iterations = False, 0
+    t0 = time.perf_counter()
     for iterations in range(1, stop + 1):  # noqa: B007 - used after the loop
-        t0 = time.perf_counter()
-        v = mink.solve_ik(cfg, tasks, 1.0, "osqp", limits=limits)
+        v = mink.solve_ik(cfg, tasks, 1.0, solver, limits=limits)
         cfg.integrate_inplace(v, 1.0)
-        times.append(time.perf_counter() - t0)
         if callback is not None:
             callback(cfg)
-        if all(satisfied(t, cfg) for t in [*stack.feet, stack.hand]):
+        if all(satisfied(t, cfg) for t in checked):
             converged = True
             break
-    return converged, iterations, times, stack
+    return Run(converged, iterations, time.perf_counter() - t0)
+
+
+def one_round(model, targets, feet_cost: float) -> dict[str, list[Run]]:
+    runs: dict[str, list[Run]] = {s: [] for s in SOLVERS}
+    for target in targets:
+        runs["pik osqp"].append(run_cascade(model, target))
+        runs["pik daqp-hqp"].append(run_cascade(model, target, qp_solver="daqp-hqp"))
+        runs["mink osqp"].append(run_mink(model, target, "osqp", feet_cost))
+        runs["mink daqp"].append(run_mink(model, target, "daqp", feet_cost))
+    return runs
+
+
+def foot_drift(model, raw_mink: bool) -> float:
+    """Worst foot position error [m] over 50 iterations, hand 2 m out of reach."""
+    h = cases.humanoid_of(model)
+    cfg = mink.Configuration(model)
+    cfg.update(cases.stance(model))
+    far = cases.unreachable_hand_target(cfg, 2.0)
+    stack = cases.reach_stack(cfg, far)
+    levels = stack.levels
+    if raw_mink:
+        feet = [mink.FrameTask(f, "body", position_cost=1.0, orientation_cost=1.0) for f in h.feet]
+        for f in feet:
+            f.set_target_from_configuration(cfg)
+        hand = mink.FrameTask(h.hand, "body", position_cost=1.0, orientation_cost=1.0)
+        hand.set_target(far)
+        levels = [levels[0], feet, [hand], levels[3]]
+    drift: list[float] = []
+
+    def watch(info):
+        drift.append(
+            max(np.linalg.norm(f.compute_error(info.configuration)[:3]) for f in stack.feet)
+        )
+
+    pik_mj.solve(cfg, levels, stop=STOP, revert_if_fail=False, callback=watch)
+    return max(drift)
+
+
+def summarize(rounds: list[dict[str, list[Run]]]) -> dict[str, dict[str, float]]:
+    """Medians over targets per round, then medians over rounds; paired ratios."""
+    out: dict[str, dict[str, float]] = {}
+    for s in SOLVERS:
+        ms = [1e3 * np.median([r.seconds for r in rnd[s]]) for rnd in rounds]
+        its = [np.median([r.iterations for r in rnd[s]]) for rnd in rounds]
+        per_it = [
+            1e3 * np.median([r.seconds / max(r.iterations, 1) for r in rnd[s]]) for rnd in rounds
+        ]
+        ok = [np.mean([r.converged for r in rnd[s]]) for rnd in rounds]
+        out[s] = {
+            "success": float(np.min(ok)),
+            "iterations": float(np.median(its)),
+            "ms_per_iteration": float(np.median(per_it)),
+            "ms_to_solution": float(np.median(ms)),
+            "ms_to_solution_runs": [float(m) for m in ms],
+        }
+
+    def ratio(a: str, b: str) -> float:
+        per_round = [
+            np.median([r.seconds for r in rnd[a]]) / np.median([r.seconds for r in rnd[b]])
+            for rnd in rounds
+        ]
+        return float(np.median(per_round))
+
+    out["ratios"] = {
+        "pik osqp / mink osqp": ratio("pik osqp", "mink osqp"),
+        "pik daqp-hqp / mink daqp": ratio("pik daqp-hqp", "mink daqp"),
+    }
+    return out
+
+
+def print_table(name: str, n: int, rounds: int, s: dict) -> None:
+    print(f"\n{name}: {n} reachable targets, 1 mm / 1 deg, stop {STOP}, {rounds} rounds")
+    print(f"{'':26}" + "".join(f"{k:>14}" for k in SOLVERS))
+    for key, label, fmt in (
+        ("success", "success", "{:>14.0%}"),
+        ("iterations", "median iterations", "{:>14.1f}"),
+        ("ms_per_iteration", "ms per iteration", "{:>14.3f}"),
+        ("ms_to_solution", "ms to solution", "{:>14.3f}"),
+    ):
+        print(f"{label:26}" + "".join(fmt.format(s[k][key]) for k in SOLVERS))
+    for label, value in s["ratios"].items():
+        print(f"  time to solution, {label}: {value:.2f}")
 
 
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--targets", type=int, default=100)
+    parser.add_argument("--targets", type=int, default=20)
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--feet-cost", type=float, default=10.0)
+    parser.add_argument("--models", nargs="*", default=list(MODELS), choices=list(MODELS))
     args = parser.parse_args(argv)
-    model = cases.dm_humanoid()
-    targets = cases.reachable_hand_targets(model, args.targets, seed=0)
-
-    c_ok, c_its, c_times = 0, [], []
-    m_ok, m_its, m_times = 0, [], []
-    d_times: list[float] = []
-    for target in targets:
-        result, _, _ = run_cascade(model, target)
-        c_ok += result.converged
-        c_its.append(result.iterations)
-        c_times += result.iteration_times
-        d_times += run_cascade(model, target, qp_solver="daqp")[0].iteration_times
-        ok, its, times, _ = run_mink(model, target)
-        m_ok += ok
-        m_its.append(its)
-        m_times += times
-
-    far = cases.unreachable_hand_target(mink.Configuration(model), 2.0)
-    # Both runs start from the stance, so one stack's feet tasks measure both drifts.
-    stance_cfg = mink.Configuration(model)
-    stance_cfg.update(cases.stance(model))
-    feet = cases.reach_stack(stance_cfg, far).feet
-
-    def foot_drift(cfg: mink.Configuration) -> float:
-        return max(np.linalg.norm(f.compute_error(cfg)[:3]) for f in feet)
-
-    c_drift: list[float] = []
-    run_cascade(model, far, callback=lambda info: c_drift.append(foot_drift(info.configuration)))
-    m_drift: list[float] = []
-    run_mink(model, far, callback=lambda cfg: m_drift.append(foot_drift(cfg)))
-
-    c_ms, m_ms = 1e3 * np.median(c_times), 1e3 * np.median(m_times)
-    d_ms = 1e3 * np.median(d_times)
-    figures = {
-        "targets": len(targets),
-        "cascade_success": c_ok / len(targets),
-        "mink_success": m_ok / len(targets),
-        "cascade_median_iterations": float(np.median(c_its)),
-        "mink_median_iterations": float(np.median(m_its)),
-        "cascade_max_foot_drift_m": max(c_drift),
-        "mink_max_foot_drift_m": max(m_drift),
-        "cascade_ms_per_iteration": c_ms,
-        "mink_ms_per_iteration": m_ms,
-        "ratio": c_ms / m_ms,
-        "cascade_daqp_ms_per_iteration": d_ms,
-        "ratio_daqp": d_ms / m_ms,
-    }
-    print(f"dm_control humanoid, {len(targets)} reachable targets, 1 mm / 1 deg, stop 50")
-    print(f"{'':34}{'cascade':>12}{'mink':>12}{'ratio':>8}")
-    print(f"{'success rate':34}{figures['cascade_success']:>12.0%}{figures['mink_success']:>12.0%}")
-    print(
-        f"{'median iterations':34}{figures['cascade_median_iterations']:>12.1f}"
-        f"{figures['mink_median_iterations']:>12.1f}"
-    )
-    print(
-        f"{'max foot drift, hand 2 m away [m]':34}{figures['cascade_max_foot_drift_m']:>12.1e}"
-        f"{figures['mink_max_foot_drift_m']:>12.1e}"
-    )
-    print(f"{'median time per iteration [ms]':34}{c_ms:>12.3f}{m_ms:>12.3f}{c_ms / m_ms:>8.2f}")
-    print(f"{'  cascade with qp_solver=daqp':34}{d_ms:>12.3f}{m_ms:>12.3f}{d_ms / m_ms:>8.2f}")
+    figures: dict = {}
+    for name in args.models:
+        model = pik_mj.models.load_model(MODELS[name].model)
+        targets = cases.reachable_hand_targets(model, args.targets, seed=0)
+        one_round(model, targets[:2], args.feet_cost)  # warm-up: imports, caches
+        rounds = [one_round(model, targets, args.feet_cost) for _ in range(args.rounds)]
+        s = summarize(rounds)
+        s["foot_drift_m"] = foot_drift(model, raw_mink=False)
+        s["foot_drift_raw_mink_m"] = foot_drift(model, raw_mink=True)
+        print_table(name, len(targets), args.rounds, s)
+        print(
+            f"  worst foot drift, hand 2 m out of reach: {s['foot_drift_m']:.1e} m "
+            f"(raw mink.FrameTasks in the cascade: {s['foot_drift_raw_mink_m']:.1e} m)"
+        )
+        figures[name] = s
     return figures
 
 

@@ -36,8 +36,16 @@ def _arm_task(conf: mink.Configuration, target: mink.SE3) -> FrameTask:
     )
 
 
+def seed_clamped(tasks: list[FrameTask]) -> list[FrameTask]:
+    """The seed's per-iteration step limits (0.1 m, 0.5 rad) on ``tasks``: the
+    classic SR-inverse has no trust region and relies on them."""
+    for task in tasks:
+        task.p_limit, task.r_limit = 0.1, 0.5
+    return tasks
+
+
 def _run_classic(conf, target, stop):
-    r = classic_inverse_kinematics(conf, [_arm_task(conf, target)], stop=stop)
+    r = classic_inverse_kinematics(conf, seed_clamped([_arm_task(conf, target)]), stop=stop)
     return r.converged, r.iterations, float(np.sum(r.iteration_times))
 
 
@@ -107,7 +115,7 @@ def _fullbody_satisfied(stack, conf) -> bool:
 
 
 def _fullbody_classic(conf, stack, stop):
-    r = classic_inverse_kinematics(conf, [*stack.feet, stack.hand], stop=stop)
+    r = classic_inverse_kinematics(conf, seed_clamped([*stack.feet, stack.hand]), stop=stop)
     return r.converged, r.iterations, float(np.sum(r.iteration_times))
 
 

@@ -1,6 +1,7 @@
 """Reproducible problem sets shared by the tests and the benchmarks.
 
-The reference whole-body stack on dm_control's humanoid (27 DoF, floating base):
+The reference whole-body stack on dm_control's humanoids (``dm_humanoid``,
+27 DoF, and ``dm_humanoid_cmu``, 62 DoF; floating base):
 
 * level 0: joint limits (hard),
 * level 1: both feet, full pose, at their current poses,
@@ -9,12 +10,13 @@ The reference whole-body stack on dm_control's humanoid (27 DoF, floating base):
 
 :func:`reachable_hand_targets` makes targets the stack can reach: a random
 posture is projected onto "feet where they are" by the cascade itself, and the
-hand's pose there is the target.
+hand's pose there is the target. The model is recognised by its body names
+(:data:`HUMANOIDS`), so every function takes just the model or configuration.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mink
 import mujoco
@@ -25,9 +27,64 @@ from pik_mj.solve import solve
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import MinkTask
 
-FEET = ("left_foot", "right_foot")
-HAND = "right_hand"
 POSTURE_COST = 1e-2  # [cost]/[rad]
+
+
+@dataclass(frozen=True)
+class Humanoid:
+    """A humanoid of the reference stack: its model name, feet, hand and stance.
+
+    Attributes:
+        model: Name for :func:`pik_mj.models.load_model`.
+        feet: Body names of the feet (level 1).
+        hand: Body name of the reaching hand (level 2).
+        stance: Joint angles [rad] set over ``qpos0`` for the start pose.
+    """
+
+    model: str
+    feet: tuple[str, str]
+    hand: str
+    stance: dict[str, float] = field(default_factory=dict)
+
+
+DM = Humanoid(
+    "dm_humanoid",
+    ("left_foot", "right_foot"),
+    "right_hand",
+    {
+        "right_hip_y": -0.3,
+        "left_hip_y": -0.3,
+        "right_knee": -0.6,
+        "left_knee": -0.6,
+        "right_ankle_y": -0.3,
+        "left_ankle_y": -0.3,
+    },  # knees bent: dm_control's qpos0 has straight legs, a singular posture
+)
+CMU = Humanoid(
+    "dm_humanoid_cmu",
+    ("lfoot", "rfoot"),
+    "rhand",
+    {
+        "lfemurrx": -0.3,
+        "rfemurrx": -0.3,
+        "ltibiarx": 0.6,
+        "rtibiarx": 0.6,
+        "lfootrx": -0.3,
+        "rfootrx": -0.3,
+    },  # knees bent: qpos0 has them at 0, outside their range [1 deg, 170 deg]
+)
+HUMANOIDS = (DM, CMU)
+
+FEET, HAND, STANCE = DM.feet, DM.hand, DM.stance  # dm_control's humanoid, the default
+
+
+def humanoid_of(model: mujoco.MjModel) -> Humanoid:
+    """The :class:`Humanoid` whose feet and hand bodies ``model`` has."""
+    bodies = {model.body(b).name for b in range(model.nbody)}
+    for h in HUMANOIDS:
+        if bodies.issuperset((*h.feet, h.hand)):
+            return h
+    raise ValueError(f"not a humanoid of {[h.model for h in HUMANOIDS]}")
 
 
 @dataclass
@@ -41,24 +98,18 @@ class ReachStack:
     levels: list[list[object]]
 
 
-STANCE = {
-    "right_hip_y": -0.3,
-    "left_hip_y": -0.3,
-    "right_knee": -0.6,
-    "left_knee": -0.6,
-    "right_ankle_y": -0.3,
-    "left_ankle_y": -0.3,
-}  # [rad] knees bent: dm_control's qpos0 has straight legs, a singular posture
-
-
 def dm_humanoid() -> mujoco.MjModel:
-    return load_model("dm_humanoid")
+    return load_model(DM.model)
+
+
+def cmu_humanoid() -> mujoco.MjModel:
+    return load_model(CMU.model)
 
 
 def stance(model: mujoco.MjModel) -> np.ndarray:
-    """``qpos0`` of dm_control's humanoid with the knees bent (:data:`STANCE`)."""
+    """``qpos0`` with the knees bent (the humanoid's :attr:`Humanoid.stance`)."""
     q = model.qpos0.copy()
-    for name, angle in STANCE.items():
+    for name, angle in humanoid_of(model).stance.items():
         q[model.joint(name).qposadr[0]] = angle
     return q
 
@@ -66,6 +117,7 @@ def stance(model: mujoco.MjModel) -> np.ndarray:
 def reach_stack(configuration: mink.Configuration, hand_target: mink.SE3) -> ReachStack:
     """Feet (level 1) before the hand (level 2) before posture (level 3)."""
     model = configuration.model
+    h = humanoid_of(model)
     feet = [
         FrameTask(
             configuration,
@@ -73,9 +125,9 @@ def reach_stack(configuration: mink.Configuration, hand_target: mink.SE3) -> Rea
             configuration.get_transform_frame_to_world(f, "body"),
             move_target_type="body",
         )
-        for f in FEET
+        for f in h.feet
     ]
-    hand = FrameTask(configuration, HAND, hand_target, move_target_type="body")
+    hand = FrameTask(configuration, h.hand, hand_target, move_target_type="body")
     posture = mink.PostureTask(model, cost=POSTURE_COST)
     posture.set_target_from_configuration(configuration)
     levels: list[list[object]] = [
@@ -87,12 +139,19 @@ def reach_stack(configuration: mink.Configuration, hand_target: mink.SE3) -> Rea
     return ReachStack(configuration, feet, hand, posture, levels)
 
 
-def mink_reach_tasks(configuration: mink.Configuration, hand_target: mink.SE3) -> list:
-    """The same tasks for mink's single weighted QP (costs 1 on feet and hand)."""
-    feet = [mink.FrameTask(f, "body", position_cost=1.0, orientation_cost=1.0) for f in FEET]
+def mink_reach_tasks(
+    configuration: mink.Configuration, hand_target: mink.SE3, feet_cost: float = 1.0
+) -> list:
+    """The same tasks for mink's single weighted QP: feet at ``feet_cost``
+    (position [cost]/[m], orientation [cost]/[rad]), hand at cost 1."""
+    h = humanoid_of(configuration.model)
+    feet = [
+        mink.FrameTask(f, "body", position_cost=feet_cost, orientation_cost=feet_cost)
+        for f in h.feet
+    ]
     for task in feet:
         task.set_target_from_configuration(configuration)
-    hand = mink.FrameTask(HAND, "body", position_cost=1.0, orientation_cost=1.0)
+    hand = mink.FrameTask(h.hand, "body", position_cost=1.0, orientation_cost=1.0)
     hand.set_target(hand_target)
     posture = mink.PostureTask(configuration.model, cost=POSTURE_COST)
     posture.set_target_from_configuration(configuration)
@@ -110,6 +169,7 @@ def reachable_hand_targets(
     that posture (level 2); postures whose projection does not converge are
     redrawn.
     """
+    h = humanoid_of(model)
     rng = np.random.default_rng(seed)
     cfg = mink.Configuration(model)
     q0 = stance(model)
@@ -122,7 +182,7 @@ def reachable_hand_targets(
         cfg.update(q0)
         feet = [
             FrameTask(cfg, f, cfg.get_transform_frame_to_world(f, "body"), move_target_type="body")
-            for f in FEET
+            for f in h.feet
         ]
         q_random = q0.copy()
         q_random[7:] = np.clip(q0[7:] + rng.normal(0.0, sigma, model.nq - 7), lo, hi)
@@ -136,11 +196,12 @@ def reachable_hand_targets(
             revert_if_fail=False,
         )
         if all(t.satisfied for t in result.tasks if t.checked):
-            targets.append(cfg.get_transform_frame_to_world(HAND, "body"))
+            targets.append(cfg.get_transform_frame_to_world(h.hand, "body"))
     return targets
 
 
 def unreachable_hand_target(configuration: mink.Configuration, distance: float = 2.0) -> mink.SE3:
-    """The hand's current pose moved ``distance`` [m] forward (+x, world)."""
-    current = configuration.get_transform_frame_to_world(HAND, "body")
+    """The hand's current pose moved ``distance`` [m] along world +x."""
+    hand = humanoid_of(configuration.model).hand
+    current = configuration.get_transform_frame_to_world(hand, "body")
     return mink.SE3.from_translation(np.array([distance, 0.0, 0.0])) @ current

@@ -29,13 +29,14 @@ def as_callbacks(callback: Callback | Sequence[Callback] | None) -> list[Callbac
         return [callback]
     if isinstance(callback, (str, bytes)) or not isinstance(callback, Sequence):
         raise InvalidInput(
-            f"callback must be a callable or a list of callables, got {type(callback).__name__}"
+            "callback must be a callable or a list of callables (each called with the "
+            f"step's information), got {callback!r} ({type(callback).__name__})"
         )
     out = list(callback)
     for i, c in enumerate(out):
         if not callable(c):
             raise InvalidInput(
-                f"callback[{i}] is a {type(c).__name__}, not a callable; every entry of "
-                "the callback list is called with the step's information"
+                f"callback[{i}] must be callable (every entry of the list is called with "
+                f"the step's information), got {c!r} ({type(c).__name__})"
             )
     return out

@@ -13,32 +13,45 @@ subject to
 
 * level 0's rows, hard: ``A_0 x = b_0``, ``d_l0 <= C_0 x <= d_u0``;
 * every level ``j < k`` kept at what it achieved at its own solution ``x_j*``:
-  ``|A_j x - A_j x_j*| <= τ`` and
+  equality rows ``A_j x = A_j x_j*`` and inequality rows
   ``min(d_lj, C_j x_j*) - τ <= C_j x <= max(d_uj, C_j x_j*) + τ``;
 * ``d_lk <= C_k x + ω_k <= d_uk``;
 
 with ``λ_k = min(w + w_r e_k, w_max) + μ_k``, ``e_k`` the level's squared error at
 ``x = 0`` and ``μ_k`` the tasks' own Levenberg–Marquardt damping.
 
+:class:`NullSpaceCascade` solves the levels in order:
+
+* when no inequality row is active, the level's optimum is in closed form:
+  its equality part minimized over the null space of the kept equality rows
+  (projector ``P``). This is the common case (joint limits far away): a few
+  small dense products;
+* otherwise the level's QP goes to the QP backend (OSQP by default), with the
+  kept equality rows as equalities and the inequality rows as bounds;
+* a hierarchical backend (``"daqp-hqp"``, :class:`~pik_mj.qp.HierarchicalBackend`)
+  solves all levels in one call instead, exactly (``λ_k → 0``, ``τ = 0``).
+
 ``τ`` (:data:`DEFAULT_RELAXATION`) absorbs the inexactness of a first-order
 solver, so that a lower level can never be made infeasible by the rounding of a
 higher one; it is also the bound by which a lower level may move a higher
-level's rows. Kept rows are further widened by the feasibility error ``v_k``
-of every later level's solution times the row's 1-norm, since each ``x_k*`` met
-the hard rows only to within ``v_k``: a row ``a`` of level ``j`` ends within
-``τ + ‖a‖₁ Σ_{k>=j} v_k`` of what level ``j`` achieved (the bound the tests check).
+level's inequality rows. Kept inequality rows are further widened by the
+feasibility error ``v_k`` of every backend solution from their level on times
+the row's 1-norm, since each ``x_k*`` met them only to within ``v_k``: a row
+``a`` of level ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of what level ``j``
+achieved (the bound the tests check); an equality row ends within the
+feasibility error of the backend solutions below it (0 in closed form).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-import mujoco
 import numpy as np
 
 from .exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
-from .qp import LevelProblem, QPBackend, QPSolution
+from .qp import LevelProblem, OSQPBackend, QPBackend, QPSolution, QpsolversBackend
+from .qp_daqp import DAQPBackend, HierarchicalProblem
 from .tasks.task import TaskRows
 
 DEFAULT_RELAXATION = 1e-5
@@ -46,6 +59,10 @@ DEFAULT_RELAXATION = 1e-5
 settings. A lower level may move a higher level's row by at most
 ``τ + ε_prim``, with ``ε_prim = eps_abs + eps_rel·max(|A z|, |z|)`` OSQP's
 primal feasibility tolerance."""
+
+FEASIBILITY_TOLERANCE = 1e-10
+"""How far [row units] the closed-form step may cross an inequality before the
+level goes to the QP backend."""
 
 
 @dataclass(frozen=True)
@@ -65,15 +82,21 @@ class Regularization:
 
 def per_level(value: float | Sequence[float], n_levels: int, name: str) -> list[float]:
     """Seed convention: a float is shared by every level, a list gives one per level."""
-    if np.ndim(value) == 0:
-        values = [float(value)] * n_levels  # type: ignore[arg-type]
-    else:
-        values = [float(v) for v in value]  # type: ignore[union-attr]
-        if len(values) != n_levels:
-            raise InvalidInput(
-                f"{name} has {len(values)} entries; give a float or one per solved "
-                f"level ({n_levels})"
-            )
+    try:
+        if np.ndim(value) == 0:
+            values = [float(value)] * n_levels  # type: ignore[arg-type]
+        else:
+            values = [float(v) for v in value]  # type: ignore[union-attr]
+    except (TypeError, ValueError):
+        raise InvalidInput(
+            f"{name} must be a float or one float per solved level, got {value!r}"
+        ) from None
+    if isinstance(value, bool) or (np.ndim(value) > 0 and any(isinstance(v, bool) for v in value)):  # type: ignore[union-attr]
+        raise InvalidInput(f"{name} must be a float or one per solved level, got {value!r}")
+    if len(values) != n_levels:
+        raise InvalidInput(
+            f"{name} has {len(values)} entries; give a float or one per solved level ({n_levels})"
+        )
     if not all(np.isfinite(v) and v >= 0 for v in values):
         raise InvalidInput(f"{name} must be finite and >= 0, got {values}")
     return values
@@ -85,101 +108,178 @@ class CascadeStep:
 
     Attributes:
         x: The step of the last level, shape (nv,).
-        level_x: ``x_k*`` for each solved level k = 1..K.
+        level_x: ``x_k*`` for each solved level k = 1..K (empty for a
+            hierarchical backend, which returns the last only).
         level_errors: Squared error ``e_k`` of each solved level at ``x = 0``.
-        level_lambdas: Regularization ``λ_k`` used at each level.
-        problems: The QP of each level (for inspection and tests).
+        level_lambdas: Regularization ``λ_k`` used at each level (0 for a
+            hierarchical backend: each level exact).
+        problems: The QP of each level handed to the backend (levels solved in
+            closed form have none; see :meth:`NullSpaceCascade.level_problem`),
+            or the one :class:`HierarchicalProblem`.
         violations: Feasibility error ``v_k`` of each level's solution
-            (largest constraint violation of its QP). A row ``a`` of level
-            ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of its value at ``x_j*``.
+            (largest constraint violation of its QP; 0 in closed form). A row
+            ``a`` of level ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of its
+            value at ``x_j*``.
+        closed_form: Number of levels solved in closed form.
     """
 
     x: np.ndarray
     level_x: list[np.ndarray]
     level_errors: list[float]
     level_lambdas: list[float]
-    problems: list[LevelProblem]
-    violations: list[float]
+    problems: list[LevelProblem | HierarchicalProblem] = field(default_factory=list)
+    violations: list[float] = field(default_factory=list)
+    closed_form: int = 0
 
 
-def _bounds_kept(rows: TaskRows, x_star: np.ndarray, tau: float, violation: float) -> tuple:
-    """Rows of a higher level and the bounds that hold what it achieved.
+def _pinv_psd(G: np.ndarray) -> np.ndarray:
+    """Pseudo-inverse of a small symmetric positive semidefinite matrix."""
+    s, V = np.linalg.eigh(G)
+    keep = s > 1e-12 * max(float(s[-1]) if s.size else 0.0, 1e-300)
+    return (V[:, keep] / s[keep]) @ V[:, keep].T
 
-    Each row is widened by ``τ + v Σ_i |M_ri|``: ``v`` is how far ``x_star``
-    itself violates its level's constraints (the solver's feasibility error), so
-    keeping the row exactly could conflict with hard rows that ``x_star`` only
-    met to within ``v``.
+
+class NullSpaceCascade:
+    """The cascade's levels, one after the other.
+
+    Keeps ``x`` (the step so far) and ``P``, the orthogonal projector onto the
+    null space of every kept equality row. Level ``k`` (equality rows
+    ``Â = W^½ A_k``, ``r = W^½ (b_k − A_k x)``) minimizes
+    ``‖Â (x + P v) − W^½ b_k‖² + λ_k ‖x + P v‖²``; with ``B = Â P``:
+
+    .. math::
+
+        u = B^T (B B^T + \\lambda_k I)^{-1} (r + B x), \\qquad
+        x_k = (I − P) x + u
+
+    This is the level's optimum when it meets every inequality (hard rows, kept
+    inequality rows, the level's own rows with ``ω = 0``); otherwise
+    :meth:`level_problem` goes to the QP backend. Then the projector is
+    updated with the level's equality rows (``P ← P − Bᵀ (B Bᵀ)^+ B``).
     """
-    keep = rows.w_A > 0  # zero-weight rows carry no objective: nothing to keep
-    M = np.vstack([rows.A[keep], rows.C])
-    mx = M @ x_star
-    n_eq = int(keep.sum())
-    widen = tau + violation * np.abs(M).sum(axis=1)
-    lo = np.concatenate([mx[:n_eq], np.minimum(rows.d_lower, mx[n_eq:])]) - widen
-    hi = np.concatenate([mx[:n_eq], np.maximum(rows.d_upper, mx[n_eq:])]) + widen
-    return M, lo, hi
 
+    def __init__(self, hard: TaskRows, backend: QPBackend | None, relaxation: float, role: str):
+        nv = hard.A.shape[1]
+        self.backend, self.tau, self.role = backend, relaxation, role
+        self.x = np.zeros(nv)
+        self.P = np.eye(nv)
+        # The inequality rows to respect, stacked: C x in [lo, hi], each row
+        # widened by (slack - s0) times its 1-norm (the feasibility errors of
+        # the backend solutions from its own level on).
+        self.C, self.lo, self.hi = hard.C, hard.d_lower, hard.d_upper
+        self.s0 = np.zeros(hard.n_in)
+        self.norm1 = np.abs(hard.C).sum(axis=1)
+        self.slack = 0.0  # Σ feasibility errors of backend solutions so far
+        # kept equality rows E x = e (the hard ones, then each level's)
+        self.E, self.e = hard.A, hard.b
+        if hard.n_eq:
+            B = hard.A
+            self.x = B.T @ (_pinv_psd(B @ B.T) @ hard.b)
+            if not np.allclose(B @ self.x, hard.b, atol=FEASIBILITY_TOLERANCE):
+                raise InfeasibleHardConstraints(
+                    "the equality rows of level 0 admit no step (inconsistent equations)"
+                )
+            self._keep(hard.A)
 
-def build_level_problem(
-    level: int,
-    rows: TaskRows,
-    constraint_rows: tuple[np.ndarray, np.ndarray, np.ndarray],
-    lam: float,
-    role: str = "step",
-) -> LevelProblem:
-    """Assemble the QP of one level from its rows and the rows it must keep.
+    def _keep(self, A: np.ndarray) -> None:
+        if A.shape[0] == 0:
+            return
+        B = A @ self.P
+        self.P = self.P - B.T @ (_pinv_psd(B @ B.T) @ B)
 
-    Args:
-        level: Priority level k >= 1.
-        rows: The level's own rows.
-        constraint_rows: ``(M, lo, hi)``: hard and kept rows ``lo <= M x <= hi``.
-        lam: Regularization ``λ_k`` on ``‖x‖²``.
-    """
-    nv = rows.A.shape[1]
-    s = rows.n_in
-    n = nv + s
-    M, lo, hi = constraint_rows
-    WA = rows.A * rows.w_A[:, None]
-    if s == 0:  # equality rows only: no slack block
-        P = rows.A.T @ WA
-        P.flat[:: n + 1] += lam
-        return LevelProblem(level, P, -(WA.T @ rows.b), M, lo, hi, nv, role)
-    P = np.zeros((n, n))
-    P[:nv, :nv] = rows.A.T @ WA
-    P.flat[: nv * (n + 1) : n + 1] += lam
-    P.flat[nv * (n + 1) :: n + 1] = rows.w_C
-    q = np.zeros(n)
-    q[:nv] = -(WA.T @ rows.b)
-    A = np.zeros((M.shape[0] + s, n))
-    A[: M.shape[0], :nv] = M
-    A[M.shape[0] :, :nv] = rows.C
-    A[M.shape[0] :, nv:] = np.eye(s)
-    l = np.concatenate([lo, rows.d_lower])
-    u = np.concatenate([hi, rows.d_upper])
-    return LevelProblem(level, P, q, A, l, u, nv, role)
+    def _excess(self, x: np.ndarray) -> np.ndarray:
+        """Violation of each inequality row at ``x`` beyond its allowance (<= 0: met)."""
+        cx = self.C @ x
+        v = np.maximum(self.lo - cx, cx - self.hi)
+        if self.slack > 0:
+            v -= (self.slack - self.s0) * self.norm1
+        return v
 
+    def candidate(self, rows: TaskRows, lam: float) -> np.ndarray:
+        """The level's optimum with every inequality inactive (closed form)."""
+        x = self.x
+        sw = np.sqrt(rows.w_A)
+        A_hat = sw[:, None] * rows.A
+        B = A_hat @ self.P
+        r = sw * rows.b - A_hat @ x + B @ x
+        G = B @ B.T
+        G.flat[:: G.shape[0] + 1] += lam
+        u = B.T @ np.linalg.solve(G, r) if lam > 0 else B.T @ (_pinv_psd(G) @ r)
+        return x - self.P @ x + u
 
-def unconstrained_optimum(problem: LevelProblem) -> QPSolution | None:
-    """The exact optimum of ``problem`` when no constraint is active, else None.
+    def _violated(self, rows: TaskRows, x: np.ndarray, tol: float) -> tuple:
+        """``(kept rows, own rows)`` violated by more than ``tol`` at ``x``."""
+        cx = rows.C @ x
+        own = (cx < rows.d_lower - tol) | (cx > rows.d_upper + tol)
+        return self._excess(x) > tol, own
 
-    ``P`` is positive definite (``λ > 0`` on ``x``, slack weights ``> 0``), so
-    ``z = -P⁻¹ q`` (MuJoCo's dense Cholesky, ``mju_cholFactor``/``mju_cholSolve``)
-    is the unique minimizer of the objective; when it also
-    satisfies ``l <= A z <= u`` it is the QP's optimum (the active set is
-    empty). This is the common case of level 1, whose only constraints are
-    the hard rows (joint limits far from the step): one 27×27 solve instead of
-    an ADMM run.
-    """
-    n = problem.P.shape[0]
-    L = np.array(problem.P, dtype=float)  # factorized in place: P = L Lᵀ
-    if mujoco.mju_cholFactor(L, 0.0) < n:  # not positive definite
-        return None
-    z = np.empty(n)
-    mujoco.mju_cholSolve(z, L, -problem.q)
-    Az = problem.A @ z
-    if not (np.all(np.isfinite(z)) and np.all(problem.l <= Az) and np.all(Az <= problem.u)):
-        return None
-    return QPSolution(z, "unconstrained optimum (no active constraint)", True)
+    def level_problem(self, level: int, rows: TaskRows, lam: float) -> LevelProblem:
+        """The level's QP over ``z = [x; ω]`` for the backend: the kept equality
+        rows as equalities at their achieved values, the hard and kept
+        inequality rows within their (widened) bounds, the level's own
+        inequality rows with slacks. Sparse when the Jacobians are (OSQP's
+        iterations then cost little)."""
+        n, m = self.P.shape[0], rows.n_in
+        WA = rows.w_A[:, None] * rows.A
+        P = np.zeros((n + m, n + m))
+        P[:n, :n] = rows.A.T @ WA
+        P.flat[: n * (n + m + 1) : n + m + 1] += lam
+        P.flat[n * (n + m + 1) :: n + m + 1] = rows.w_C
+        q = np.zeros(n + m)
+        q[:n] = -(WA.T @ rows.b)
+        n_e, n_c = self.E.shape[0], self.C.shape[0]
+        A = np.zeros((n_e + n_c + m, n + m))
+        A[:n_e, :n] = self.E
+        A[n_e : n_e + n_c, :n] = self.C
+        A[n_e + n_c :, :n] = rows.C
+        A[n_e + n_c :, n:] = np.eye(m)
+        extra = (self.slack - self.s0) * self.norm1 if self.slack > 0 else 0.0
+        l = np.concatenate([self.e, self.lo - extra, rows.d_lower])
+        u = np.concatenate([self.e, self.hi + extra, rows.d_upper])
+        return LevelProblem(level, P, q, A, l, u, n, self.role)
+
+    def level(self, k: int, rows: TaskRows, lam: float, last: bool, exact: bool) -> tuple:
+        """Solve level ``k`` (1-based): ``(x_k*, problem or None, violation)``.
+
+        The closed-form candidate when it meets every inequality row, else the
+        backend's solution of :meth:`level_problem`.
+        """
+        x_k = self.candidate(rows, lam) if exact else None
+        problem, violation = None, 0.0
+        if x_k is not None:
+            kept, own = self._violated(rows, x_k, FEASIBILITY_TOLERANCE)
+            if kept.any() or own.any() or not np.all(np.isfinite(x_k)):
+                x_k = None
+        if x_k is None:
+            if self.backend is None:
+                return None, None, 0.0
+            problem = self.level_problem(k, rows, lam)
+            solution = self.backend.solve(problem)
+            if not solution.ok or solution.z is None:
+                if solution.infeasible and k == 1:
+                    raise InfeasibleHardConstraints(
+                        f"the hard rows of level 0 admit no step ({solution.status})"
+                    )
+                raise QPFailure(k, solution.status, problem)
+            violation = problem.max_violation(solution.z)
+            x_k = solution.z[: problem.nv].copy()
+        self.x = x_k
+        if not last:
+            s0 = self.slack
+            self.slack += violation
+            A_keep = rows.A[rows.w_A > 0]
+            self._keep(A_keep)
+            self.E = np.vstack([self.E, A_keep])
+            self.e = np.concatenate([self.e, A_keep @ x_k])
+            if rows.n_in:
+                cx = rows.C @ x_k
+                tau = self.tau if problem is not None else 0.0
+                self.C = np.vstack([self.C, rows.C])
+                self.lo = np.concatenate([self.lo, np.minimum(rows.d_lower, cx) - tau])
+                self.hi = np.concatenate([self.hi, np.maximum(rows.d_upper, cx) + tau])
+                self.s0 = np.concatenate([self.s0, np.full(rows.n_in, s0)])
+                self.norm1 = np.concatenate([self.norm1, np.abs(rows.C).sum(axis=1)])
+        return x_k, problem, violation
 
 
 def solve_cascade(
@@ -189,6 +289,7 @@ def solve_cascade(
     backend: QPBackend,
     relaxation: float = DEFAULT_RELAXATION,
     role: str = "step",
+    closed_form: bool = True,
 ) -> CascadeStep:
     """Solve the cascade at one linearization point.
 
@@ -196,62 +297,76 @@ def solve_cascade(
         hard: Level-0 rows (hard constraints; assumed feasible, never solved alone).
         levels: Rows of levels 1..K, highest priority first.
         regularization: One :class:`Regularization` per level 1..K.
-        backend: QP backend.
+        backend: QP backend, or a hierarchical backend (``solve_hierarchy``).
         relaxation: ``τ`` [row units].
         role: Tag of the problems (``"step"`` or ``"correction"``) for backends
             that cache per problem.
+        closed_form: Solve a level in closed form when no inequality is active
+            (False: every level goes to the backend). A backend given as an
+            object or a function (seed ``qp-solver``) always gets every level.
 
     Raises:
         InfeasibleHardConstraints: Level 1 is infeasible: only level 0's hard rows
             can make it so.
         QPFailure: Another level's QP failed; carries the level and the problem.
     """
-    nv = hard.A.shape[1]
-    M = np.vstack([hard.A, hard.C])
-    lo = np.concatenate([hard.b, hard.d_lower])
-    hi = np.concatenate([hard.b, hard.d_upper])
-    n_hard = M.shape[0]
+    errors = [rows.squared_error() for rows in levels]
+    if hasattr(backend, "solve_hierarchy"):
+        if role == "correction" and closed_form:
+            # The projection back onto satisfied levels: exact in closed form
+            # (λ = 0, like the hierarchical solve) unless an inequality is active.
+            step = _exact(hard, levels, errors)
+            if step is not None:
+                return step
+        return _solve_hierarchy(hard, levels, errors, backend)
+    lambdas = [
+        reg.weight(e) + rows.damping
+        for rows, reg, e in zip(levels, regularization, errors, strict=True)
+    ]
+    closed_form = closed_form and isinstance(backend, (OSQPBackend, DAQPBackend, QpsolversBackend))
+    cascade = NullSpaceCascade(hard, backend, relaxation, role)
     level_x: list[np.ndarray] = []
-    errors: list[float] = []
-    lambdas: list[float] = []
-    problems: list[LevelProblem] = []
+    problems: list[LevelProblem | HierarchicalProblem] = []
     violations: list[float] = []
-    x = np.zeros(nv)
+    n_exact = 0
     n_levels = len(levels)
-    for k, (rows, reg) in enumerate(zip(levels, regularization, strict=True), start=1):
-        e_k = rows.squared_error()
-        lam = reg.weight(e_k) + rows.damping
-        problem = build_level_problem(k, rows, (M, lo, hi), lam, role)
-        solution = None
-        if M.shape[0] == n_hard:  # no kept rows yet: the free optimum may be feasible
-            solution = unconstrained_optimum(problem)
-        exact = solution is not None  # feasible by the check: no violation
-        if solution is None:
-            solution = backend.solve(problem)
-        if not solution.ok or solution.z is None:
-            if k == 1 and "infeasible" in solution.status.lower():
-                raise InfeasibleHardConstraints(
-                    f"the hard rows of level 0 admit no step (level 1 QP status: {solution.status})"
-                )
-            raise QPFailure(k, solution.status, problem)
-        x = solution.z[:nv]
-        level_x.append(x)
-        errors.append(e_k)
-        lambdas.append(lam)
-        problems.append(problem)
-        # x met every constraint only to within v: rows kept from higher levels
-        # must tolerate that much too, or hard rows and kept rows could conflict.
-        violation = 0.0 if exact else problem.max_violation(solution.z)
+    for k, rows in enumerate(levels):
+        x_k, problem, violation = cascade.level(
+            k + 1, rows, lambdas[k], k == n_levels - 1, closed_form
+        )
+        level_x.append(x_k)
         violations.append(violation)
-        if k == n_levels:  # nothing below to keep these rows for
-            break
-        if violation > 0 and M.shape[0] > n_hard:
-            widen = violation * np.abs(M[n_hard:]).sum(axis=1)
-            lo, hi = lo.copy(), hi.copy()  # earlier problems hold the old bounds
-            lo[n_hard:] -= widen
-            hi[n_hard:] += widen
-        M_k, lo_k, hi_k = _bounds_kept(rows, x, relaxation, violation)
-        M = np.vstack([M, M_k])
-        lo = np.concatenate([lo, lo_k])
-        hi = np.concatenate([hi, hi_k])
-    return CascadeStep(x.copy(), level_x, errors, lambdas, problems, violations)
+        if problem is None:
+            n_exact += 1
+        else:
+            problems.append(problem)
+    return CascadeStep(level_x[-1].copy(), level_x, errors, lambdas, problems, violations, n_exact)
+
+
+def _exact(hard: TaskRows, levels: Sequence[TaskRows], errors: list[float]) -> CascadeStep | None:
+    """Every level in closed form with ``λ_k = 0``, or None if an inequality is active."""
+    cascade = NullSpaceCascade(hard, None, 0.0, "correction")
+    level_x = []
+    for k, rows in enumerate(levels):
+        x_k, _, _ = cascade.level(k + 1, rows, 0.0, k == len(levels) - 1, True)
+        if x_k is None:
+            return None
+        level_x.append(x_k)
+    n = len(levels)
+    return CascadeStep(level_x[-1].copy(), level_x, errors, [0.0] * n, [], [0.0] * n, n)
+
+
+def _solve_hierarchy(
+    hard: TaskRows, levels: Sequence[TaskRows], errors: list[float], backend
+) -> CascadeStep:
+    problem = HierarchicalProblem.from_rows(hard, list(levels), getattr(backend, "layouts", None))
+    solution: QPSolution = backend.solve_hierarchy(problem)
+    if not solution.ok or solution.z is None:
+        if solution.infeasible:
+            raise InfeasibleHardConstraints(
+                f"the hard rows of level 0 admit no step ({solution.status})"
+            )
+        raise QPFailure(problem.levels[-1] if problem.levels else 1, solution.status, problem)
+    return CascadeStep(
+        solution.z.copy(), [], errors, [0.0] * len(levels), [problem], [], closed_form=0
+    )

@@ -41,13 +41,16 @@ initial mismatch is removed (seed ``:calc-jacobian-for-interlocking-joints``).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import mink
 import mujoco
 import numpy as np
 
+from . import inputs
+from .callbacks import Callback, as_callbacks
+from .checks import check_configuration
 from .exceptions import InvalidInput, UnknownName
 from .solve import IterationInfo, SolveResult, evaluate_levels, revert_unless_converged
 from .tasks.frame import ONE_DEGREE, FrameTask
@@ -185,7 +188,11 @@ def _as_tasks(
         if isinstance(t, FrameTask):
             tasks.append(t)
         elif isinstance(t, (tuple, list)) and len(t) == 2 and isinstance(t[0], str):
-            tasks.append(FrameTask(configuration, t[0], t[1], thre=thre, rthre=rthre))
+            tasks.append(
+                FrameTask(
+                    configuration, t[0], t[1], thre=thre, rthre=rthre, p_limit=0.1, r_limit=0.5
+                )
+            )
         else:
             raise InvalidInput(f"targets[{i}] must be a FrameTask or (move_target, pose)")
     return tasks
@@ -207,14 +214,16 @@ def classic_inverse_kinematics(
     avoid_nspace_gain: float = 0.01,
     interlocking_pairs: Sequence[tuple[str, str]] = (),
     revert_if_fail: bool = True,
-    callback: Callable[[IterationInfo], None] | None = None,
+    callback: Callback | Sequence[Callback] | None = None,
 ) -> SolveResult:
     """Solve frame targets the irteus way (SR-inverse, weighted least norm, null space).
 
     Args:
         configuration: Robot state, updated in place.
-        targets: :class:`FrameTask`s (their own axes, tolerances and step limits),
-            or ``(move_target, pose)`` tuples made into full 6-D FrameTasks.
+        targets: :class:`FrameTask`s (their own axes, tolerances and step limits:
+            the SR-inverse has no trust region, so give them ``p_limit`` and
+            ``r_limit``), or ``(move_target, pose)`` tuples made into full 6-D
+            FrameTasks with the seed's limits (0.1 m, 0.5 rad).
         method: ``"sr-inverse"`` (seed default) or ``"pseudo-inverse"`` (``k = 0``).
         stop: Maximum iterations (seed ``stop``).
         min_loop: Iterations before the stop test may end the loop.
@@ -228,16 +237,19 @@ def classic_inverse_kinematics(
         interlocking_pairs: ``[(joint_a, joint_b), ...]`` hinge/slide joints kept
             at equal angles.
         revert_if_fail: Restore the initial configuration if not converged.
-        callback: Called after each iteration with an :class:`IterationInfo`
+        callback: One callable or a list of callables, each called in order
+            after every iteration with the same :class:`IterationInfo`
             (``step`` is None here).
 
     Returns:
         A :class:`pik_mj.solve.SolveResult` (``qp_times`` empty: no QP).
     """
+    check_configuration(configuration)
     if method not in METHODS:
         raise InvalidInput(f"method {method!r} is not one of {METHODS}")
-    if not isinstance(stop, int) or stop < 1:
-        raise InvalidInput(f"stop must be a positive integer, got {stop!r}")
+    stop = inputs.integer(stop, "stop", low=1)
+    min_loop = inputs.integer(min_loop, "min_loop", low=0)
+    callbacks = as_callbacks(callback)
     for label, v in (
         ("manipulability_limit", manipulability_limit),
         ("manipulability_gain", manipulability_gain),
@@ -289,8 +301,9 @@ def classic_inverse_kinematics(
             rows, reports = evaluate_levels(configuration, levels)
             converged = iteration >= min_loop and all(r.satisfied for r in reports if r.checked)
             times.append(time.perf_counter() - t0)
-            if callback is not None:
-                callback(IterationInfo(iteration, configuration, levels, None, times[-1], reports))
+            info = IterationInfo(iteration, configuration, levels, None, times[-1], reports)
+            for c in callbacks:
+                c(info)
             if converged:
                 break
     except BaseException:

@@ -21,13 +21,18 @@ and what rebuilds its scene.
 ``validate`` reads a JSON summary written by ``run --json`` (its ``robot``
 entry) or a JSON ``{"model": NAME, "q": [...]}`` (optional ``environment``,
 ``at``, ``keyframe``, ``allowed_contacts``, ``grasps``, ``external``), checks
-the pose's static equilibrium and holds it in physics
-(:func:`pik_mj.sim.validate_pose`).
+the pose's joint limits and static equilibrium and holds it in physics
+(:func:`pik_mj.sim.validate_pose`); a joint outside its range fails the verdict,
+named with its excess.
 
 Exit status: 0 when every check holds (for ``run``: the scenario's checks and the
-hold; for ``validate``: the verdict), 1 when one fails or the scenario raised,
-2 for bad usage (unknown scenario, a scenario still waiting for a module, an
-unreadable pose file).
+hold; for ``validate``: the verdict), 1 when one fails or the scenario raised
+(its traceback shown), 2 for bad usage, reported in one line without a traceback
+(unknown command, scenario or option, a bad number, an unknown model or a file
+that is not MJCF, an output file that cannot be written — checked before any
+work starts —, an unreadable pose file or a pose of another model, a scenario
+still waiting for a module), 130 when interrupted (Ctrl-C; a recording in
+progress is closed and readable).
 """
 
 from __future__ import annotations
@@ -36,7 +41,6 @@ import argparse
 import importlib
 import inspect
 import json
-import math
 import sys
 import traceback
 from collections.abc import Sequence
@@ -44,9 +48,10 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from . import inputs
 from .exceptions import InvalidInput, PikError, SimulationUnstable, UnknownName
 
-EXIT_PASSED, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_PASSED, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 _RECORDING_OPTIONS = ("--save", "--connect", "--serve", "--stdout", "--headless")
 
 
@@ -113,24 +118,45 @@ def _list() -> int:
 def _run(name: str | None, argv: list[str]) -> int:
     name = _scenarios().DEFAULT if name is None else name
     module = load_scenario(name)  # usage errors: exit 2
+    from .scenario import OptionError
+
     if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
         argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
     print(f"running {name}: {describe(name)[0]}", file=sys.stderr)
     try:
         return int(module.main(argv))
     except SystemExit as exc:  # the scenario's argparse: --help (0) or bad options (2)
-        return exc.code if isinstance(exc.code, int) else EXIT_USAGE
+        return _exit_code(exc)
+    except OptionError as exc:  # an option the user gave cannot be used: exit 2
+        print(f"pik-mj: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        _recording_note(argv, "up to the interrupt")
+        raise
     except Exception as exc:  # the scenario raised: its traceback, exit 1
-        return _raised(name, exc, argv)
+        traceback.print_exc(file=sys.stderr)
+        print(f"pik-mj: scenario {name} raised {type(exc).__name__}: {exc}", file=sys.stderr)
+        _recording_note(argv, "up to the error")
+        return EXIT_FAILED
 
 
-def _raised(name: str, exc: BaseException, argv: list[str]) -> int:
-    traceback.print_exc(file=sys.stderr)
-    print(f"pik-mj: scenario {name} raised {type(exc).__name__}: {exc}", file=sys.stderr)
-    save = argv[argv.index("--save") + 1] if "--save" in argv else None
+def _recording_note(argv: list[str], when: str) -> None:
+    """Say where the recording of an unfinished run is, if it was started."""
+    save = None
+    for i, arg in enumerate(argv):
+        if arg == "--save" and i + 1 < len(argv):
+            save = argv[i + 1]
+        elif arg.startswith("--save="):
+            save = arg.removeprefix("--save=")
     if save and Path(save).is_file():
-        print(f"recording (up to the error): {save}")
-    return EXIT_FAILED
+        print(f"recording ({when}): {save}")
+
+
+def _exit_code(exc: SystemExit) -> int:
+    """The exit status of argparse's SystemExit (--help: 0, a usage error: 2)."""
+    if exc.code is None:
+        return EXIT_PASSED
+    return exc.code if isinstance(exc.code, int) else EXIT_USAGE
 
 
 def read_pose_file(path: str | Path) -> dict[str, Any]:
@@ -149,9 +175,17 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
 
     p = Path(path)
     try:
-        data = json.loads(p.read_text())
+        data = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise InvalidInput(f"pose file {str(p)!r} does not exist") from None
+    except IsADirectoryError:
+        raise InvalidInput(f"pose file {str(p)!r} is a directory; give a JSON file") from None
+    except UnicodeDecodeError:
+        raise InvalidInput(
+            f"pose file {str(p)!r} is not text (a binary file?); give a JSON file"
+        ) from None
+    except OSError as exc:
+        raise InvalidInput(f"pose file {str(p)!r} cannot be read: {exc.strerror}") from None
     except json.JSONDecodeError as exc:
         raise InvalidInput(f"pose file {str(p)!r} is not JSON: {exc}") from None
     src = data
@@ -163,8 +197,10 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
             'of a floating-base scenario (its "robot" entry) or {"model": ..., "q": [...]}'
         )
     q = src["q"]
-    if not isinstance(q, list) or not all(isinstance(x, (int, float)) for x in q):
-        raise InvalidInput(f'pose file {str(p)!r}: "q" must be a list of numbers')
+    if not isinstance(q, list) or not all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) for x in q
+    ):
+        raise InvalidInput(f'pose file {str(p)!r}: "q" must be a list of numbers, got {q!r}')
     grasps = src.get("grasps") or []
     keys = ("frame", "body", "p_FO", "R_FO")
     if not isinstance(grasps, list) or not all(
@@ -198,7 +234,7 @@ def _validate_parser() -> argparse.ArgumentParser:
         "--environment",
         help="environment model (default: the file's; 'none' for a floor only)",
     )
-    val.add_argument("--duration", type=float, default=3.0, help="hold duration [s]")
+    val.add_argument("--duration", default="3.0", help="hold duration [s] (default 3)")
     val.add_argument("--json", help="JSON report to write")
     val.add_argument("--save", help="rerun recording of the hold (.rrd)")
     return val
@@ -209,12 +245,22 @@ def _validate(argv: list[str]) -> int:
 
     from .record import Recorder
     from .robot import Robot
-    from .scenario import balance_summary, jsonable
+    from .scenario import balance_summary, jsonable, positive
     from .sim import validate_pose
 
     args = _validate_parser().parse_args(argv)
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        raise InvalidInput(f"--duration must be > 0 [s], got {args.duration}")
+    try:
+        duration = positive(args.duration)
+    except argparse.ArgumentTypeError as exc:
+        raise InvalidInput(f"--duration [s]: {exc}") from None
+    # Where the results go, checked before any work.
+    outputs = {
+        option: inputs.output_path(value, option)
+        for option, value in (("--json", args.json), ("--save", args.save))
+        if value
+    }
+    if len(outputs) == 2 and len({p.resolve() for p in outputs.values()}) == 1:
+        raise InvalidInput(f"--json and --save name the same file {args.json!r}; give two files")
     pose = read_pose_file(args.file)
     source, q = pose["source"], pose["q"]
     if args.environment is not None:  # another world: the robot keeps its pose
@@ -236,7 +282,7 @@ def _validate(argv: list[str]) -> int:
         report = validate_pose(
             source,
             q,
-            args.duration,
+            duration,
             allowed=pose["allowed_contacts"],
             grasps=pose["grasps"],
             external=pose["external"],
@@ -280,12 +326,17 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``pik-mj``; returns the exit status."""
+    """Entry point of ``pik-mj``; returns the exit status (see the module docstring).
+
+    Usage errors (argparse's, and :class:`~pik_mj.exceptions.PikError` raised by
+    the command itself, not by a scenario) print one line on stderr and return 2;
+    Ctrl-C returns 130 once the run has unwound (recordings closed).
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
-    # `run` and `validate` hand their options on: only the command is parsed here.
-    command = _parser().parse_args(argv[:1]).command
-    rest = argv[1:]
     try:
+        # `run` and `validate` hand their options on: only the command is parsed here.
+        command = _parser().parse_args(argv[:1]).command
+        rest = argv[1:]
         if command == "list":
             if rest:
                 _parser().error(f"unrecognized arguments: {' '.join(rest)}")
@@ -300,9 +351,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             return screenshot.run(shot.parse_args(rest))
         name = rest[0] if rest and not rest[0].startswith("-") else None
         return _run(name, rest[1:] if name is not None else rest)
+    except SystemExit as exc:  # argparse: --help (0) or a usage error (2), printed
+        return _exit_code(exc)
     except PikError as exc:
         print(f"pik-mj: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("pik-mj: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 import qpsolvers
 
+from . import inputs
 from .balance import ContactConstraint, wrench_constraints
 from .exceptions import InvalidInput, PikError, UnknownName
 from .frames import Frame
@@ -54,15 +55,12 @@ at the frame's origin."""
 
 
 def _vector(value: object, size: int, what: str) -> np.ndarray:
+    """``value`` flattened, as :func:`pik_mj.inputs.vector` of ``size``."""
     try:
-        arr = np.array(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInput(f"{what} must be {size} numbers") from exc
-    if arr.shape != (size,):
-        raise InvalidInput(f"{what} must have {size} entries, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise InvalidInput(f"{what} holds NaN or inf: {arr}")
-    return arr
+        flat: object = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        flat = value  # refused by inputs.vector, which names it
+    return inputs.vector(flat, size, what)
 
 
 def _state(model: mujoco.MjModel, q: object, qvel: object, qacc: object):

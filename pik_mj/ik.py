@@ -38,16 +38,17 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 import mink
+import mujoco
 import numpy as np
 
-from . import dynamics
+from . import dynamics, inputs
 from .callbacks import Callback
 from .exceptions import InvalidInput
 from .frames import Frame
 from .robot import Robot
 from .solve import SolveResult, solve
 from .tasks.com import CentroidTask
-from .tasks.frame import ONE_DEGREE, FrameTask, as_pose
+from .tasks.frame import ONE_DEGREE, FrameTask, as_pose, constrained_axes
 from .tasks.joint_limit import JointLimitTask
 from .tasks.linear import LinearTask
 from .tasks.look_at import LookAtTask
@@ -94,10 +95,7 @@ def _call_user(fn: Callable[..., Any], robot: Robot) -> Any:
 
 
 def _vector3(value: Any, what: str) -> np.ndarray:
-    v = np.asarray(value, dtype=float).reshape(-1) if value is not None else None
-    if v is None or v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise InvalidInput(f"{what} must be 3 finite numbers, got {value!r}")
-    return v
+    return inputs.vector(value, 3, what)
 
 
 def _centroid_task(robot: Robot, target: Any, axes: Any, offset: Any, thre: float) -> Task:
@@ -154,6 +152,7 @@ def static_balance_point(
     Returns:
         ``(p_x, p_y, height)`` [m].
     """
+    height = inputs.real(height, "height", unit="m")
     parsed = _parse_forces(robot, external_forces)
     return dynamics.static_balance_point(
         robot.mass,
@@ -167,21 +166,10 @@ def static_balance_point(
 
 
 def _parse_forces(robot: Robot, external_forces: Any) -> list[tuple[Frame, np.ndarray, np.ndarray]]:
-    if isinstance(external_forces, (str, bytes)) or not isinstance(external_forces, Sequence):
-        raise InvalidInput("external_forces must be a list of (frame, force(3), moment(3))")
-    out = []
-    for i, item in enumerate(external_forces):
-        if not isinstance(item, (tuple, list)) or len(item) != 3:
-            raise InvalidInput(f"external_forces[{i}] must be (frame, force(3), moment(3))")
-        name, f, n = item
-        out.append(
-            (
-                Frame.find(robot.model, name),
-                _vector3(f, f"external_forces[{i}] force [N]"),
-                _vector3(n, f"external_forces[{i}] moment [N·m]"),
-            )
-        )
-    return out
+    return [
+        (Frame.find(robot.model, name), f, n)
+        for name, f, n in inputs.wrenches(external_forces, "external_forces")
+    ]
 
 
 def sole_polygons(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> list[np.ndarray]:
@@ -285,6 +273,8 @@ def _parse_targets(robot: Robot, targets: Any) -> list[Any]:
         if callable(t) and not isinstance(t, mink.SE3):
             out.append(_wrap_callable(t, robot, i))
         else:
+            if isinstance(t, tuple) and len(t) == 2 and np.shape(t[1]) == (4,):
+                t = (t[0], inputs.quaternion(t[1], f"targets[{i}] orientation"))
             out.append(as_pose(t, f"targets[{i}]"))
     return out
 
@@ -299,7 +289,7 @@ def _wrap_callable(fn: Callable[..., Any], robot: Robot, i: int) -> Callable[[An
 def _parse_limbs(robot: Robot, limbs: Any, n: int) -> list[str] | None:
     if limbs is None:
         return None
-    limbs = [limbs] if isinstance(limbs, str) else list(limbs)
+    limbs = [limbs] if isinstance(limbs, str) else list(inputs.names(limbs, "limbs"))
     for name in limbs:
         robot.limb(name)  # UnknownName lists the robot's limbs
     if len(limbs) != n:
@@ -321,7 +311,11 @@ def _move_frames(robot: Robot, move_targets: Any, limbs: list[str] | None, n: in
             Frame.find(robot.model, robot.limb(x).end_frame, robot.limb(x).end_frame_type)
             for x in limbs
         ]
-    names = [move_targets] if isinstance(move_targets, str) else list(move_targets)
+    names = (
+        [move_targets]
+        if isinstance(move_targets, str)
+        else list(inputs.names(move_targets, "move_targets"))
+    )
     if len(names) != n:
         raise InvalidInput(f"{len(names)} move_targets for {n} targets; give one per target")
     return [Frame.find(robot.model, m) for m in names]
@@ -345,7 +339,7 @@ def _used_joints(
             raise InvalidInput(f"joints {joints!r}: use None, 'chain', 'all' or a list of names")
         return {j for f in frames for j in _chain_joints(robot, f)}
     if joints is not None:
-        names = list(joints)
+        names = list(inputs.names(joints, "joints"))
         robot.angle_vector(names)  # UnknownName / InvalidInput for bad names
         return set(names)
     used: set[str] = set()
@@ -378,8 +372,7 @@ def _freeze_task(robot: Robot, moving: np.ndarray) -> LinearTask | None:
 
 
 def _posture_task(robot: Robot, weight: float) -> MinkTask:
-    if not (np.isfinite(weight) and weight >= 0):
-        raise InvalidInput(f"posture_weight must be finite and >= 0 [cost/rad], got {weight}")
+    weight = inputs.real(weight, "posture_weight", unit="cost/rad²", low=0)
     posture = mink.PostureTask(robot.model, cost=weight)
     posture.set_target_from_configuration(robot.configuration)
     return MinkTask(posture, name="posture", check=False)
@@ -397,8 +390,14 @@ def _frame_tasks(
     n = len(frames)
     t_axes = _as_list(translation_axis, n, "translation_axis", _axis_single)
     r_axes = _as_list(rotation_axis, n, "rotation_axis", _axis_single)
-    thres = _as_list(thre, n, "thre", _float_single)
-    rthres = _as_list(rthre, n, "rthre", _float_single)
+    thres = [
+        inputs.real(v, f"thre[{i}]" if n > 1 else "thre", unit="m", low=0, low_open=True)
+        for i, v in enumerate(_as_list(thre, n, "thre", _float_single))
+    ]
+    rthres = [
+        inputs.real(v, f"rthre[{i}]" if n > 1 else "rthre", unit="rad", low=0, low_open=True)
+        for i, v in enumerate(_as_list(rthre, n, "rthre", _float_single))
+    ]
     return [
         FrameTask(
             robot.configuration,
@@ -415,14 +414,46 @@ def _frame_tasks(
     ]
 
 
-def _extra(extra_levels: Any) -> list[list[Any]]:
+def _check_solve_options(function: Callable[..., Any], options: dict[str, Any]) -> None:
+    """``options`` (the wrapper's ``**solve_kwargs``) are :func:`pik_mj.solve.solve`'s.
+
+    Raises:
+        UnknownName: An option neither ``function`` nor ``solve`` has (lists them).
+    """
+    inputs.options(
+        options,
+        function,
+        f"{function.__name__} option",
+        also=solve,
+        positional=("robot", "targets", "configuration", "levels"),
+    )
+
+
+def _extra(robot: Robot, extra_levels: Any) -> list[list[Any]]:
     if extra_levels is None:
         return []
     if not isinstance(extra_levels, (list, tuple)) or not all(
         isinstance(level, (list, tuple)) for level in extra_levels
     ):
         raise InvalidInput("extra_levels must be a list of lists of tasks")
+    for k, level in enumerate(extra_levels):
+        for i, task in enumerate(level):
+            _check_model(robot, task, f"extra_levels[{k}][{i}]")
     return [list(level) for level in extra_levels]
+
+
+def _check_model(robot: Robot, task: Any, where: str) -> None:
+    """A mink task or limit made for another model (a posture task's ``nq``, a
+    limit's ``model``) named as such, before mink fails on its shapes."""
+    inner = task.task if isinstance(task, MinkTask) else task
+    model = getattr(inner, "model", None)
+    nq = model.nq if isinstance(model, mujoco.MjModel) else getattr(inner, "nq", None)
+    nv = model.nv if isinstance(model, mujoco.MjModel) else getattr(inner, "k", None)
+    if isinstance(nq, int) and (nq, nv) != (robot.model.nq, robot.model.nv):
+        raise InvalidInput(
+            f"{where}: {type(inner).__name__} was made for a model with nq={nq}, nv={nv}, but "
+            f"the robot has nq={robot.model.nq}, nv={robot.model.nv}; make it from robot.model"
+        )
 
 
 def _tasks(value: Any, what: str) -> list[Any]:
@@ -505,8 +536,10 @@ def inverse_kinematics(
 
     Raises:
         InvalidInput: Wrong target types/shapes, mismatched list lengths.
-        UnknownName: Unknown limb, joint or frame names (valid ones listed).
+        UnknownName: Unknown limb, joint or frame names, unknown options (valid
+            ones listed).
     """
+    _check_solve_options(inverse_kinematics, solve_kwargs)
     levels = _build_ik_levels(
         robot,
         targets,
@@ -578,7 +611,7 @@ def _build_ik_levels(
     if look_at is not None:
         # The gaze is best effort (irteus) unless it is all there is to solve.
         levels.append([_look_at_task(robot, look_at, gaze_axis, check=not frames)])
-    levels += _extra(extra_levels)
+    levels += _extra(robot, extra_levels)
     levels.append([_posture_task(robot, posture_weight)])
     return levels
 
@@ -627,7 +660,7 @@ def _feet(robot: Robot, fix_feet: Any) -> list[str]:
         return ["rleg", "lleg"]
     if fix_feet is None or fix_feet is False:
         return []
-    feet = [fix_feet] if isinstance(fix_feet, str) else list(fix_feet)
+    feet = [fix_feet] if isinstance(fix_feet, str) else list(inputs.names(fix_feet, "fix_feet"))
     for name in feet:
         robot.limb(name)
     return feet
@@ -703,6 +736,7 @@ def fullbody_inverse_kinematics(
     """
     if not isinstance(robot, Robot):
         raise InvalidInput(f"robot must be a pik_mj.robot.Robot, got {type(robot).__name__}")
+    _check_solve_options(fullbody_inverse_kinematics, solve_kwargs)
     if not robot.has_floating_base:
         raise InvalidInput(
             f"fullbody_inverse_kinematics needs a floating base; root body "
@@ -732,13 +766,30 @@ def fullbody_inverse_kinematics(
     if freeze is not None:
         level0.append(freeze)
     if root_bounds is not None:
-        lo, hi = (np.asarray(b, dtype=float) for b in root_bounds)
-        if lo.shape != (6,) or hi.shape != (6,) or np.any(lo > hi):
-            raise InvalidInput("root_bounds must be (lo (6,), hi (6,)) with lo <= hi")
+        if not isinstance(root_bounds, (list, tuple)) or len(root_bounds) != 2:
+            raise InvalidInput(
+                f"root_bounds must be (lo (6,), hi (6,)) or None, got {root_bounds!r}"
+            )
+        lo = inputs.vector(root_bounds[0], 6, "root_bounds lo", unit="m, rad")
+        hi = inputs.vector(root_bounds[1], 6, "root_bounds hi", unit="m, rad")
+        if np.any(lo > hi):
+            raise InvalidInput(f"root_bounds must have lo <= hi, got lo {lo} > hi {hi}")
         level0.append(_root_box(robot, lo, hi))
-    weight = np.asarray(root_weight, dtype=float)
-    if weight.shape != (6,) or np.any(weight <= 0):
+    weight = inputs.vector(root_weight, 6, "root_weight")
+    if np.any(weight <= 0):
         raise InvalidInput(f"root_weight must be 6 positive numbers, got {root_weight!r}")
+    if np.ndim(centroid_thre) == 0:
+        inputs.real(centroid_thre, "centroid_thre", unit="m", low=0, low_open=True)
+    elif np.any(inputs.vector(centroid_thre, 3, "centroid_thre", unit="m") <= 0):
+        raise InvalidInput(f"centroid_thre must be > 0 [m], got {centroid_thre!r}")
+    if centroid_offset is not None and not callable(centroid_offset):
+        raise InvalidInput(
+            f"centroid_offset must be a callable returning a point [m], got {centroid_offset!r}"
+        )
+    if centroid_axes is not None:
+        constrained_axes(centroid_axes, "centroid_axes")
+    if target_centroid_pos is not None and not callable(target_centroid_pos):
+        target_centroid_pos = inputs.vector(target_centroid_pos, 3, "target_centroid_pos", unit="m")
 
     level1: list[Any] = [
         FrameTask(
@@ -753,8 +804,8 @@ def fullbody_inverse_kinematics(
     if external_forces is not None:
         if centroid_offset is not None:
             raise InvalidInput("give centroid_offset or external_forces, not both")
+        _parse_forces(robot, external_forces)
         forces = list(external_forces)
-        _parse_forces(robot, forces)
         height = float(np.mean([f.position(robot.data)[2] for f in foot_frames])) if feet else 0.0
 
         def centroid_offset(r: Robot) -> np.ndarray:
@@ -763,7 +814,7 @@ def fullbody_inverse_kinematics(
     if not isinstance(balance, str):
         if centroid_offset is not None:
             raise InvalidInput("centroid_offset/external_forces need balance='centroid'")
-        level1 += list(balance)
+        level1 += _tasks(balance, "balance")
     elif balance == "support_polygon":
         if centroid_offset is not None:
             raise InvalidInput("centroid_offset/external_forces need balance='centroid'")
@@ -801,7 +852,7 @@ def fullbody_inverse_kinematics(
         )
     if look_at is not None:
         levels.append([_look_at_task(robot, look_at, gaze_axis)])
-    levels += _extra(extra_levels)
+    levels += _extra(robot, extra_levels)
     levels.append([_posture_task(robot, posture_weight), _root_cost(robot, weight, posture_weight)])
     return solve(
         robot.configuration,
@@ -822,6 +873,9 @@ def gaze_angle(robot: Robot, point: Sequence[float], axis: Sequence[float] = (1,
     """
     head = robot.limb("head")
     X = robot.frame_pose(head.end_frame, head.end_frame_type)
-    a_W = X.rotation().as_matrix() @ (np.asarray(axis, float) / np.linalg.norm(axis))
+    axis = _vector3(axis, "axis")
+    if np.linalg.norm(axis) == 0.0:
+        raise InvalidInput("axis must be a non-zero 3-vector, got [0, 0, 0]")
+    a_W = X.rotation().as_matrix() @ (axis / np.linalg.norm(axis))
     d = _vector3(point, "point") - X.translation()
     return float(np.arccos(np.clip(a_W @ d / np.linalg.norm(d), -1.0, 1.0)))

@@ -149,6 +149,11 @@ def model_path(name_or_path: str | os.PathLike[str]) -> Path:
         return _dm_control_suite_dir() / _DM_CONTROL[name_or_path]
     if isinstance(name_or_path, os.PathLike) or _looks_like_path(str(name_or_path)):
         path = Path(name_or_path).expanduser().resolve()
+        if path.is_dir():
+            raise InvalidInput(
+                f"model file {str(path)!r} is a directory. Give an MJCF file "
+                f"or one of the model names {available_models()}"
+            )
         if not path.is_file():
             raise InvalidInput(
                 f"model file {str(path)!r} does not exist. Give an existing MJCF path "
@@ -177,7 +182,9 @@ def load_spec(name_or_path: str | os.PathLike[str]) -> mujoco.MjSpec:
     try:
         return mujoco.MjSpec.from_file(str(path))
     except ValueError as err:
-        raise InvalidInput(f"cannot parse MJCF file {str(path)!r}: {err}") from err
+        raise InvalidInput(
+            f"cannot parse MJCF file {str(path)!r}: {' '.join(str(err).split())}"
+        ) from err
 
 
 def load_model(name_or_path: str | os.PathLike[str]) -> mujoco.MjModel:
@@ -186,4 +193,6 @@ def load_model(name_or_path: str | os.PathLike[str]) -> mujoco.MjModel:
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as err:
-        raise InvalidInput(f"cannot load MJCF file {str(path)!r}: {err}") from err
+        raise InvalidInput(
+            f"cannot load MJCF file {str(path)!r}: {' '.join(str(err).split())}"
+        ) from err

@@ -5,18 +5,37 @@ Every level of the cascade is one convex QP over ``z = [x; ω]``::
     min  ½ zᵀ P z + qᵀ z    s.t.   l <= A_c z <= u
 
 (equality rows have ``l = u``). :class:`LevelProblem` keeps the matrices dense so
-a failing problem can be inspected and re-solved anywhere; the OSQP backend
-turns them into CSC matrices with a *fixed* sparsity pattern per level and,
-from the second iteration on, only ``update()``s values and warm-starts, since
-``setup()`` dominates at this problem size.
+a failing problem can be inspected and re-solved anywhere. Backends:
 
-A backend is any object with ``solve(problem) -> QPSolution``; seed 000's
-``qp-solver``/``qp-args`` map to :func:`make_backend`.
+* :class:`OSQPBackend` (``"osqp"``, the default): CSC matrices with a fixed
+  sparsity pattern per level and problem shape; after a level's first problem
+  in a solve, only ``update()`` + warm start. ``make_backend("osqp")`` hands
+  out one backend per thread and settings, kept across solves (a motion calls
+  :func:`pik_mj.solve` every tick); each solve sets its levels up afresh once,
+  so that its result does not depend on the solves before it.
+* :class:`~pik_mj.qp_daqp.DAQPBackend` (``"daqp"``): DAQP's dual active-set
+  method, per level.
+* :class:`~pik_mj.qp_daqp.HierarchicalBackend` (``"daqp-hqp"``): the whole
+  hierarchy in one DAQP call (hierarchical least squares).
+* any other ``qpsolvers`` name, an object with ``solve(problem)``, or a function
+  (seed ``qp-solver``); ``qp_args`` are the solver's settings (seed ``qp-args``).
+
+Solver statuses become pik_mj's exceptions in :mod:`pik_mj.cascade`, with the
+solver's own explanation in the message; an interrupted solve (Ctrl-C, which
+OSQP catches) raises :class:`KeyboardInterrupt`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import ctypes
+import io
+import os
+import sys
+import tempfile
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple, Protocol
 
@@ -38,9 +57,17 @@ OSQP_DEFAULTS: dict[str, Any] = {
     # line whenever no constraint is active (osqp/osqp#785) and can accept a
     # polished point far outside tolerance (osqp/osqp#790).
     "polishing": False,
-    "max_iter": 20000,
+    "max_iter": 300,
     "warm_starting": True,
     "adaptive_rho": True,
+    # A fixed interval: the default (0) derives it from the measured setup
+    # time, which makes the iterates, and so the solves, depend on the
+    # machine's load.
+    "adaptive_rho_interval": 25,
+    # No Ruiz scaling: OSQP computes it at setup() from the first problem and
+    # keeps it through update(); off, the same ADMM iterations and time were
+    # measured on these problems.
+    "scaling": 0,
     "verbose": False,
 }
 """OSQP settings of the cascade. Tolerances are far tighter than OSQP's defaults
@@ -50,6 +77,14 @@ foot error of 1e-5 m is already "optimal" to OSQP and drift accumulates to 1e-4 
 while a hand reaches; 1e-6 holds it at ~2e-5 m for +25% time per iteration.
 Termination is checked every 5 ADMM
 iterations (default 25): these problems converge in tens of iterations."""
+
+OSQP_SETTINGS = tuple(
+    sorted(
+        {k for k in osqp.OSQP(algebra="builtin").ext.OSQPSettings.__dict__ if not k.startswith("_")}
+        | {"solver_type", "cg_preconditioner"}
+    )
+)
+"""Every key ``qp_args`` may hold for OSQP."""
 
 
 @dataclass
@@ -91,11 +126,13 @@ class LevelProblem:
 
 
 class QPSolution(NamedTuple):
-    """Outcome of one QP solve: ``z`` (None on failure), solver status, success."""
+    """Outcome of one QP solve: ``z`` (None on failure), solver status, success,
+    and whether the solver proved the problem infeasible."""
 
     z: np.ndarray | None
     status: str
     ok: bool
+    infeasible: bool = False
 
 
 class QPBackend(Protocol):
@@ -132,7 +169,27 @@ class _Pattern:
 
 
 _OSQP_INFTY = 1e30
-_SOLVED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
+_OSQP = osqp.SolverStatus
+_SOLVED = (_OSQP.OSQP_SOLVED, _OSQP.OSQP_SOLVED_INACCURATE)
+_INFEASIBLE = (_OSQP.OSQP_PRIMAL_INFEASIBLE, _OSQP.OSQP_PRIMAL_INFEASIBLE_INACCURATE)
+_OSQP_ERRORS = {
+    1: "data validation error (non-finite or inconsistent matrices)",
+    2: "settings validation error",
+    3: "linear system solver initialization error",
+    4: "non-convex problem: P is not positive semidefinite (weights or rows too large?)",
+    5: "memory allocation error",
+}
+_OSQP_STATUS_TEXT = {
+    _OSQP.OSQP_PRIMAL_INFEASIBLE: "primal infeasible: the constraints admit no step",
+    _OSQP.OSQP_PRIMAL_INFEASIBLE_INACCURATE: "primal infeasible (inaccurate): the "
+    "constraints admit no step",
+    _OSQP.OSQP_DUAL_INFEASIBLE: "dual infeasible: the objective is unbounded",
+    _OSQP.OSQP_DUAL_INFEASIBLE_INACCURATE: "dual infeasible (inaccurate)",
+    _OSQP.OSQP_MAX_ITER_REACHED: "maximum number of ADMM iterations (max_iter) reached",
+    _OSQP.OSQP_TIME_LIMIT_REACHED: "time limit (time_limit) reached",
+    _OSQP.OSQP_NON_CVX: "non-convex problem detected",
+    _OSQP.OSQP_UNSOLVED: "unsolved",
+}
 
 
 @dataclass
@@ -140,18 +197,22 @@ class _OSQPLevel:
     solver: osqp.OSQP
     P_pattern: _Pattern
     A_pattern: _Pattern
-    shape: tuple[int, int]
+    epoch: int = 0  # the solve this workspace last served
 
 
 @dataclass
 class OSQPBackend:
-    """OSQP with one cached solver per level: setup once, then update + warm start.
+    """OSQP with one cached solver per level and shape: set up at the level's
+    first problem of a solve (:meth:`start`), then updated and warm-started.
 
     Args:
-        settings: OSQP settings overriding :data:`OSQP_DEFAULTS`.
-        fallback: A dense ``qpsolvers`` solver tried when OSQP does not reach its
-            tolerance (ADMM can stall on degenerate, strongly conflicting levels);
-            ``"daqp"`` (dual active-set, exact) by default, None to disable.
+        settings: OSQP settings overriding :data:`OSQP_DEFAULTS` (keys:
+            :data:`OSQP_SETTINGS`).
+        fallback: A dense solver (``"daqp"``, dual active-set, exact) tried when
+            OSQP does not reach its tolerance (ADMM can stall on degenerate,
+            strongly conflicting levels); None to disable. Never used for an
+            interrupted or infeasible problem.
+        capacity: Workspaces kept (least recently used ones are dropped).
 
     Attributes:
         setups: OSQP ``setup()`` calls so far.
@@ -160,52 +221,83 @@ class OSQPBackend:
 
     settings: dict[str, Any] = field(default_factory=dict)
     fallback: str | None = "daqp"
+    capacity: int = 32
     setups: int = 0
     fallbacks: int = 0
-    _levels: dict[tuple[str, int], _OSQPLevel] = field(default_factory=dict, repr=False)
+    _levels: OrderedDict[tuple, _OSQPLevel] = field(default_factory=OrderedDict, repr=False)
+    _epoch: int = 0
 
     def __post_init__(self) -> None:
+        unknown = sorted(set(self.settings) - set(OSQP_SETTINGS))
+        if unknown:
+            raise InvalidInput(
+                f"qp_args has unknown OSQP settings {unknown}; valid: {list(OSQP_SETTINGS)}"
+            )
         self.settings = {**OSQP_DEFAULTS, **self.settings}
+
+    def start(self) -> None:
+        """A new solve begins (see :meth:`solve`: each level's first problem in
+        it is set up afresh)."""
+        self._epoch += 1
 
     def solve(self, problem: LevelProblem) -> QPSolution:
         P = problem.P
-        cached = self._levels.get((problem.role, problem.level))
-        shape = problem.A.shape
-        if (
-            cached is None
-            or cached.shape != shape  # (m, n): P is (n, n)
-            or not cached.P_pattern.covers(P)
-            or not cached.A_pattern.covers(problem.A)
-        ):
-            cached = self._setup(problem, cached)
-        else:
-            # The extension's own update/solve: osqp's Python wrapper spends ~4x
-            # the C solve time per call on bookkeeping for derivatives.
-            ext = cached.solver._solver
-            ext.update_data_vec(
-                q=problem.q,
-                l=np.maximum(problem.l, -_OSQP_INFTY),
-                u=np.minimum(problem.u, _OSQP_INFTY),
-            )
-            ext.update_data_mat(
-                P_x=cached.P_pattern.data(P),
-                P_i=None,
-                A_x=cached.A_pattern.data(problem.A),
-                A_i=None,
-            )
+        key = (problem.role, problem.level, problem.A.shape)
+        cached = self._levels.get(key)
+        try:
+            if (
+                cached is None
+                or cached.epoch != self._epoch
+                or not cached.P_pattern.covers(P)
+                or not cached.A_pattern.covers(problem.A)
+            ):
+                # A level's first problem in a solve is set up afresh: OSQP's
+                # update path reproduces a fresh setup only to rounding, and a
+                # solve's result must not depend on the solves before it.
+                old = cached if cached is not None and cached.epoch == self._epoch else None
+                cached = self._setup(problem, key, old)
+            else:
+                self._levels.move_to_end(key)
+                # The extension's own update/solve: osqp's Python wrapper spends ~4x
+                # the C solve time per call on bookkeeping for derivatives.
+                ext = cached.solver._solver
+                ext.update_data_vec(
+                    q=problem.q,
+                    l=np.maximum(problem.l, -_OSQP_INFTY),
+                    u=np.minimum(problem.u, _OSQP_INFTY),
+                )
+                ext.update_data_mat(
+                    P_x=cached.P_pattern.data(P),
+                    P_i=None,
+                    A_x=cached.A_pattern.data(problem.A),
+                    A_i=None,
+                )
+        except osqp.OSQPException as exc:
+            self._levels.pop(key, None)
+            code = int(exc.args[0]) if exc.args else 0
+            return QPSolution(None, f"OSQP: {_OSQP_ERRORS.get(code, f'error {code}')}", False)
+        cached.epoch = self._epoch
         ext = cached.solver._solver
         ext.solve()
         info = ext.info
-        if info.status_val in _SOLVED:
+        status = info.status_val
+        if status == _OSQP.OSQP_SIGINT:
+            # OSQP caught Ctrl-C and returned; the user asked to stop.
+            raise KeyboardInterrupt("interrupted during an OSQP solve")
+        if status in _SOLVED:
             return QPSolution(np.array(ext.solution.x), info.status, True)
+        text = f"OSQP: {_OSQP_STATUS_TEXT.get(status, info.status)}"
+        if status in _INFEASIBLE:
+            return QPSolution(None, text, False, infeasible=True)
         if self.fallback is not None:
-            rescue = QpsolversBackend(self.fallback).solve(problem)
+            rescue = make_backend(self.fallback).solve(problem)
             if rescue.ok:
                 self.fallbacks += 1
-                return QPSolution(rescue.z, f"{self.fallback} after OSQP {info.status}", True)
-        return QPSolution(None, info.status, False)
+                return QPSolution(rescue.z, f"{self.fallback} after {text}", True)
+            return QPSolution(None, f"{text}; {self.fallback}: {rescue.status}", False)
+        return QPSolution(None, text, False)
 
-    def _setup(self, problem: LevelProblem, old: _OSQPLevel | None) -> _OSQPLevel:
+    def _setup(self, problem: LevelProblem, key: tuple, old: _OSQPLevel | None) -> _OSQPLevel:
         # The pattern is the nonzeros as they are, although a posture's
         # coincidental zeros (an aligned root) cost one more setup() when they
         # fill in: densifying Jacobian rows up front was measured slower, as
@@ -214,7 +306,7 @@ class OSQPBackend:
         P_mask = (problem.P != 0) & upper
         P_mask[np.diag_indices_from(P_mask)] = True
         A_mask = problem.A != 0
-        if old is not None and old.shape == problem.A.shape:  # grow, never shrink
+        if old is not None:  # grow, never shrink
             P_mask |= old.P_pattern.mask
             A_mask |= old.A_pattern.mask
         P_pattern, A_pattern = _Pattern(P_mask, upper), _Pattern(A_mask)
@@ -231,19 +323,22 @@ class OSQPBackend:
             P_pattern.csc(problem.P),
             problem.q,
             A_pattern.csc(problem.A),
-            problem.l,
-            problem.u,
+            np.maximum(problem.l, -_OSQP_INFTY),
+            np.minimum(problem.u, _OSQP_INFTY),
             **settings,
         )
         self.setups += 1
-        level = _OSQPLevel(solver, P_pattern, A_pattern, problem.A.shape)
-        self._levels[(problem.role, problem.level)] = level
+        level = _OSQPLevel(solver, P_pattern, A_pattern, self._epoch)
+        self._levels[key] = level
+        self._levels.move_to_end(key)
+        while len(self._levels) > self.capacity:
+            self._levels.popitem(last=False)
         return level
 
 
 @dataclass
 class QpsolversBackend:
-    """Any dense solver known to ``qpsolvers`` (e.g. ``"daqp"``), for comparison."""
+    """Any dense solver known to ``qpsolvers``, for comparison."""
 
     solver: str
     kwargs: dict[str, Any] = field(default_factory=dict)
@@ -272,37 +367,144 @@ class QpsolversBackend:
 
 @dataclass
 class CallableBackend:
-    """Seed ``qp-solver`` as a function: ``fn(problem, **qp_args) -> z or None``."""
+    """Seed ``qp-solver`` as a function: ``fn(problem, **qp_args) -> z or None``.
+
+    A result of the wrong shape or with NaN/inf raises :class:`InvalidInput`
+    naming the function; None is a failed solve.
+    """
 
     fn: Callable[..., np.ndarray | None]
     kwargs: dict[str, Any] = field(default_factory=dict)
 
     def solve(self, problem: LevelProblem) -> QPSolution:
         z = self.fn(problem, **self.kwargs)
-        return QPSolution(None if z is None else np.asarray(z, float), "callable", z is not None)
+        if z is None:
+            return QPSolution(None, f"qp_solver {_name(self.fn)} returned None", False)
+        name = _name(self.fn)
+        try:
+            z = np.asarray(z, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidInput(
+                f"qp_solver {name} returned {type(z).__name__}; return z (n,) or None"
+            ) from None
+        n = problem.P.shape[0]
+        if z.shape != (n,):
+            raise InvalidInput(
+                f"qp_solver {name} returned shape {z.shape} for a problem of {n} "
+                f"variables (level {problem.level}); return z of shape ({n},) or None"
+            )
+        if not np.all(np.isfinite(z)):
+            raise InvalidInput(
+                f"qp_solver {name} returned NaN or inf (level {problem.level}); "
+                "return finite z or None"
+            )
+        return QPSolution(z, f"qp_solver {name}", True)
+
+
+def _name(fn: object) -> str:
+    return getattr(fn, "__qualname__", None) or repr(fn)
+
+
+QP_SOLVERS = ("osqp", "daqp", "daqp-hqp")
+"""Backends by name (besides any other installed ``qpsolvers`` solver)."""
+
+_SHARED = threading.local()
 
 
 def make_backend(qp_solver: object = "osqp", qp_args: dict[str, Any] | None = None) -> QPBackend:
-    """Backend from seed-style ``qp_solver`` / ``qp_args``.
+    """Backend from seed-style ``qp_solver`` / ``qp_args``, validated here.
+
+    Named backends are shared per thread and settings, so OSQP workspaces live
+    across solves.
 
     Args:
-        qp_solver: ``"osqp"`` (default), another ``qpsolvers`` solver name, an object
-            with ``solve(problem)``, or a function ``fn(problem, **qp_args)``.
+        qp_solver: ``"osqp"`` (default), ``"daqp"``, ``"daqp-hqp"``, another
+            ``qpsolvers`` solver name, an object with ``solve(problem)``, or a
+            function ``fn(problem, **qp_args)``.
         qp_args: Settings for the solver.
+
+    Raises:
+        InvalidInput: Unknown solver name, unknown setting or a value the solver
+            refuses (with the solver's own message).
     """
+    if qp_args is not None and not isinstance(qp_args, dict):
+        raise InvalidInput(f"qp_args must be a dict of solver settings, got {qp_args!r}")
     args = dict(qp_args or {})
     if isinstance(qp_solver, str):
-        if qp_solver == "osqp":
-            return OSQPBackend(args)
-        import qpsolvers
-
-        if qp_solver not in qpsolvers.available_solvers:
-            raise InvalidInput(
-                f"unknown qp_solver {qp_solver!r}; valid: {sorted(qpsolvers.available_solvers)}"
-            )
-        return QpsolversBackend(qp_solver, args)
-    if hasattr(qp_solver, "solve"):
+        try:
+            key = (qp_solver, tuple(sorted(args.items())))
+            hash(key)
+        except TypeError:
+            return _new_backend(qp_solver, args)
+        cache = getattr(_SHARED, "backends", None)
+        if cache is None:
+            cache = _SHARED.backends = {}
+        if key not in cache:
+            cache[key] = _new_backend(qp_solver, args)
+        return cache[key]
+    if hasattr(qp_solver, "solve") or hasattr(qp_solver, "solve_hierarchy"):
         return qp_solver  # type: ignore[return-value]
     if callable(qp_solver):
         return CallableBackend(qp_solver, args)
-    raise InvalidInput(f"qp_solver must be a name, a backend or a function, got {qp_solver!r}")
+    raise InvalidInput(
+        f"qp_solver must be a name {list(QP_SOLVERS)}, a backend or a function, got {qp_solver!r}"
+    )
+
+
+def _new_backend(name: str, args: dict[str, Any]) -> Any:
+    if name == "osqp":
+        backend = OSQPBackend(args)
+        _probe_osqp(backend.settings)
+        return backend
+    if name in ("daqp", "daqp-hqp"):
+        from .qp_daqp import DAQPBackend, HierarchicalBackend
+
+        return DAQPBackend(args) if name == "daqp" else HierarchicalBackend(args)
+    import qpsolvers
+
+    if name not in qpsolvers.available_solvers:
+        valid = sorted({*QP_SOLVERS, *qpsolvers.available_solvers})
+        raise InvalidInput(f"unknown qp_solver {name!r}; valid: {valid}")
+    return QpsolversBackend(name, args)
+
+
+@contextlib.contextmanager
+def _captured_c_output() -> Iterator[list[str]]:
+    """What C code prints inside the block: through Python's ``sys.stdout`` /
+    ``sys.stderr`` (OSQP's extension prints with ``PySys_WriteStdout``) or
+    straight to file descriptors 1 and 2."""
+    out: list[str] = []
+    libc = ctypes.CDLL(None)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    text = io.StringIO()
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        saved = [os.dup(1), os.dup(2)]
+        try:
+            os.dup2(tmp.fileno(), 1)
+            os.dup2(tmp.fileno(), 2)
+            with contextlib.redirect_stdout(text), contextlib.redirect_stderr(text):
+                yield out
+        finally:
+            libc.fflush(None)
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            tmp.seek(0)
+            out.append(text.getvalue() + tmp.read().decode(errors="replace"))
+
+
+def _probe_osqp(settings: dict[str, Any]) -> None:
+    """Set up a 1x1 problem with ``settings``: OSQP's own validation, its message
+    in an :class:`InvalidInput`."""
+    solver = osqp.OSQP(algebra="builtin")
+    one = sp.csc_matrix(np.eye(1))
+    try:
+        with _captured_c_output() as text:
+            solver.setup(one, np.zeros(1), one, -np.ones(1), np.ones(1), **settings)
+    except (osqp.OSQPException, ValueError, TypeError, AssertionError) as exc:
+        message = " ".join(line.strip() for line in "".join(text).splitlines() if line.strip())
+        raise InvalidInput(
+            f"qp_args rejected by OSQP: {message or repr(exc)}; valid keys: {list(OSQP_SETTINGS)}"
+        ) from None

@@ -36,6 +36,7 @@ import mink
 import mujoco
 import numpy as np
 
+from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.models import model_path
 
@@ -409,6 +410,12 @@ class Robot:
         top_level = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
         if not top_level:
             raise InvalidInput("the model has no body besides the world")
+        if limbs is not None and not (
+            isinstance(limbs, Mapping) and all(isinstance(x, Limb) for x in limbs.values())
+        ):
+            raise InvalidInput(f"limbs must be a mapping of names to Limb, got {limbs!r}")
+        if keyframe is not None and not isinstance(keyframe, str):
+            raise InvalidInput(f"keyframe must be a keyframe name (a string), got {keyframe!r}")
         detected = self._detect_limbs() if limbs is None else dict(limbs)
         self._root_id = robot_root_body(
             model,
@@ -495,6 +502,13 @@ class Robot:
         """
         from pik_mj.sim.environment import as_spec, attach_environment, place_root, placement
 
+        for what, value in (("model", model), ("environment", environment)):
+            if not isinstance(value, (str, os.PathLike, mujoco.MjSpec)) and (
+                value is not None or what == "model"
+            ):
+                raise InvalidInput(
+                    f"{what} must be a model name, an MJCF path or a mujoco.MjSpec, got {value!r}"
+                )
         spec = as_spec(model)
         try:
             alone = spec.compile()
@@ -675,8 +689,7 @@ class Robot:
     def _qposadr(self, names: Sequence[str] | None) -> np.ndarray:
         if names is None:
             return self.model.jnt_qposadr[self._angle_joint_ids]
-        if isinstance(names, str):
-            raise InvalidInput(f"names must be a sequence of joint names, got {names!r}")
+        names = inputs.names(names, "names (of joints)")
         return np.array([self.model.jnt_qposadr[self._angle_joint_id(n)] for n in names], dtype=int)
 
     def angle_vector(self, names: Sequence[str] | None = None) -> np.ndarray:
@@ -696,24 +709,26 @@ class Robot:
         """Set joint positions [rad or m] and update the kinematics.
 
         Values are written as given (limits are not enforced; see
-        :meth:`joint_limits`).
+        :meth:`joint_limits`), within ``±``:data:`pik_mj.inputs.Q_LIMIT`.
 
         Args:
             values: One value per joint.
             names: Hinge/slide joint names; all of :attr:`joint_names` if None.
 
         Raises:
-            InvalidInput: Wrong length, non-finite values, or a ball/free joint.
+            InvalidInput: Not numbers, wrong length, non-finite values or beyond
+                ``Q_LIMIT``, or a ball/free joint.
             UnknownName: A joint name the robot does not have.
         """
         adr = self._qposadr(names)
-        v = np.asarray(values, dtype=float)
-        if v.shape != adr.shape:
+        v = inputs.vector(values, adr.size, f"angle vector (one value per joint, {adr.size})")
+        far = np.flatnonzero(np.abs(v) > inputs.Q_LIMIT)
+        if far.size:
+            joint = (self.joint_names if names is None else list(names))[far[0]]
             raise InvalidInput(
-                f"angle vector has shape {v.shape}, expected ({adr.size},) for {adr.size} joints"
+                f"angle vector: joint {joint!r} at {v[far[0]]:g} is beyond "
+                f"{inputs.Q_LIMIT:g} [rad or m]: an overflow or a units mistake"
             )
-        if not np.all(np.isfinite(v)):
-            raise InvalidInput(f"angle vector holds NaN or inf: {v}")
         q = self.configuration.q
         q[adr] = v
         self.configuration.update(q)
@@ -745,21 +760,15 @@ class Robot:
             raise InvalidInput(
                 f"robot root body {self.root_body!r} has no free joint; its pose is fixed"
             )
-        p = np.asarray(p_WB, dtype=float)
-        quat = np.asarray(quat_WB, dtype=float)
-        if p.shape != (3,) or quat.shape != (4,):
+        p = inputs.vector(p_WB, 3, "p_WB (the root position)", unit="m")
+        if np.any(np.abs(p) > inputs.Q_LIMIT):
             raise InvalidInput(
-                f"expected p_WB of shape (3,) and quat_WB of shape (4,), got "
-                f"{p.shape} and {quat.shape}"
+                f"p_WB {p.tolist()} is beyond {inputs.Q_LIMIT:g} m: an overflow or a units mistake"
             )
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(quat))):
-            raise InvalidInput(f"root pose holds NaN or inf: {p}, {quat}")
-        norm = np.linalg.norm(quat)
-        if norm < 1e-9:
-            raise InvalidInput(f"quat_WB {quat} has (near) zero norm")
+        quat = inputs.quaternion(quat_WB, "quat_WB")
         q = self.configuration.q
         q[adr : adr + 3] = p
-        q[adr + 3 : adr + 7] = quat / norm
+        q[adr + 3 : adr + 7] = quat
         self.configuration.update(q)
 
     def reset_pose(self) -> None:
@@ -770,6 +779,8 @@ class Robot:
 
     # ------------------------------------------------------------- frames
     def _frame_body_id(self, name: str, frame_type: str) -> int:
+        if not isinstance(name, str):
+            raise InvalidInput(f"a frame name must be a string, got {name!r}")
         if frame_type not in _FRAME_OBJ:
             raise InvalidInput(f"frame_type {frame_type!r} is not one of {list(FRAME_TYPES)}")
         i = _id(self.model, _FRAME_OBJ[frame_type], name)
@@ -858,9 +869,8 @@ class Robot:
         """
         if names is None:
             ids = self._angle_joint_ids
-        elif isinstance(names, str):
-            raise InvalidInput(f"names must be a sequence of joint names, got {names!r}")
         else:
+            names = inputs.names(names, "names (of joints)")
             ids = np.array([self._angle_joint_id(n) for n in names], dtype=int)
         limited = self.model.jnt_limited[ids].astype(bool)
         lower = np.where(limited, self.model.jnt_range[ids, 0], -np.inf)

@@ -9,8 +9,15 @@ iterates in physics (``scene.play(path)``), hold the final pose in physics
 :class:`ScenarioResult`. A failed check makes the scenario fail; it does not
 raise. Its ``main(argv)`` parses :func:`parser`'s options (rerun's
 ``--save/--connect/--serve/--stdout/--headless``, ``--json``, ``--hold``,
-``--speed``, ``--quiet``), records into :func:`open_recorder`'s stream and ends
+``--speed``, ``--quiet``, ``--model``), records into :func:`open_recorder`'s stream and ends
 with :func:`report`.
+
+The user's options are checked here, once for every scenario, before any work
+starts: the output files can be written, ``--model`` is a model that loads and
+has what the scenario moves, numbers are in range (the argparse types
+:func:`count`, :func:`positive`, :func:`finite`, :func:`duration`). A bad option
+is a usage error (``SystemExit(2)`` from argparse, or :class:`OptionError`),
+which ``pik-mj run`` reports without a traceback.
 """
 
 from __future__ import annotations
@@ -27,7 +34,9 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
+from . import inputs
 from .balance import support_polygon
+from .exceptions import InvalidInput, PikError
 from .ik import sole_polygons
 from .record import Recorder
 from .robot import Robot
@@ -41,17 +50,24 @@ from .sim import (
     balance_report,
 )
 from .sim.motion import DEFAULT_SPEED
+from .sim.validate import describe_violation
 from .solve import SolveResult
 
 __all__ = [
     "DEFAULT_HOLD",
     "DEFAULT_SPEED",
+    "OptionError",
+    "ScenarioParser",
     "ScenarioResult",
     "balance_summary",
     "com_margin",
+    "count",
+    "duration",
+    "finite",
     "jsonable",
     "open_recorder",
     "parser",
+    "positive",
     "report",
 ]
 
@@ -59,15 +75,20 @@ DEFAULT_HOLD = 3.0
 """Physics hold of the final pose [s] of a scenario run."""
 
 
-def jsonable(value: Any) -> Any:
+def jsonable(value: Any, where: str = "value") -> Any:
     """``value`` with numpy scalars/arrays turned into Python numbers/lists; non-finite
-    floats become None (JSON has no NaN)."""
+    floats become None (JSON has no NaN); paths become strings.
+
+    Raises:
+        InvalidInput: A value JSON cannot hold (an object, a function, ...), named by
+            its place in ``value`` (``where``), before anything is written.
+    """
     if isinstance(value, Mapping):
-        return {str(k): jsonable(v) for k, v in value.items()}
+        return {str(k): jsonable(v, f"{where}[{k!r}]") for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [jsonable(v) for v in value]
+        return [jsonable(v, f"{where}[{i}]") for i, v in enumerate(value)]
     if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
+        return jsonable(value.tolist(), where)
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, (int, np.integer)):
@@ -75,7 +96,14 @@ def jsonable(value: Any) -> Any:
     if isinstance(value, (float, np.floating)):
         v = float(value)
         return v if math.isfinite(v) else None
-    return value
+    if isinstance(value, Path):
+        return str(value)
+    if value is None or isinstance(value, str):
+        return value
+    raise InvalidInput(
+        f"{where} is a {type(value).__name__}, which JSON cannot hold; use numbers, "
+        "strings, booleans, None, lists, dicts or numpy arrays"
+    )
 
 
 def com_margin(robot: Robot, point: np.ndarray | None = None) -> float:
@@ -127,8 +155,21 @@ class ScenarioResult:
     robot_state: dict[str, Any] | None = None
     robot: Robot | None = field(default=None, repr=False, compare=False)
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidInput(f"a scenario's name must be a non-empty string, got {self.name!r}")
+
     def check(self, label: str, ok: bool, detail: str = "") -> bool:
-        """Record a check: ``ok`` False makes the scenario fail."""
+        """Record a check: ``ok`` False makes the scenario fail.
+
+        Raises:
+            InvalidInput: ``label`` or ``detail`` not a string, ``ok`` not a truth
+                value (an array of them is ambiguous).
+        """
+        if not isinstance(label, str) or not isinstance(detail, str):
+            raise InvalidInput(f"a check's label and detail must be strings, got {label!r}")
+        if not isinstance(ok, (bool, np.bool_)):
+            raise InvalidInput(f"check {label!r}: ok must be True or False, got {ok!r}")
         ok = bool(ok)
         self.messages.append(
             f"[{'ok' if ok else 'FAILED'}] {label}" + (f": {detail}" if detail else "")
@@ -304,13 +345,19 @@ class ScenarioResult:
             "balance": self.balance,
             "robot": self.robot_state,
         }
-        return jsonable(out)
+        return jsonable(out, "ScenarioResult")
 
     def to_json(self, path: str | Path) -> Path:
-        """Write :meth:`to_dict` to ``path`` (directories created)."""
-        p = Path(path)
+        """Write :meth:`to_dict` to ``path`` (directories created).
+
+        Raises:
+            InvalidInput: ``path`` cannot be written (a directory, no permission),
+                or a figure JSON cannot hold; nothing is written then.
+        """
+        p = inputs.output_path(path, "JSON summary")
+        text = json.dumps(self.to_dict(), indent=2)
         p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(json.dumps(self.to_dict(), indent=2))
+        p.write_text(text)
         return p
 
     def summary(self, *, recording: bool = True) -> str:
@@ -350,6 +397,7 @@ def balance_summary(balance: Mapping[str, Any]) -> str:
     if "error" in balance:
         return f"balance: FAILED ({balance['error']})"
     static, hold = balance["static"], balance["hold"]
+    limits = balance.get("joint_limits") or []
     return (
         f"balance: {'PASSED' if balance['passed'] else 'FAILED'} — static equilibrium "
         f"{'feasible' if static['feasible'] else 'INFEASIBLE'}, CoM margin "
@@ -357,6 +405,7 @@ def balance_summary(balance: Mapping[str, Any]) -> str:
         f"{hold['drift'] * 1e3:.1f} mm, slip {hold['slip'] * 1e3:.2f} mm, min margin "
         f"{_mm(hold['min_margin'])}"
         + (f"; {'; '.join(hold['failures'])}" if hold["failures"] else "")
+        + "".join(f"; {describe_violation(v)}" for v in limits)
     )
 
 
@@ -373,73 +422,190 @@ def _short(value: Any) -> str:
 # The command line of a scenario's main
 
 
-def parser(doc: str | None, *, hold: bool = True) -> argparse.ArgumentParser:
+class OptionError(InvalidInput):
+    """A scenario option the user gave cannot be used (e.g. no viewer at
+    ``--connect``'s address): ``pik-mj run`` exits 2 with the message, no traceback."""
+
+
+class ScenarioParser(argparse.ArgumentParser):
+    """The argument parser of a scenario's ``main`` (:func:`parser`): after parsing,
+    it checks that the output files (``--save``, ``--json``) can be written, before
+    any work starts (a usage error otherwise)."""
+
+    def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
+        ns = super().parse_args(args, namespace)
+        outputs = [
+            (option, getattr(ns, dest))
+            for option, dest in (("--save", "save"), ("--json", "json"))
+            if getattr(ns, dest, None) is not None
+        ]
+        for option, value in outputs:
+            try:
+                inputs.output_path(value, f"argument {option}:")
+            except InvalidInput as exc:
+                self.error(str(exc))
+        if len(outputs) == 2 and Path(outputs[0][1]).resolve() == Path(outputs[1][1]).resolve():
+            self.error(f"--save and --json name the same file {outputs[0][1]!r}; give two files")
+        return ns
+
+
+def parser(
+    doc: str | None,
+    *,
+    hold: bool = True,
+    model: str | None = None,
+    limbs: Sequence[str] = (),
+    floating_base: bool = False,
+) -> ScenarioParser:
     """The options of a scenario's ``main``: rerun's (``--save FILE.rrd``,
     ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
     :func:`rerun.script_add_args`), ``--json FILE``, ``--quiet`` (no progress) and,
     with ``hold``, ``--hold SECONDS`` (physics hold of the final pose, default 3;
     0: none) and ``--speed FRACTION`` (the iterates played in physics at this
-    fraction of the joint velocity limits, default 0.5; 0: not played)."""
-    p = argparse.ArgumentParser(description=(doc or "").strip().splitlines()[0])
+    fraction of the joint velocity limits, default 0.5; 0: not played).
+
+    Args:
+        doc: The scenario's docstring (its first line describes it).
+        hold: Add ``--hold``.
+        model: Add ``--model NAME`` with this default: a model name or MJCF path,
+            checked when parsed (it loads and builds a robot that has ``limbs``,
+            and a floating base with ``floating_base``).
+        limbs: Limbs the scenario moves (checked on ``--model``).
+        floating_base: The scenario needs a floating base (checked on ``--model``).
+    """
+    p = ScenarioParser(description=(doc or "").strip().splitlines()[0])
     rr.script_add_args(p)
     p.add_argument("--json", help="JSON summary to write")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     if hold:
         p.add_argument(
             "--hold",
-            type=_duration,
+            type=duration,
             default=DEFAULT_HOLD,
             help=f"physics hold of the final pose [s] (default {DEFAULT_HOLD:g}; 0: none)",
         )
         p.add_argument(
             "--speed",
-            type=_speed,
+            type=fraction,
             default=DEFAULT_SPEED,
             help="the iterates played in physics at this fraction of the joint velocity "
             f"limits (default {DEFAULT_SPEED:g}; 0: not played)",
         )
+    if model is not None:
+        p.add_argument(
+            "--model",
+            type=_model_option(tuple(limbs), floating_base),
+            default=model,
+            help=f"robot model name or MJCF path (default {model})",
+        )
     return p
 
 
-def _duration(text: str) -> float:
+def _argument_type(check: Any) -> Any:
+    """An argparse type from a check raising :class:`InvalidInput` (the message
+    becomes argparse's, after ``argument --name:``)."""
+
+    def convert(text: str) -> Any:
+        try:
+            return check(text)
+        except InvalidInput as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    convert.__name__ = check.__name__
+    return convert
+
+
+def _number(text: str) -> float | str:
+    try:
+        return float(text)
+    except ValueError:
+        return text  # refused by inputs.real, which names it
+
+
+@_argument_type
+def duration(text: str) -> float:
     """An argparse type: a duration >= 0 [s]."""
+    return inputs.real(_number(text), "a duration", unit="s", low=0)
+
+
+@_argument_type
+def positive(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    return inputs.real(_number(text), "a value", low=0, low_open=True)
+
+
+@_argument_type
+def finite(text: str) -> float:
+    """An argparse type: a finite number."""
+    return inputs.real(_number(text), "a value")
+
+
+@_argument_type
+def count(text: str) -> int:
+    """An argparse type: an integer >= 1."""
     try:
-        value = float(text)
+        value: int | str = int(text)
     except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"must be a duration >= 0 [s], got {text!r}")
-    return value
+        value = text
+    return inputs.integer(value, "a count", low=1)
 
 
-def _speed(text: str) -> float:
+def _model_option(limbs: tuple[str, ...], floating_base: bool) -> Any:
+    """The argparse type of ``--model``: the name as given, once a robot was built
+    from it and has ``limbs`` (and a floating base if ``floating_base``)."""
+
+    def model(text: str) -> str:
+        try:
+            robot = Robot.from_model(text)
+        except PikError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        missing = [x for x in limbs if x not in robot.limbs]
+        if missing:
+            raise argparse.ArgumentTypeError(
+                f"model {text!r} has no limb {', '.join(missing)}, which this scenario "
+                f"moves (its limbs: {', '.join(robot.limbs) or 'none'})"
+            )
+        if floating_base and not robot.has_floating_base:
+            raise argparse.ArgumentTypeError(
+                f"model {text!r} has no floating base (a free joint at its root "
+                f"{robot.root_body!r}), which this scenario needs"
+            )
+        return text
+
+    return model
+
+
+@_argument_type
+def fraction(text: str) -> float:
     """An argparse type: a fraction in [0, 1]."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be a fraction in [0, 1], got {text!r}")
-    return value
+    return inputs.real(_number(text), "a fraction", low=0, high=1)
 
 
 def open_recorder(args: argparse.Namespace, name: str) -> Recorder:
     """A :class:`Recorder` on a new stream where rerun's options send it
     (as :func:`rerun.script_setup`, but the stream is not made the global one):
     ``--save FILE.rrd``, ``--stdout``, ``--serve`` (a web viewer), ``--connect``
-    (a running viewer), a spawned viewer, or nothing kept with ``--headless``."""
+    (a running viewer), a spawned viewer, or nothing kept with ``--headless``.
+
+    Raises:
+        OptionError: The sink cannot be opened (a bad ``--url``, no viewer to
+            spawn, a file that cannot be created); rerun's reason is given.
+    """
     stream = rr.RecordingStream(f"pik_mj_{name}", recording_id=uuid.uuid4())
-    if args.stdout:
-        stream.stdout()
-    elif args.serve:
-        rr.serve_web_viewer(open_browser=True, connect_to=stream.serve_grpc())
-    elif args.connect:
-        stream.connect_grpc(args.url)
-    elif args.save is not None:
-        Path(args.save).parent.mkdir(parents=True, exist_ok=True)
-        stream.save(args.save)
-    elif not args.headless:
-        stream.spawn()
+    try:
+        if args.stdout:
+            stream.stdout()
+        elif args.serve:
+            rr.serve_web_viewer(open_browser=True, connect_to=stream.serve_grpc())
+        elif args.connect:
+            stream.connect_grpc(args.url)
+        elif args.save is not None:
+            Path(args.save).parent.mkdir(parents=True, exist_ok=True)
+            stream.save(args.save)
+        elif not args.headless:
+            stream.spawn()
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise OptionError(f"cannot open the recording's destination: {exc}") from None
     return Recorder(stream, owns_stream=True)
 
 

@@ -19,7 +19,7 @@ import mink
 import numpy as np
 
 from pik_mj import HoldCriteria, Progress, Recorder, Robot, Scene, inverse_kinematics
-from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, open_recorder, parser, report
+from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, count, open_recorder, parser, report
 
 NAME = "cocktail_shaker"
 SHAKER = 0.1  # [m] between the hands along the shaker axis
@@ -120,7 +120,7 @@ def run(
 
 def main(argv: list[str] | None = None) -> int:
     p = parser(__doc__)
-    p.add_argument("--steps", type=int, default=32, help="shaking steps")
+    p.add_argument("--steps", type=count, default=32, help="shaking steps")
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
         result = run(recorder, hold=args.hold, quiet=args.quiet, steps=args.steps)

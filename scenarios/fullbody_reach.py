@@ -134,8 +134,7 @@ def run(
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(__doc__)
-    p.add_argument("--model", default="sample_humanoid", help="robot model name or MJCF path")
+    p = parser(__doc__, model="sample_humanoid", limbs=(*FEET, "larm"), floating_base=True)
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
         result = run(recorder, model=args.model, hold=args.hold, speed=args.speed, quiet=args.quiet)

@@ -90,9 +90,10 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
     )
     lift = inverse_kinematics(
         robot,
-        (p_handle + np.array([0.0, 0.0, LIFT]), R_grasp),
+        # the grasped hand's whole pose, lifted: the kettle hangs from it
+        (p_handle + np.array([0.0, 0.0, LIFT]), X_grasp.rotation().wxyz),
         move_targets="rarm_end",
-        rotation_axis="x",
+        rotation_axis=True,
         look_at=kettle_now,
         stop=100,
         callback=[checks, log, progress],

@@ -12,7 +12,7 @@ planned.
 from __future__ import annotations
 
 from pik_mj import Recorder, Robot, Scene
-from pik_mj.scenario import ScenarioResult, open_recorder, parser, report
+from pik_mj.scenario import ScenarioResult, count, open_recorder, parser, positive, report
 from pik_mj.walking import GaitParameters, straight_steps
 from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern
 from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
@@ -46,8 +46,8 @@ def run(
 
 def main(argv: list[str] | None = None) -> int:
     p = parser(__doc__, hold=False)
-    p.add_argument("--steps", type=int, default=4, help="number of steps")
-    p.add_argument("--dt", type=float, default=0.01, help="pattern tick [s]")
+    p.add_argument("--steps", type=count, default=4, help="number of steps")
+    p.add_argument("--dt", type=positive, default=0.01, help="pattern tick [s]")
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
         result = run(recorder, quiet=args.quiet, n_steps=args.steps, dt=args.dt)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from pik_mj import Recorder, Robot, Scene
-from pik_mj.scenario import ScenarioResult, open_recorder, parser, report
+from pik_mj.scenario import ScenarioResult, finite, open_recorder, parser, positive, report
 from pik_mj.walking import GaitParameters, go_pos
 from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern
 from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
@@ -54,10 +54,10 @@ def run(
 
 def main(argv: list[str] | None = None) -> int:
     p = parser(__doc__, hold=False)
-    p.add_argument("--x", type=float, default=0.5, help="goal ahead [m]")
-    p.add_argument("--y", type=float, default=0.15, help="goal to the left [m]")
-    p.add_argument("--theta", type=float, default=45.0, help="goal heading change [deg]")
-    p.add_argument("--dt", type=float, default=0.01, help="pattern tick [s]")
+    p.add_argument("--x", type=finite, default=0.5, help="goal ahead [m]")
+    p.add_argument("--y", type=finite, default=0.15, help="goal to the left [m]")
+    p.add_argument("--theta", type=finite, default=45.0, help="goal heading change [deg]")
+    p.add_argument("--dt", type=positive, default=0.01, help="pattern tick [s]")
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
         result = run(

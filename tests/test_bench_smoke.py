@@ -141,3 +141,17 @@ def test_bench_record_rrd_holds_the_iterations(tmp_path):
         "Transform3D:translation", "iteration"
     )
     np.testing.assert_array_equal(times, np.arange(0, result.iterations + 1))
+
+
+def test_bench_cascade_small(capsys):
+    bench = _load("bench_cascade")
+    name = "dm_control humanoid (27 DoF)"
+    figures = bench.main(["--targets", "2", "--rounds", "1", "--models", name])
+    assert "time to solution, pik osqp / mink osqp" in capsys.readouterr().out
+    f = figures[name]
+    for solver in bench.SOLVERS:
+        assert 0.0 <= f[solver]["success"] <= 1.0 and f[solver]["ms_to_solution"] > 0.0
+    assert f["pik osqp"]["success"] == f["pik daqp-hqp"]["success"] == 1.0
+    assert all(r > 0 for r in f["ratios"].values())
+    # the step rule: the feet never move more than 1e-4 m, raw mink tasks included
+    assert f["foot_drift_m"] <= 1e-4 and f["foot_drift_raw_mink_m"] <= 1e-4

@@ -4,6 +4,12 @@
 * Stacks with inequalities and hard rows: sequential dense QPs solved by DAQP
   (a dual active-set solver) with the higher levels' achieved values kept
   *exactly* (dependent rows removed by SVD), slacks explicit.
+
+Every check runs twice: with the closed form for levels whose inequalities are
+inactive (the default), and with every level handed to OSQP. The hierarchical
+backend (``"daqp-hqp"``, each level exact, ``λ → 0``) is checked against the
+recursive pseudo-inverse (equality stacks) and against the sequential
+reference extrapolated to ``λ = 0`` (mixed stacks).
 """
 
 from __future__ import annotations
@@ -14,11 +20,18 @@ import qpsolvers
 
 from pik_mj import InfeasibleHardConstraints, QPFailure, TaskRows
 from pik_mj.cascade import DEFAULT_RELAXATION, Regularization, solve_cascade
-from pik_mj.qp import OSQPBackend, QpsolversBackend
+from pik_mj.qp import OSQPBackend, QPSolution, QpsolversBackend, make_backend
+from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend
 
 NV = 8
 # eps_prim_inf well below τ (1e-9): see OSQP_DEFAULTS.
-TIGHT = OSQPBackend({"eps_abs": 1e-9, "eps_rel": 1e-9, "eps_prim_inf": 1e-12, "max_iter": 100000})
+TIGHT_SETTINGS = {"eps_abs": 1e-9, "eps_rel": 1e-9, "eps_prim_inf": 1e-12, "max_iter": 100000}
+
+
+def tight() -> OSQPBackend:
+    """A fresh OSQP backend at tight tolerances (fresh: a shared one would
+    warm-start each test from the one before)."""
+    return OSQPBackend(dict(TIGHT_SETTINGS))
 
 
 def random_rows(rng, n_eq, n_in, rank=None, nv=NV) -> TaskRows:
@@ -160,8 +173,9 @@ def assert_same_optimum(ours: float, ref: float, level: int):
     assert abs(ours - ref) <= 1e-6 * max(1.0, abs(ref)), (level, ours, ref)
 
 
+@pytest.mark.parametrize("closed_form", [True, False])
 @pytest.mark.parametrize("seed", range(12))
-def test_equality_stacks_match_nullspace_projection(seed):
+def test_equality_stacks_match_nullspace_projection(seed, closed_form):
     rng = np.random.default_rng(seed)
     n_levels = rng.integers(3, 5)
     # Rank-deficient and conflicting: level sizes add up to more than NV.
@@ -170,7 +184,10 @@ def test_equality_stacks_match_nullspace_projection(seed):
         for _ in range(n_levels)
     ]
     regs = [Regularization(1e-6, 1.0, 0.1)] * n_levels
-    step = solve_cascade(TaskRows.empty(NV), levels, regs, TIGHT, relaxation=1e-9)
+    step = solve_cascade(
+        TaskRows.empty(NV), levels, regs, tight(), relaxation=1e-9, closed_form=closed_form
+    )
+    assert step.closed_form == (n_levels if closed_form else 0)
     reference = nullspace_reference(levels, regs)
     for k, (rows, (x_ref, lam)) in enumerate(zip(levels, reference, strict=True)):
         assert step.level_lambdas[k] == pytest.approx(lam, rel=1e-12)
@@ -202,10 +219,11 @@ def mixed_stack(seed: int) -> tuple[TaskRows, list[TaskRows], list[Regularizatio
     return hard, levels, [Regularization(1e-4, 1.0, 0.1)] * n_levels
 
 
+@pytest.mark.parametrize("closed_form", [True, False])
 @pytest.mark.parametrize("seed", range(12))
-def test_mixed_stacks_match_sequential_dense_qps(seed):
+def test_mixed_stacks_match_sequential_dense_qps(seed, closed_form):
     hard, levels, regs = mixed_stack(seed)
-    step = solve_cascade(hard, levels, regs, TIGHT, relaxation=1e-9)
+    step = solve_cascade(hard, levels, regs, tight(), relaxation=1e-9, closed_form=closed_form)
     reference = daqp_reference(hard, levels, regs)
     for k, (rows, (x_ref, lam)) in enumerate(zip(levels, reference, strict=True)):
         assert_same_optimum(
@@ -217,34 +235,21 @@ def test_mixed_stacks_match_sequential_dense_qps(seed):
     check_never_worsened(step, levels, 1e-9)
 
 
+@pytest.mark.parametrize("closed_form", [True, False])
 @pytest.mark.parametrize("seed", range(8))
-def test_default_settings_keep_higher_levels_within_documented_relaxation(seed):
+def test_default_settings_keep_higher_levels_within_documented_relaxation(seed, closed_form):
     """With the default OSQP settings, a lower level moves a higher level's rows by
     at most τ + ε_prim (eps_abs + eps_rel·scale)."""
     rng = np.random.default_rng(200 + seed)
     hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
     levels = [random_rows(rng, 3, 2, rank=2) for _ in range(4)]
     regs = [Regularization()] * 4
-    step = solve_cascade(hard, levels, regs, OSQPBackend(), DEFAULT_RELAXATION)
+    step = solve_cascade(
+        hard, levels, regs, OSQPBackend(), DEFAULT_RELAXATION, closed_form=closed_form
+    )
     check_never_worsened(step, levels, DEFAULT_RELAXATION)
     # The bound is tight to the solver: feasibility errors stay near eps_abs.
     assert max(step.violations) <= 1e-4
-
-
-def test_other_backend_agrees_with_osqp():
-    rng = np.random.default_rng(7)
-    hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
-    levels = [random_rows(rng, 3, 2, rank=2) for _ in range(3)]
-    regs = [Regularization(1e-4, 1.0, 0.1)] * 3
-    a = solve_cascade(hard, levels, regs, TIGHT, relaxation=1e-9)
-    b = solve_cascade(hard, levels, regs, QpsolversBackend("daqp"), relaxation=1e-9)
-    for k, rows in enumerate(levels):
-        lam = a.level_lambdas[k]
-        assert_same_optimum(
-            level_objective(rows, lam, a.level_x[k]),
-            level_objective(rows, lam, b.level_x[k]),
-            k,
-        )
 
 
 def test_regularization_formula():
@@ -253,23 +258,28 @@ def test_regularization_formula():
     assert reg.weight(10.0) == 0.5
 
 
-def test_infeasible_hard_rows_raise():
-    hard = TaskRows.stack(
-        [
-            TaskRows.inequality(np.eye(NV)[:1], 1.0, 2.0),
-            TaskRows.inequality(np.eye(NV)[:1], -2.0, -1.0),
-        ],
-        NV,
-    )
-    levels = [TaskRows.equality(np.eye(NV), np.ones(NV))]
-    with pytest.raises(InfeasibleHardConstraints, match="level 0"):
-        solve_cascade(hard, levels, [Regularization()], OSQPBackend())
+def test_a_user_backend_gets_every_level():
+    """A backend given as an object or function (seed qp-solver) solves every
+    level, even those the closed form would have taken."""
+    seen = []
+
+    def qp(problem):
+        seen.append(problem.level)
+        return DAQPBackend().solve(problem).z
+
+    levels = [
+        TaskRows.equality(np.eye(NV)[:3], np.ones(3)),
+        TaskRows.equality(np.eye(NV), np.zeros(NV)),
+    ]
+    regs = [Regularization(1e-9, 0.0, 1.0)] * 2
+    step = solve_cascade(TaskRows.empty(NV), levels, regs, make_backend(qp))
+    assert seen == [1, 2] and step.closed_form == 0
+    np.testing.assert_allclose(step.x[:3], np.ones(3), atol=1e-6)
 
 
 def test_failed_level_carries_level_and_problem():
     class Failing:
         def solve(self, problem):
-            from pik_mj.qp import QPSolution
 
             return QPSolution(None, "max iterations", False)
 
@@ -282,17 +292,19 @@ def test_failed_level_carries_level_and_problem():
     assert info.value.problem.P.shape == (NV, NV)
 
 
-def test_level_without_active_constraint_is_solved_in_closed_form():
-    """Level 1 with inactive hard rows never reaches the backend, and its closed
-    form ``-P⁻¹q`` is the backend's optimum; an active hard row sends it there."""
+def test_levels_without_active_constraint_are_solved_in_closed_form():
+    """Levels whose inequalities stay inactive never reach the backend, and the
+    closed form is the exact optimum (DAQP's active set on the same problem);
+    an active hard row sends level 1 to the backend, which then respects it."""
 
-    class Counting:
+    class Counting(OSQPBackend):
         def __init__(self):
-            self.levels, self.inner = [], OSQPBackend(dict(TIGHT.settings))
+            super().__init__(dict(TIGHT_SETTINGS))
+            self.levels = []
 
         def solve(self, problem):
             self.levels.append(problem.level)
-            return self.inner.solve(problem)
+            return super().solve(problem)
 
     rng = np.random.default_rng(3)
     A1 = rng.normal(size=(3, NV))
@@ -304,10 +316,13 @@ def test_level_without_active_constraint_is_solved_in_closed_form():
     loose = TaskRows.inequality(np.eye(NV), -1.0, 1.0)  # |x_i| <= 1: inactive
     backend = Counting()
     step = solve_cascade(loose, levels, regs, backend)
-    assert backend.levels == [2]
-    reference = QpsolversBackend("daqp").solve(step.problems[0])  # exact active set
-    np.testing.assert_allclose(step.level_x[0], reference.z[:NV], atol=1e-10)
-    assert step.violations[0] == 0.0
+    assert backend.levels == [] and step.closed_form == 2
+    for k in range(2):  # each level's QP (rows above kept), solved exactly by DAQP
+        exact = solve_cascade(
+            loose, levels[: k + 1], regs[: k + 1], DAQPBackend(), closed_form=False
+        )
+        np.testing.assert_allclose(step.level_x[k], exact.level_x[k], atol=1e-10)
+    assert step.violations == [0.0, 0.0]
 
     x_free = step.level_x[0]
     i = int(np.argmax(np.abs(x_free)))
@@ -315,14 +330,15 @@ def test_level_without_active_constraint_is_solved_in_closed_form():
     tight = TaskRows.inequality(np.eye(NV)[i : i + 1], -bound, bound)
     backend = Counting()
     step = solve_cascade(tight, levels, regs, backend)
-    assert backend.levels == [1, 2]
+    assert backend.levels[0] == 1
     assert abs(step.level_x[0][i]) <= bound + 1e-6
+    assert abs(step.x[i]) <= bound + 1e-6
 
 
 def test_tight_osqp_rarely_needs_the_fallback():
     """At 1e-9, OSQP itself solves the great majority of levels; DAQP only rescues
     the few degenerate ones where ADMM stalls (measured: about 1 level in 10)."""
-    backend = OSQPBackend(dict(TIGHT.settings))
+    backend = OSQPBackend(dict(TIGHT_SETTINGS))
     levels_solved = 0
     for seed in range(12):
         hard, levels, regs = mixed_stack(seed)
@@ -331,11 +347,164 @@ def test_tight_osqp_rarely_needs_the_fallback():
     assert backend.fallbacks <= 0.2 * levels_solved, (backend.fallbacks, levels_solved)
 
 
-def test_osqp_backend_sets_up_once_per_level_and_updates_after():
+def test_osqp_backend_sets_up_once_per_level_and_solve_then_updates():
+    """Within a solve (between two ``start()``), each level is set up once and
+    updated after; a new solve sets its levels up afresh, and gives the same
+    result for the same problem whatever came before."""
     rng = np.random.default_rng(3)
     backend = OSQPBackend()
     hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
-    for _ in range(5):
-        levels = [random_rows(rng, 3, 2) for _ in range(3)]
-        solve_cascade(hard, levels, [Regularization()] * 3, backend)
+    stacks = [[random_rows(rng, 3, 2) for _ in range(3)] for _ in range(5)]
+    regs = [Regularization()] * 3
+    backend.start()
+    first = [solve_cascade(hard, s, regs, backend, closed_form=False).x for s in stacks]
     assert backend.setups == 3
+    backend.start()
+    again = [solve_cascade(hard, s, regs, backend, closed_form=False).x for s in stacks[::-1]]
+    assert backend.setups == 6
+    backend.start()
+    np.testing.assert_array_equal(
+        solve_cascade(hard, stacks[0], regs, backend, closed_form=False).x, first[0]
+    )
+    # the same problem warm-started from others: the same up to OSQP's tolerance
+    assert np.abs(again[-1] - first[0]).max() <= 1e-4
+
+
+# -------------------------------------------------------- hierarchical backend
+
+
+def pinv_reference(levels):
+    """Equality-only cascade with ``λ → 0``: each level's least-squares step
+    of least norm in the null space of the levels above (recursive
+    pseudo-inverse), which is the lexicographic optimum of least norm."""
+    x = np.zeros(NV)
+    N = np.eye(NV)
+    for rows in levels:
+        sw = np.sqrt(rows.w_A)[:, None]
+        An, r = sw * rows.A @ N, sw[:, 0] * (rows.b - rows.A @ x)
+        x = x + N @ (np.linalg.pinv(An, rcond=1e-12) @ r)
+        M = rows.A[rows.w_A > 0] @ N
+        if M.size:
+            _, s, Vt = np.linalg.svd(M)
+            N = N @ Vt[int(np.sum(s > 1e-10 * max(1.0, s[0]))) :].T
+    return x
+
+
+HQP = HierarchicalBackend({"primal_tol": 1e-10})
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_hierarchical_backend_matches_recursive_pseudo_inverse(seed):
+    rng = np.random.default_rng(seed)
+    n_levels = rng.integers(3, 5)
+    levels = [
+        random_rows(rng, int(rng.integers(2, 5)), 0, rank=int(rng.integers(1, 3)))
+        for _ in range(n_levels)
+    ]
+    step = solve_cascade(TaskRows.empty(NV), levels, [Regularization()] * n_levels, HQP)
+    assert len(step.problems) == 1  # one DAQP call for the whole hierarchy
+    np.testing.assert_allclose(step.x, pinv_reference(levels), atol=1e-6)
+
+
+def nullspace_qp_reference(hard, levels, lam):
+    """Sequential QPs over ``x = x_p + N z``, ``N`` a basis of the null space of
+    every kept equality row (so no equality constraint reaches the solver):
+    ``min e_k(x) + λ‖x‖²`` subject to the hard box and the kept inequality
+    intervals, by DAQP on the ``(z, ω)`` problem. Returns each level's ``x``."""
+    import daqp
+
+    x_p, N = np.zeros(NV), np.eye(NV)
+    C_kept, lo_kept, hi_kept = [hard.C], [hard.d_lower], [hard.d_upper]
+    out = []
+    for rows in levels:
+        p, s = N.shape[1], rows.n_in
+        AN = rows.A @ N
+        H = np.zeros((p + s, p + s))
+        H[:p, :p] = 2 * (AN.T @ (rows.w_A[:, None] * AN) + lam * N.T @ N)
+        H[p:, p:] = 2 * np.diag(rows.w_C)
+        f = np.zeros(p + s)
+        f[:p] = 2 * (AN.T @ (rows.w_A * (rows.A @ x_p - rows.b)) + lam * N.T @ x_p)
+        C = np.vstack(C_kept)
+        G = np.vstack(
+            [np.hstack([C @ N, np.zeros((C.shape[0], s))]), np.hstack([rows.C @ N, np.eye(s)])]
+        )
+        upper = np.concatenate([np.concatenate(hi_kept) - C @ x_p, rows.d_upper - rows.C @ x_p])
+        lower = np.concatenate([np.concatenate(lo_kept) - C @ x_p, rows.d_lower - rows.C @ x_p])
+        z, _, flag, _ = daqp.solve(
+            H, f, np.ascontiguousarray(G), np.minimum(upper, 1e30), np.maximum(lower, -1e30)
+        )
+        assert flag in (1, 2), flag
+        x = x_p + N @ z[:p]
+        out.append(x)
+        keep = rows.w_A > 0
+        M = rows.A[keep] @ N
+        if M.size:
+            _, sv, Vt = np.linalg.svd(M)
+            N = N @ Vt[int(np.sum(sv > 1e-10 * max(1.0, sv[0]))) :].T
+        x_p = x
+        cx = rows.C @ x
+        C_kept.append(rows.C)
+        lo_kept.append(np.minimum(rows.d_lower, cx))
+        hi_kept.append(np.maximum(rows.d_upper, cx))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_hierarchical_backend_matches_sequential_qps_extrapolated_to_exact_levels(seed):
+    """A sequential reference at λ and 2λ, extrapolated to λ = 0
+    (``2 e(λ) − e(2λ)``, exact to O(λ²)): each level's error agrees, and the
+    hard box holds."""
+    hard, levels, _ = mixed_stack(seed)
+    lam = 1e-6
+    ref1 = nullspace_qp_reference(hard, levels, lam)
+    ref2 = nullspace_qp_reference(hard, levels, 2 * lam)
+    step = solve_cascade(hard, levels, [Regularization()] * len(levels), HQP)
+    for k, (rows, x1, x2) in enumerate(zip(levels, ref1, ref2, strict=True)):
+        exact = 2 * rows.squared_error(x1) - rows.squared_error(x2)
+        assert abs(rows.squared_error(step.x) - exact) <= 1e-7 * max(1.0, exact), k
+    assert np.all(np.abs(step.x) <= 0.4 + 1e-9)
+
+
+@pytest.mark.parametrize(
+    ("backend", "w", "seed"),
+    [(QpsolversBackend("daqp"), 1e-4, 7), (HQP, 1e-9, 11)],
+    ids=["daqp per level", "daqp-hqp"],
+)
+def test_other_backends_agree_with_the_osqp_cascade(backend, w, seed):
+    """The same random hierarchy on tight OSQP and on DAQP (level by level, or
+    the whole hierarchy in one call at a regularization small enough for its
+    exact levels): every level's error at the final step agrees."""
+    rng = np.random.default_rng(seed)
+    hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
+    levels = [random_rows(rng, 3, 2, rank=2) for _ in range(3)]
+    regs = [Regularization(w, 0.0, 1.0)] * 3
+    a = solve_cascade(hard, levels, regs, tight(), relaxation=1e-9, closed_form=False)
+    b = solve_cascade(hard, levels, regs, backend, relaxation=1e-9, closed_form=False)
+    for rows in levels:
+        ea, eb = rows.squared_error(a.x), rows.squared_error(b.x)
+        assert abs(ea - eb) <= 1e-6 * max(1.0, ea)
+
+
+def test_hierarchical_backend_weights_rows_within_a_level():
+    """DAQP normalizes each soft row; the auxiliary column restores the level's
+    weights: rows x0 = 1 (weight 1) and x0 = 0 (weight 100) give x0 = 1/101."""
+    nv = 2
+    level = TaskRows.equality(np.array([[1.0, 0.0], [1.0, 0.0]]), [1.0, 0.0], [1.0, 100.0])
+    step = solve_cascade(TaskRows.empty(nv), [level], [Regularization()], HQP)
+    np.testing.assert_allclose(step.x, [1.0 / 101.0, 0.0], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "backend", [HQP, DAQPBackend(), OSQPBackend()], ids=["hqp", "daqp", "osqp"]
+)
+def test_every_backend_names_infeasible_hard_rows(backend):
+    hard = TaskRows.stack(
+        [
+            TaskRows.inequality(np.eye(NV)[:1], 1.0, 2.0),
+            TaskRows.inequality(np.eye(NV)[:1], -2.0, -1.0),
+        ],
+        NV,
+    )
+    levels = [TaskRows.equality(np.eye(NV), np.ones(NV))]
+    with pytest.raises(InfeasibleHardConstraints, match="level 0"):
+        solve_cascade(hard, levels, [Regularization()], backend)

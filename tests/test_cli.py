@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pik_mj.scenarios
@@ -57,7 +58,7 @@ def test_run_default_is_fullbody_reach_into_out_dir(tmp_path, monkeypatch, capsy
     out = capsys.readouterr().out
     assert "fullbody_reach: PASSED" in out
     # solved, validated in simulation (every iteration and a 3 s hold), recorded
-    assert "simulation, every iteration: 21/21 iterations in static equilibrium" in out
+    assert re.search(r"simulation, every iteration: (\d+)/\1 iterations in static equilibrium", out)
     assert "[ok] simulation: final pose in static equilibrium and held 3 s in physics" in out
     assert out.rstrip().splitlines()[-1].startswith(f"recording: {rrd}")
     assert out.count(f"recording: {rrd}") == 1
@@ -130,5 +131,5 @@ def test_exit_codes_for_failing_and_bad_runs(tmp_path, monkeypatch, capsys):
     (tmp_path / "arm.json").write_text(json.dumps({"name": "three_dof_reach", "robot": None}))
     assert cli.main(["validate", str(tmp_path / "arm.json")]) == 2
     assert "holds no pose" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
-        cli.main(["frobnicate"])
+    assert cli.main(["frobnicate"]) == 2
+    assert "invalid choice: 'frobnicate'" in capsys.readouterr().err

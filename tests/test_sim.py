@@ -621,6 +621,6 @@ def test_hold_callbacks_receive_samples(scene, reset_q):
     # standing still after 1 s: MuJoCo's contact forces carry the robot's weight
     assert f_end[2] == pytest.approx(weight, rel=0.01)
     np.testing.assert_allclose(f_end[:2], 0.0, atol=0.01 * weight)
-    with pytest.raises(InvalidInput, match="not a callable"):
+    with pytest.raises(InvalidInput, match=r"callback\[1\] must be callable"):
         scene.hold(reset_q, 0.1, callback=[keep, "log"])
     assert len(samples) == 11  # nothing ran

@@ -49,6 +49,7 @@ import numpy.typing as npt
 import rerun as rr
 import rerun.blueprint as rrb
 
+from .. import inputs
 from ..exceptions import InvalidInput, PikError, UnknownName
 from . import geometry, style
 from .blueprint import Framing, blueprint, blueprint_for
@@ -212,7 +213,7 @@ class Recorder:
         flushes and disconnects it, which writes the file's footer.
         """
         _check_flush_every(flush_every)
-        path = Path(path)
+        path = inputs.output_path(path, "recording")  # a file path that can be written
         if not path.parent.is_dir():
             raise InvalidInput(f"directory of the recording {str(path)!r} does not exist")
         stream = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)

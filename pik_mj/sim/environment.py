@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.inputs import Q_LIMIT
 from pik_mj.models import load_spec
 from pik_mj.spatial import quat_mul, rot_z, yaw_of, yaw_quat
 
@@ -335,10 +336,10 @@ def placement(
         raise InvalidInput(
             f"at must be a site name, (x, y, yaw) or (x, y, z, yaw): {at!r}"
         ) from exc
-    if v.shape not in ((3,), (4,)) or not np.all(np.isfinite(v)):
+    if v.shape not in ((3,), (4,)) or not np.all(np.isfinite(v)) or np.any(np.abs(v) > Q_LIMIT):
         raise InvalidInput(
-            f"at must be a site name, or 3 or 4 finite numbers (x, y[, z], yaw) [m, rad], "
-            f"got {at!r}"
+            f"at must be a site name, or 3 or 4 finite numbers (x, y[, z], yaw) [m, rad] "
+            f"within ±{Q_LIMIT:g}, got {at!r}"
         )
     p = np.array([v[0], v[1], v[2] if len(v) == 4 else 0.0])
     return p, float(v[-1])

@@ -28,6 +28,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.dynamics import contact_wrenches
 from pik_mj.exceptions import InvalidInput
@@ -81,15 +82,15 @@ class HoldCriteria:
     max_ground_slope: float = math.pi / 4
 
     def __post_init__(self) -> None:
-        for label, v in (("max_drift", self.max_drift), ("max_slip", self.max_slip)):
-            if not (math.isfinite(v) and v > 0):
-                raise InvalidInput(f"{label} must be > 0 [m], got {v}")
-        if not 0.0 < self.fall_ratio < 1.0:
-            raise InvalidInput(f"fall_ratio must be in (0, 1), got {self.fall_ratio}")
+        for label in ("max_drift", "max_slip"):
+            inputs.real(getattr(self, label), label, unit="m", low=0, low_open=True)
+        inputs.real(self.fall_ratio, "fall_ratio", low=0, high=1, low_open=True, high_open=True)
+        inputs.real(self.max_ground_slope, "max_ground_slope", unit="rad", low=0, high=math.pi / 2)
+        inputs.flag(self.allow_self_contact, "allow_self_contact")
+        inputs.flag(self.stop_on_fall, "stop_on_fall")
         for label, names in (("allowed", self.allowed), ("feet", self.feet)):
-            if isinstance(names, str):
-                raise InvalidInput(f"{label} must be a list of geom names, got {names!r}")
             if names is not None:
+                names = inputs.names(names, f"{label} (robot geoms)")
                 object.__setattr__(self, label, tuple(dict.fromkeys(names)))
 
     def thresholds(self) -> dict[str, float]:
@@ -261,12 +262,8 @@ def _external_wrench(scene: Scene, frame: str, force: ArrayLike, moment: ArrayLi
     """A function ``apply(data, scale)`` writing ``scale (force at the frame
     origin, moment)`` to ``xfrc_applied`` of the frame's body: torque about the
     body CoM ``n + (p_WF - p_WCoM) × f``."""
-    f = np.asarray(force, dtype=float).reshape(-1)
-    n = np.asarray(moment, dtype=float).reshape(-1)
-    if f.shape != (3,) or n.shape != (3,) or not np.all(np.isfinite(np.r_[f, n])):
-        raise InvalidInput(
-            f"external wrench at {frame!r}: force and moment must be 3 finite numbers"
-        )
+    f = np.asarray(force, dtype=float)  # checked by inputs.wrenches
+    n = np.asarray(moment, dtype=float)
     target = Frame.find(scene.model, frame)
     body = target.body_id
 
@@ -657,11 +654,9 @@ def check_options(criteria: HoldCriteria | None, duration: float, **counts: int)
     criteria = HoldCriteria() if criteria is None else criteria
     if not isinstance(criteria, HoldCriteria):
         raise InvalidInput(f"criteria must be a HoldCriteria, got {type(criteria).__name__}")
-    if not (math.isfinite(duration) and duration > 0):
-        raise InvalidInput(f"duration must be > 0 [s], got {duration}")
+    inputs.real(duration, "duration", unit="s", low=0, low_open=True)
     for label, v in counts.items():
-        if not isinstance(v, int) or isinstance(v, bool) or v < 1:
-            raise InvalidInput(f"{label} must be a positive integer, got {v!r}")
+        inputs.integer(v, label, low=1)
     return criteria
 
 
@@ -715,6 +710,8 @@ def hold(
         SimulationUnstable: MuJoCo reported an invalid state.
     """
     criteria = check_options(criteria, duration, every=every, margin_every=margin_every)
+    external = inputs.wrenches(external, "external")
+    q = scene._qpos(q)[: scene.robot_nq]
     callbacks = as_callbacks(callback)
     allowed = (
         scene.allowed_contacts if criteria.allowed is None else scene._allowed(criteria.allowed)

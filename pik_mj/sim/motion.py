@@ -71,6 +71,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
@@ -686,6 +687,7 @@ def play(
         raise InvalidInput(f"speed must be in (0, 1] (a fraction of the limits), got {speed!r}")
     if not (math.isfinite(settle) and settle >= 0):
         raise InvalidInput(f"settle must be >= 0 [s], got {settle}")
+    external = inputs.wrenches(external, "external")
     state = start.final_state if isinstance(start, MotionReport) else start
     if state is not None and not isinstance(state, PhysicsState):
         raise InvalidInput(f"start must be a MotionReport or PhysicsState, got {type(start)}")

@@ -55,7 +55,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj import balance
+from pik_mj import balance, inputs
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.frames import Frame
 from pik_mj.robot import sole_geoms
@@ -103,17 +103,13 @@ class ContactParams:
     solimp: tuple[float, float, float, float, float] = (0.9, 0.95, 0.001, 0.5, 2.0)
 
     def __post_init__(self) -> None:
-        if self.condim not in (1, 3, 4, 6):
-            raise InvalidInput(f"condim must be 1, 3, 4 or 6, got {self.condim}")
-        for label, v in (
-            ("friction", self.friction),
-            ("torsional", self.torsional),
-            ("rolling", self.rolling),
-        ):
-            if not (math.isfinite(v) and v >= 0):
-                raise InvalidInput(f"{label} must be finite and >= 0, got {v}")
-        if len(self.solref) != 2 or len(self.solimp) != 5:
-            raise InvalidInput("solref needs 2 numbers and solimp 5")
+        if isinstance(self.condim, bool) or self.condim not in (1, 3, 4, 6):
+            raise InvalidInput(f"condim must be 1, 3, 4 or 6, got {self.condim!r}")
+        inputs.real(self.friction, "friction", low=0)
+        inputs.real(self.torsional, "torsional", unit="m", low=0)
+        inputs.real(self.rolling, "rolling", unit="m", low=0)
+        inputs.vector(self.solref, 2, "solref (timeconst [s], dampratio)")
+        inputs.vector(self.solimp, 5, "solimp")
 
 
 DEFAULT_CONTACT = ContactParams(solref=(0.005, 1.0))
@@ -281,22 +277,20 @@ class Scene:
                 "this Robot was made from a compiled MjModel and does not know its world; "
                 "make it with Robot.from_model(name, path or MjSpec) to build its Scene"
             )
-        if not (math.isfinite(impratio) and impratio >= 1):
-            raise InvalidInput(f"impratio must be >= 1, got {impratio}")
-        if not (math.isfinite(timestep) and timestep > 0):
-            raise InvalidInput(f"timestep must be > 0 [s], got {timestep}")
-        if not (math.isfinite(contact_tolerance) and contact_tolerance >= 0):
-            raise InvalidInput(f"contact_tolerance must be >= 0 [m], got {contact_tolerance}")
+        impratio = inputs.real(impratio, "impratio", low=1)
+        timestep = inputs.real(timestep, "timestep", unit="s", low=0, low_open=True)
+        contact_tolerance = inputs.real(contact_tolerance, "contact_tolerance", unit="m", low=0)
+        if contact is not None and not isinstance(contact, ContactParams):
+            raise InvalidInput(f"contact must be a ContactParams or None, got {contact!r}")
+        if isinstance(grasps, (str, bytes)) or not isinstance(grasps, Sequence):
+            raise InvalidInput(f"grasps must be a list of grasps, got {grasps!r}")
         if contact is not None and 0 < contact.solref[0] < 2 * timestep:
             raise InvalidInput(
                 f"contact solref time constant {contact.solref[0]} s is below two time "
                 f"steps ({2 * timestep} s): MuJoCo's contacts become unstable; raise it "
                 f"or lower the time step"
             )
-        if not (isinstance(noslip_iterations, int) and noslip_iterations >= 0):
-            raise InvalidInput(
-                f"noslip_iterations must be an integer >= 0, got {noslip_iterations}"
-            )
+        noslip_iterations = inputs.integer(noslip_iterations, "noslip_iterations", low=0)
         self.robot = robot
         rm = robot.model
         spec = robot.spec.copy()
@@ -377,7 +371,12 @@ class Scene:
     @classmethod
     def from_robot(cls, robot: Robot, **options: Any) -> Scene:
         """The physics scene of ``robot``'s world: ``Scene(robot, **options)``
-        (the options are :class:`Scene`'s)."""
+        (the options are :class:`Scene`'s).
+
+        Raises:
+            UnknownName: An option :class:`Scene` does not have (lists them).
+        """
+        inputs.options(options, cls.__init__, "Scene option", positional=("robot",))
         return cls(robot, **options)
 
     # ------------------------------------------------------------ construction
@@ -413,11 +412,10 @@ class Scene:
         for joint in self.servo_joints:
             p = kp.get(joint, default_kp) if isinstance(kp, Mapping) else kp
             v = kv.get(joint, default_kv) if isinstance(kv, Mapping) else kv
-            if not (math.isfinite(p) and p > 0 and math.isfinite(v) and v >= 0):
-                raise InvalidInput(
-                    f"servo gains of joint {joint!r} must be kp > 0, kv >= 0, got {p}, {v}"
-                )
-            out[joint] = (float(p), float(v))
+            out[joint] = (
+                inputs.real(p, f"kp of joint {joint!r}", unit="N·m/rad", low=0, low_open=True),
+                inputs.real(v, f"kv of joint {joint!r}", unit="N·m·s/rad", low=0),
+            )
         return out
 
     def _extend_keyframe_ctrl(self, spec: mujoco.MjSpec, n_old: int) -> None:
@@ -542,8 +540,7 @@ class Scene:
         robot_geoms = [n for g, n in enumerate(self._geom_names) if self._robot_geom[g] and n]
         if allowed is None:
             return [self._geom_names[g] for g in sole_geoms(self.model, self._robot_body)]
-        if isinstance(allowed, str):
-            raise InvalidInput(f"allowed contacts must be a list of geom names, got {allowed!r}")
+        allowed = inputs.names(allowed, "allowed contacts (robot geoms)")
         for name in allowed:
             if name not in robot_geoms:
                 raise UnknownName("robot geom", name, robot_geoms)
@@ -558,14 +555,7 @@ class Scene:
     def _qpos(self, q: ArrayLike, base: np.ndarray | None = None) -> np.ndarray:
         """The scene's ``qpos``: ``q`` in its first ``robot_nq`` entries, the rest
         from ``base`` (default ``qpos0``), grasped objects at ``X_WF(q) X_FO``."""
-        q = np.asarray(q, dtype=float)
-        if q.shape != (self.robot_nq,):
-            raise InvalidInput(
-                f"q must be the robot's configuration of shape ({self.robot_nq},), "
-                f"got shape {q.shape} (scene nq is {self.model.nq})"
-            )
-        if not np.all(np.isfinite(q)):
-            raise InvalidInput(f"q holds NaN or inf: {q}")
+        q = inputs.configuration(self.robot.model, q, "q (the robot's configuration)")
         out = (self.model.qpos0 if base is None else base).copy()
         out[: self.robot_nq] = q
         if self.grasps:
@@ -701,19 +691,21 @@ class Scene:
     def _wrenches(self, data: mujoco.MjData, external: Sequence[External]) -> list:
         """``external`` as :class:`pik_mj.balance.ExternalWrench`\\ es at the frames'
         positions in ``data``."""
-        out = []
-        for i, item in enumerate(external):
-            if not isinstance(item, (tuple, list)) or len(item) != 3:
-                raise InvalidInput(f"external[{i}] must be (frame, force (3,), moment (3,))")
-            frame, F, M = item
-            out.append(balance.ExternalWrench(Frame.find(self.model, frame).position(data), F, M))
-        return out
+        return [
+            balance.ExternalWrench(Frame.find(self.model, frame).position(data), F, M)
+            for frame, F, M in inputs.wrenches(external, "external")
+        ]
 
     # ------------------------------------------------------------ static check
     def static_check(self, q: ArrayLike, **options: Any) -> StaticReport:
         """:func:`pik_mj.sim.static.static_check` of the robot configuration ``q``
         in this scene (options: ``mu``, ``external``, ``pyramid``,
-        ``max_ground_slope``, ``scfr``)."""
+        ``max_ground_slope``, ``scfr``).
+
+        Raises:
+            UnknownName: An option it does not have (lists them).
+        """
+        inputs.options(options, _static_check, "static_check option", positional=("scene", "q"))
         return _static_check(self, q, **options)
 
     def static_checker(
@@ -724,7 +716,15 @@ class Scene:
         scfr: bool = False,
     ) -> StaticChecks:
         """A callback for :func:`pik_mj.solve` that runs :meth:`static_check` on
-        every iteration's configuration and keeps the reports (``.reports``)."""
+        every iteration's configuration and keeps the reports (``.reports``).
+
+        Raises:
+            InvalidInput: A bad ``mu`` or ``external`` (checked now, not at the
+                first iteration).
+        """
+        if mu is not None:
+            inputs.real(mu, "mu", low=0)
+        self._wrenches(self.data, external)
         return StaticChecks(self, mu=mu, external=external, scfr=scfr)
 
     # -------------------------------------------------------------- stepping

@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj import balance
+from pik_mj import balance, inputs
 from pik_mj.exceptions import InvalidInput
 
 if TYPE_CHECKING:
@@ -192,8 +192,10 @@ def static_check(
     Returns:
         A :class:`StaticReport`.
     """
-    if mu is not None and not (math.isfinite(mu) and mu >= 0):
-        raise InvalidInput(f"mu must be finite and >= 0, got {mu}")
+    if mu is not None:
+        mu = inputs.real(mu, "mu", low=0)
+    inputs.real(max_ground_slope, "max_ground_slope", unit="rad", low=0, high=math.pi / 2)
+    inputs.flag(scfr, "scfr")
     m, d = scene._probe_model, scene._probe_data
     d.qpos[:] = scene._qpos(q)
     d.qvel[:] = 0.0

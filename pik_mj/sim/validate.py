@@ -1,22 +1,91 @@
 """Static check and physics hold of one pose of a robot rebuilt from its source:
-what ``pik-mj validate`` runs on the ``robot`` entry of a run's JSON."""
+what ``pik-mj validate`` runs on the ``robot`` entry of a run's JSON.
+
+A pose is checked before it is simulated: NaN/inf and zero quaternions are bad
+input (:class:`~pik_mj.exceptions.InvalidInput`, the joint named), so is a ``q``
+of another length (the pose of another model); joints outside their range
+(:func:`joint_limit_violations`) fail the verdict, each named with its excess.
+"""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj import inputs
+from pik_mj.exceptions import UnknownName
 from pik_mj.robot import Robot, RobotSource
 
 from .hold import HoldCriteria, HoldReport
 from .scene import External, GraspLike, Scene
 from .static import StaticReport
 
-__all__ = ["balance_report", "validate_pose"]
+__all__ = ["JOINT_LIMIT_TOLERANCE", "balance_report", "joint_limit_violations", "validate_pose"]
+
+JOINT_LIMIT_TOLERANCE = 1e-4
+"""[rad or m] How far a joint may be past its range before a validated pose
+fails: well above the IK's own violations (level 0 holds the limits within the
+QP's tolerance), far below anything a servo would notice."""
+
+
+def joint_limit_violations(
+    model: mujoco.MjModel, q: ArrayLike, tolerance: float = JOINT_LIMIT_TOLERANCE
+) -> list[dict[str, Any]]:
+    """The limited joints of ``model`` that ``q`` puts outside their range.
+
+    A hinge or slide joint is outside when ``q_j < lower - tol`` or
+    ``q_j > upper + tol``; a ball joint when its rotation angle
+    ``θ = 2 atan2(‖v‖, |w|)`` of its quaternion ``(w, v)`` exceeds its range's
+    upper value (MuJoCo's ball limit) by more than ``tol``.
+
+    Returns:
+        ``{"joint", "value", "lower", "upper", "excess", "unit"}`` per joint
+        outside (``excess`` > 0: how far past the nearer bound; ``unit``: ``"rad"``
+        or ``"m"``), in joint order.
+    """
+    q = np.asarray(q, dtype=float)
+    out = []
+    for j in np.flatnonzero(model.jnt_limited):
+        a = int(model.jnt_qposadr[j])
+        lower, upper = (float(x) for x in model.jnt_range[j])
+        kind = int(model.jnt_type[j])
+        unit = "m" if kind == int(mujoco.mjtJoint.mjJNT_SLIDE) else "rad"
+        if kind in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            value = float(q[a])
+            excess = max(lower - value, value - upper)
+        elif kind == int(mujoco.mjtJoint.mjJNT_BALL):
+            w, v = q[a], q[a + 1 : a + 4]
+            value = 2.0 * math.atan2(float(np.linalg.norm(v)), abs(float(w)))
+            lower, excess = 0.0, value - upper
+        else:
+            continue
+        if excess > tolerance:
+            out.append(
+                {
+                    "joint": inputs.joint_name(model, int(j)),
+                    "value": value,
+                    "lower": lower,
+                    "upper": upper,
+                    "excess": excess,
+                    "unit": unit,
+                }
+            )
+    return out
+
+
+def describe_violation(v: Mapping[str, Any]) -> str:
+    """One violation of :func:`joint_limit_violations` in words."""
+    side = "below" if v["value"] < v["lower"] else "above"
+    unit = v.get("unit", "")
+    return (
+        f"joint {v['joint']!r} at {v['value']:.4g} {unit} is {v['excess']:.4g} {unit} {side} "
+        f"its range [{v['lower']:.4g}, {v['upper']:.4g}] {unit}"
+    )
 
 
 def balance_report(
@@ -60,11 +129,15 @@ def validate_pose(
         callback: Hold callbacks (e.g. a recorder's ``hold_logger()``).
 
     Returns:
-        :func:`balance_report` with the source under ``"robot"``.
+        :func:`balance_report` with the source under ``"robot"`` and the joints
+        outside their range under ``"joint_limits"``
+        (:func:`joint_limit_violations`; any makes ``passed`` False).
 
     Raises:
         UnknownName: No such keyframe (or model, site, frame).
-        InvalidInput: ``q`` of the wrong shape.
+        InvalidInput: ``q`` of the wrong length (the pose of another model),
+            NaN/inf or beyond :data:`pik_mj.inputs.Q_LIMIT`, or a zero quaternion;
+            the joint is named.
     """
     if isinstance(source, str):
         source = RobotSource(source)
@@ -75,16 +148,15 @@ def validate_pose(
             raise UnknownName("keyframe", q, keys)
         q = robot.model.key(q).qpos
     if q is not None:
-        q = np.asarray(q, dtype=float)
-        if q.shape not in ((robot.model.nq,), (robot.own_nq,)):
-            raise InvalidInput(
-                f"q must be the robot's configuration of shape ({robot.model.nq},) or its "
-                f"own joints' ({robot.own_nq},), got shape {q.shape}"
-            )
+        model_name = robot.source.model if robot.source is not None else "the model"
+        q = inputs.configuration(
+            robot.model, q, f"q (a pose of {str(model_name)!r})", sizes=(robot.own_nq,)
+        )
         full = robot.configuration.q.copy()
         full[: len(q)] = q
         robot.configuration.update(full)
     q_robot = robot.configuration.q.copy()
+    violations = joint_limit_violations(robot.model, q_robot)
     scene = Scene.from_robot(robot, allowed_contacts=allowed, grasps=grasps)
     static = scene.static_check(q_robot, mu=mu, external=external)
     hold = scene.hold(
@@ -94,4 +166,7 @@ def validate_pose(
         external=external,
         callback=callback,
     )
-    return balance_report(static, hold, robot.source.to_dict() if robot.source else None)
+    report = balance_report(static, hold, robot.source.to_dict() if robot.source else None)
+    report["joint_limits"] = violations
+    report["passed"] = bool(report["passed"] and not violations)
+    return report

@@ -32,8 +32,8 @@ import numpy as np
 from ..exceptions import InvalidInput
 from ..frames import Frame
 from ..robot import robot_root_body
-from .frame import AxisSpec, constrained_axes, skew
-from .task import Task, TaskRows, diagonal_weights
+from .frame import AxisSpec, constrained_axes, rotation_matrix, skew
+from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]
 
@@ -70,30 +70,10 @@ def frame_rotation_option(model: mujoco.MjModel, value: Any, frame_type: str | N
     any other string → a :class:`Frame` of the robot."""
     if isinstance(value, str):
         return None if value == "world" else Frame.find(model, value, frame_type)
-    if isinstance(value, mink.SO3):
-        return value.as_matrix()
-    arr = np.asarray(value, dtype=float)
-    if arr.shape == (4,) and np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0:
-        return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
-    if (
-        arr.shape == (3, 3)
-        and np.all(np.isfinite(arr))
-        and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
-        and np.linalg.det(arr) > 0
-    ):
-        return arr
-    raise InvalidInput(
-        "frame must be 'world', a frame name, a wxyz quaternion, a rotation matrix or "
-        f"a mink.SO3; got {value!r}"
-    )
+    return rotation_matrix(value, "frame", "'world', a frame name")
 
 
-def _clamp(v: np.ndarray, limit: float) -> np.ndarray:
-    n = float(np.linalg.norm(v))
-    return v if n <= limit else v * (limit / n)
-
-
-class CentroidTask(Task):
+class CentroidTask(EqualityTask):
     """Bring the robot's CoM onto a target position (seed ``target-centroid-pos-task``).
 
     Args:
@@ -145,14 +125,12 @@ class CentroidTask(Task):
         self.rows = constrained_axes(translation_axis, "translation_axis")
         self.frame = frame_rotation_option(model, frame, frame_type)
         self.w = diagonal_weights(w, 3, "w")
+        self.k = self.rows.size
+        self.weights = self.w[self.rows]
         if not (np.isfinite(p_limit) and p_limit > 0):
             raise InvalidInput(f"p_limit must be a positive finite number [m], got {p_limit}")
         self.p_limit = float(p_limit)
-        self.centroid_thre = np.asarray(centroid_thre, dtype=float)
-        if self.centroid_thre.shape not in ((), (3,)) or not np.all(self.centroid_thre >= 0):
-            raise InvalidInput(
-                f"centroid_thre must be a float or 3-vector >= 0 [m], got {centroid_thre!r}"
-            )
+        self.centroid_thre = tolerance(centroid_thre, "centroid_thre", "m")
         if com_offset is not None and not callable(com_offset):
             raise InvalidInput("com_offset must be a callable f(configuration) -> 3-vector")
         self.com_offset = com_offset
@@ -203,19 +181,12 @@ class CentroidTask(Task):
             J = J + skew(self._error_world(configuration)) @ J_w
         return (self._R_WF(configuration).T @ J)[self.rows]
 
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        e = self.compute_error(configuration)
-        return TaskRows.equality(
-            self.compute_jacobian(configuration), -_clamp(e, self.p_limit), self.w[self.rows]
-        )
+    def clamp(self, e: np.ndarray) -> np.ndarray:
+        """``e`` scaled to norm ``p_limit`` if longer (a copy)."""
+        return clamp_norm(e.copy(), self.p_limit)
 
-    def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        e = self.compute_error(configuration)
-        if e.size == 0:
-            return True
-        if self.centroid_thre.ndim == 0:
-            return bool(np.linalg.norm(e) <= self.centroid_thre)
-        return bool(np.all(np.abs(e) <= self.centroid_thre[self.rows]))
+    def satisfied_by(self, e: np.ndarray) -> bool:
+        return within(e, self.centroid_thre, self.rows)
 
     def __repr__(self) -> str:
         frame = (

@@ -20,12 +20,12 @@ import numpy as np
 
 from ..exceptions import InvalidInput
 from .joint_limit import DEFAULT_CHECK_MARGIN, JointRef, find_joint
-from .task import Task, TaskRows, diagonal_weights
+from .task import EqualityTask, diagonal_weights
 
 JointOrValue = str | float
 
 
-class JointCouplingTask(Task):
+class JointCouplingTask(EqualityTask):
     """Make ``joint2`` follow ``ratio · joint1 + offset`` (seed ``joint-angle-task``).
 
     Args:
@@ -69,6 +69,7 @@ class JointCouplingTask(Task):
                     "the task has no effect"
                 )
         self.w = diagonal_weights(w, 1, "w")
+        self.k, self.weights = 1, self.w
         if not (np.isfinite(check_margin) and check_margin >= 0):
             raise InvalidInput(f"check_margin must be finite and >= 0, got {check_margin}")
         self.check_margin = float(check_margin)
@@ -111,13 +112,8 @@ class JointCouplingTask(Task):
             J[0, self.joint1.dofadr] -= self.ratio
         return J
 
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        return TaskRows.equality(
-            self.compute_jacobian(configuration), -self.compute_error(configuration), self.w
-        )
-
-    def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        return bool(abs(self.compute_error(configuration)[0]) <= self.check_margin)
+    def satisfied_by(self, e: np.ndarray) -> bool:
+        return bool(abs(e[0]) <= self.check_margin)
 
     def __repr__(self) -> str:
         j1 = self.joint1.name if self.joint1 is not None else self.value1

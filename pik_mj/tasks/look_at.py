@@ -34,10 +34,10 @@ import numpy as np
 from ..exceptions import InvalidInput
 from ..frames import Frame
 from .frame import ONE_DEGREE, skew
-from .task import Task, TaskRows, diagonal_weights
+from .task import EqualityTask, clamp_norm, diagonal_weights
 
 
-class LookAtTask(Task):
+class LookAtTask(EqualityTask):
     """Point a robot frame's gaze axis at a target (seed ``:look-at``).
 
     Args:
@@ -81,6 +81,7 @@ class LookAtTask(Task):
         self.target_point: np.ndarray | None = None
         self.set_target(target, target_type)
         self.weight = diagonal_weights(weight, 3, "weight")
+        self.k, self.weights = 3, self.weight
         for label, v in (("rthre", rthre), ("r_limit", r_limit)):
             if not (np.isfinite(v) and v > 0):
                 raise InvalidInput(f"{label} must be a positive finite angle [rad], got {v}")
@@ -145,16 +146,14 @@ class LookAtTask(Task):
         R_WH, u, _ = self._geometry(configuration)
         return float(np.arccos(np.clip((R_WH @ self.axis) @ u, -1.0, 1.0)))
 
-    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        e = self.compute_error(configuration)
-        limit = 2.0 * np.sin(0.5 * self.r_limit)
-        n = float(np.linalg.norm(e))
-        if n > limit:
-            e = e * (limit / n)
-        return TaskRows.equality(self.compute_jacobian(configuration), -e, self.weight)
+    def clamp(self, e: np.ndarray) -> np.ndarray:
+        """``e`` scaled to norm ``2 sin(r_limit / 2)`` if longer (a copy): the
+        chord of a gaze rotation of ``r_limit``."""
+        return clamp_norm(e.copy(), 2.0 * np.sin(0.5 * self.r_limit))
 
-    def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        return self.angle(configuration) <= self.rthre
+    def satisfied_by(self, e: np.ndarray) -> bool:
+        """Gaze angle ``θ = 2 asin(‖e‖ / 2)`` within ``rthre``."""
+        return 2.0 * np.arcsin(min(0.5 * float(np.linalg.norm(e)), 1.0)) <= self.rthre
 
     def __repr__(self) -> str:
         target = (

@@ -18,7 +18,7 @@ import numpy as np
 from mink.tasks.task import BaseTask
 
 from ..exceptions import InvalidInput
-from .task import Task, TaskRows, TaskState
+from .task import Task, TaskRows, TaskState, no_inequality
 
 
 class MinkTask(Task):
@@ -47,6 +47,9 @@ class MinkTask(Task):
         self.name = name or type(task).__name__
         self.check = check
         self._is_frame = isinstance(task, (mink.FrameTask, mink.RelativeFrameTask))
+        self._cost: object = None  # the task's cost array the weights were made from
+        self._cost_values = np.zeros(0)
+        self._weights = np.zeros(0)
         if threshold is None:
             threshold = (1e-3, np.deg2rad(1.0)) if self._is_frame else 1e-3
         self.threshold = threshold
@@ -55,14 +58,23 @@ class MinkTask(Task):
         """Rows of a :class:`mink.Task` whose error at ``configuration`` is ``error``."""
         task = self.task
         jacobian = np.asarray(task.compute_jacobian(configuration), dtype=float)
-        cost = np.asarray(task.cost, dtype=float)
-        if cost.shape != error.shape:
-            cost = np.broadcast_to(cost, error.shape)
-        weighted = cost * task.gain * error
-        mu = task.lm_damping * float(weighted @ weighted)
+        cost = task.cost
+        if cost is not self._cost or not np.array_equal(cost, self._cost_values):
+            # cost² as the weights, recomputed only when the task's cost changes
+            self._cost, self._cost_values = cost, np.array(cost, dtype=float)
+            self._weights = np.broadcast_to(self._cost_values**2, error.shape).copy()
+        weights = self._weights
+        if weights.shape != error.shape:
+            weights = np.broadcast_to(self._cost_values**2, error.shape).copy()
+        gain = task.gain
+        mu = (
+            task.lm_damping * gain * gain * float(error @ (weights * error))
+            if task.lm_damping
+            else 0.0
+        )
         if jacobian.ndim != 2:
-            return TaskRows.equality(jacobian, -task.gain * error, cost**2, mu)
-        return TaskRows(jacobian, -task.gain * error, cost * cost, *_no_inequality(jacobian), mu)
+            return TaskRows.equality(jacobian, -gain * error, weights, mu)
+        return TaskRows(jacobian, -gain * error, weights, *no_inequality(jacobian.shape[1]), mu)
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         task = self.task
@@ -139,6 +151,7 @@ class MinkLimit(Task):
         self.check = True
         # lower bounds (-inf) and slack weights of the last row count, reused
         self._bounds: tuple[np.ndarray, np.ndarray] | None = None
+        self._G: np.ndarray | None = None
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         G, h = self.limit.compute_qp_inequalities(configuration, self.dt)
@@ -150,6 +163,14 @@ class MinkLimit(Task):
         if self._bounds is None or self._bounds[0].shape != h.shape:
             self._bounds = (np.full(h.shape, -np.inf), np.full(h.shape, float(self.slack_weight)))
         lower, weights = self._bounds
+        # The same G object while its values stay (ConfigurationLimit builds
+        # the same matrix every call): users of the rows may cache what they
+        # derive from it.
+        if self._G is not None and self._G.shape == G.shape and np.array_equal(self._G, G):
+            G = self._G
+        else:
+            G.flags.writeable = False
+            self._G = G
         empty = np.zeros(0)
         return TaskRows(np.zeros((0, G.shape[1])), empty, empty, G, lower, h, weights)
 
@@ -168,12 +189,6 @@ class MinkLimit(Task):
 
     def __repr__(self) -> str:
         return f"MinkLimit({type(self.limit).__name__}, name={self.name!r}, dt={self.dt})"
-
-
-def _no_inequality(A: np.ndarray) -> tuple[np.ndarray, ...]:
-    """``(C, d_lower, d_upper, w_C)`` of rows without inequalities."""
-    empty = np.zeros(0)
-    return np.zeros((0, A.shape[1])), empty, empty, empty
 
 
 def as_task(item: object, dt: float = 1.0) -> Task:

@@ -16,6 +16,7 @@ A subclass implements :meth:`Task.compute_rows` (and usually
 from __future__ import annotations
 
 import abc
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -119,11 +120,13 @@ class TaskRows(NamedTuple):
                 \\mathrm{dist}(C_i x, [d_{l,i}, d_{u,i}])^2
         """
         if x is None:
-            r_eq = -self.b
-            cx = np.zeros(self.n_in)
-        else:
-            r_eq = self.A @ x - self.b
-            cx = self.C @ x
+            e = float(self.b @ (self.w_A * self.b))
+            if self.n_in:
+                viol = np.maximum(self.d_lower, 0.0) + np.maximum(-self.d_upper, 0.0)
+                e += float(viol @ (self.w_C * viol))
+            return e
+        r_eq = self.A @ x - self.b
+        cx = self.C @ x
         viol = np.maximum(self.d_lower - cx, 0.0) + np.maximum(cx - self.d_upper, 0.0)
         return float(r_eq @ (self.w_A * r_eq) + viol @ (self.w_C * viol))
 
@@ -229,6 +232,126 @@ class Task(abc.ABC):
         return f"{type(self).__name__}(name={self.name!r}, check={self.check})"
 
 
+class EqualityTask(Task):
+    """Base of equality tasks: error, Jacobian and dimension in; rows, clamp and
+    stop test out (mink's task contract).
+
+    A subclass declares its dimension :attr:`k` and :attr:`weights` (``W_A``'s
+    diagonal, shape (k,)) and implements :meth:`compute_error` ``e(q)`` and
+    :meth:`compute_jacobian` ``J = de/dq`` (tangent space, shape (k, nv)), or
+    :meth:`error_and_jacobian` when the two share work. The base turns them
+    into the rows
+
+    .. math::
+
+        J x = -\\mathrm{clamp}(e), \\qquad
+        \\text{cost } (J x + \\mathrm{clamp}(e))^T W_A (J x + \\mathrm{clamp}(e))
+
+    (seed: ``:update`` linearizes, ``p-limit``/``r-limit`` bound the step asked
+    of one iteration), and the stop test :meth:`satisfied_by` ``(e)`` reads the
+    unclamped error. Subclasses override :meth:`clamp` (default: none) and
+    :meth:`satisfied_by` (default: ``max |e_i| <= 1e-6``).
+    """
+
+    k: int
+    weights: np.ndarray
+
+    @abc.abstractmethod
+    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
+        """The error ``e`` (k,) at ``configuration``, unclamped, in the task's units."""
+
+    @abc.abstractmethod
+    def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
+        """``de/dq`` in the tangent space, shape (k, nv)."""
+
+    def error_and_jacobian(
+        self, configuration: mink.Configuration
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``(e, J)`` at ``configuration``; override when they share work."""
+        return self.compute_error(configuration), self.compute_jacobian(configuration)
+
+    def clamp(self, e: np.ndarray) -> np.ndarray:
+        """The error asked of one iteration (a copy, ``e`` is left untouched)."""
+        return e.copy()
+
+    def satisfied_by(self, e: np.ndarray) -> bool:
+        """Stop test on the unclamped error ``e``."""
+        return bool(np.max(np.abs(e), initial=0.0) <= 1e-6)
+
+    def rows_from(self, e: np.ndarray, J: np.ndarray) -> TaskRows:
+        """``J x = -clamp(e)`` with weights :attr:`weights`."""
+        b = self.clamp(e)
+        np.negative(b, out=b)
+        return TaskRows(J, b, self.weights, *no_inequality(J.shape[1]))
+
+    def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
+        return self.rows_from(*self.error_and_jacobian(configuration))
+
+    def is_satisfied(self, configuration: mink.Configuration) -> bool:
+        return self.satisfied_by(self.compute_error(configuration))
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, ``‖e‖`` and stop test from one :meth:`error_and_jacobian`."""
+        e, J = self.error_and_jacobian(configuration)
+        return TaskState(self.rows_from(e, J), math.sqrt(float(e @ e)), self.satisfied_by(e))
+
+
+_EMPTY = np.zeros(0)
+_EMPTY.flags.writeable = False
+
+
+_NO_INEQUALITY: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def no_inequality(nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(C, d_lower, d_upper, w_C)`` of rows without inequalities (shared,
+    read-only empty arrays)."""
+    empty = _NO_INEQUALITY.get(nv)
+    if empty is None:
+        C = np.zeros((0, nv))
+        C.flags.writeable = False
+        empty = _NO_INEQUALITY[nv] = (C, _EMPTY, _EMPTY, _EMPTY)
+    return empty
+
+
+def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
+    """``v`` scaled in place to norm ``limit`` if longer (seed ``p-limit``)."""
+    norm = math.sqrt(float(v @ v))
+    if norm > limit:
+        v *= limit / norm
+    return v
+
+
+def within(e: np.ndarray, tol: np.ndarray, rows: np.ndarray) -> bool:
+    """Seed tolerance: a float bounds the norm of ``e``, a 3-vector bounds each
+    matched axis (``rows``: the axes ``e`` holds)."""
+    if e.size == 0:
+        return True
+    if tol.ndim == 0:
+        return math.sqrt(float(e @ e)) <= float(tol)
+    return bool(np.all(np.abs(e) <= tol[rows]))
+
+
+def tolerance(value: object, what: str, unit: str) -> np.ndarray:
+    """A stop-test tolerance: a finite number >= 0, or a 3-vector of them (one
+    per axis), as an array of shape () or (3,)."""
+    valid = f"a finite number >= 0 or 3 of them [{unit}]"
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise InvalidInput(f"{what} must be {valid}, got {value!r}")
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{what} must be {valid}, got {value!r}") from None
+    if arr.shape not in ((), (3,)) or not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise InvalidInput(f"{what} must be {valid}, got {value!r}")
+    return arr
+
+
+MAX_WEIGHT = 1e12
+"""Largest task weight accepted: the level's Hessian ``Jᵀ W J`` must stay far
+from overflow and its condition number within what a QP solver can use."""
+
+
 def diagonal_weights(w: float | Sequence[float] | np.ndarray, size: int, what: str) -> np.ndarray:
     """Seed weight convention for a diagonal ``W``: a float fills the diagonal,
     a vector gives it. Returns the diagonal, shape (size,)."""
@@ -239,6 +362,6 @@ def diagonal_weights(w: float | Sequence[float] | np.ndarray, size: int, what: s
         raise InvalidInput(
             f"{what} must be a float or a vector of length {size}, got shape {arr.shape}"
         )
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise InvalidInput(f"{what} must be finite and >= 0, got {arr}")
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0) or np.any(arr > MAX_WEIGHT):
+        raise InvalidInput(f"{what} must be finite, >= 0 and <= {MAX_WEIGHT:g}, got {arr}")
     return arr

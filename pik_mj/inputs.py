@@ -1,0 +1,341 @@
+"""Checks of user input where it enters the top layer, with one message style.
+
+Every check returns the value in the form the caller uses (a float, an int, an
+array, a tuple of names, a path) or raises :class:`~pik_mj.exceptions.InvalidInput`
+saying what was wrong and what is valid::
+
+    thre must be a finite number > 0 [m], got '1mm'
+
+Numbers are Python or numpy numbers (``np.float64(0.1)``, ``np.int64(50)``);
+booleans and strings are never numbers. :func:`configuration` checks a whole
+``qpos`` joint by joint (NaN/inf, overflow, zero quaternions) and names the
+joint; :func:`output_path` checks that a file can be written before any work
+starts.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import os
+from collections.abc import Callable, Iterable, Sequence, Set
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from .exceptions import InvalidInput, UnknownName
+
+__all__ = [
+    "Q_LIMIT",
+    "configuration",
+    "flag",
+    "integer",
+    "names",
+    "options",
+    "output_path",
+    "quaternion",
+    "real",
+    "vector",
+    "wrenches",
+]
+
+Q_LIMIT = 1e6
+"""Largest ``|q_i|`` [rad or m] accepted in a configuration or a placement: beyond
+it a value is an overflow or a units mistake, not a pose."""
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def _show(value: Any) -> str:
+    """``value`` for a message: arrays as lists, the rest as its repr."""
+    if isinstance(value, np.ndarray):
+        return repr(value.tolist())
+    return repr(value)
+
+
+def _range_text(
+    low: float | None, high: float | None, low_open: bool, high_open: bool, unit: str
+) -> str:
+    parts = []
+    if low is not None:
+        parts.append(f"{'>' if low_open else '>='} {low:g}")
+    if high is not None:
+        parts.append(f"{'<' if high_open else '<='} {high:g}")
+    text = " and ".join(parts)
+    return (f" {text}" if text else "") + (f" [{unit}]" if unit else "")
+
+
+def real(
+    value: Any,
+    what: str,
+    *,
+    unit: str = "",
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
+    """``value`` as a finite float within ``[low, high]`` (``low_open``/``high_open``:
+    the bound itself excluded).
+
+    Raises:
+        InvalidInput: Not a number (a string, a bool, None, a list), NaN/inf, or out
+            of the range; the message gives the valid range and its unit.
+    """
+    valid = "a finite number" + _range_text(low, high, low_open, high_open, unit)
+    if not _is_number(value):
+        raise InvalidInput(f"{what} must be {valid}, got {_show(value)}")
+    v = float(value)
+    if (
+        not math.isfinite(v)
+        or (low is not None and (v <= low if low_open else v < low))
+        or (high is not None and (v >= high if high_open else v > high))
+    ):
+        raise InvalidInput(f"{what} must be {valid}, got {_show(value)}")
+    return v
+
+
+def integer(value: Any, what: str, *, low: int | None = None) -> int:
+    """``value`` as an int ``>= low`` (Python or numpy integers; bools refused).
+
+    Raises:
+        InvalidInput: Not an integer, or below ``low``.
+    """
+    valid = "an integer" + ("" if low is None else f" >= {low}")
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise InvalidInput(f"{what} must be {valid}, got {_show(value)}")
+    if low is not None and value < low:
+        raise InvalidInput(f"{what} must be {valid}, got {_show(value)}")
+    return int(value)
+
+
+def flag(value: Any, what: str) -> bool:
+    """``value`` as a bool (Python or numpy booleans only: ``"no"`` is not False).
+
+    Raises:
+        InvalidInput: Not a boolean.
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise InvalidInput(f"{what} must be True or False, got {_show(value)}")
+    return bool(value)
+
+
+def vector(value: Any, n: int, what: str, *, unit: str = "") -> np.ndarray:
+    """``value`` as a finite float array of shape ``(n,)``.
+
+    Raises:
+        InvalidInput: Not ``n`` numbers, or NaN/inf among them.
+    """
+    valid = f"{n} finite numbers" + (f" [{unit}]" if unit else "")
+    if isinstance(value, (str, bytes)) or value is None:
+        raise InvalidInput(f"{what} must be {valid}, got {_show(value)}")
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{what} must be {valid}, got {_show(value)}") from None
+    if v.shape != (n,):
+        raise InvalidInput(f"{what} must be {valid}, got shape {v.shape}: {_show(value)}")
+    if not np.all(np.isfinite(v)):
+        raise InvalidInput(f"{what} must be {valid}, got NaN or inf: {_show(value)}")
+    return v
+
+
+def quaternion(value: Any, what: str) -> np.ndarray:
+    """``value`` as a unit quaternion (w, x, y, z): 4 finite numbers of non-zero
+    norm, normalized (without overflow: scaled by its largest entry first).
+
+    Raises:
+        InvalidInput: Not 4 finite numbers, or a zero quaternion.
+    """
+    quat = vector(value, 4, f"{what} (a quaternion w, x, y, z)")
+    scale = np.max(np.abs(quat))
+    if scale == 0.0 or not np.isfinite(1.0 / scale):
+        raise InvalidInput(
+            f"{what} is a zero quaternion {_show(value)}; give a non-zero quaternion (w, x, y, z)"
+        )
+    quat = quat / scale
+    return quat / np.linalg.norm(quat)
+
+
+def names(value: Any, what: str) -> tuple[str, ...]:
+    """``value`` as a tuple of names: a list or tuple of strings (one string alone is
+    refused: ``"abc"`` would be three names).
+
+    Raises:
+        InvalidInput: Not a sequence of strings.
+    """
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, Set, np.ndarray)):
+        raise InvalidInput(f"{what} must be a list of names, got {_show(value)}")
+    out = tuple(str(x) if isinstance(x, np.str_) else x for x in value)
+    for i, name in enumerate(out):
+        if not isinstance(name, str):
+            raise InvalidInput(f"{what}[{i}] must be a name (a string), got {name!r}")
+    return out
+
+
+def options(
+    given: Iterable[str],
+    function: Callable[..., Any],
+    what: str,
+    *,
+    also: Callable[..., Any] | None = None,
+    positional: Sequence[str] = (),
+) -> None:
+    """Keyword options passed on through ``**options`` are ``function``'s (or
+    ``also``'s): an unknown one is named with the valid ones listed, instead of
+    Python's ``TypeError`` from deep inside the call.
+
+    Raises:
+        UnknownName: An option neither function takes.
+    """
+    valid = {
+        name
+        for f in (function, also)
+        if f is not None
+        for name, p in inspect.signature(f).parameters.items()
+        if p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL) and name not in ("self", *positional)
+    }
+    for name in given:
+        if name not in valid:
+            raise UnknownName(what, name, valid)
+
+
+def wrenches(value: Any, what: str) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """``value`` as wrenches ``(frame name, force (3,) [N], moment (3,) [N·m])``.
+
+    Raises:
+        InvalidInput: Not a list of such triples, a frame that is not a name, or
+            a force or moment that is not 3 finite numbers.
+    """
+    form = "(frame, force (3,) [N], moment (3,) [N·m])"
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
+        raise InvalidInput(f"{what} must be a list of {form}, got {_show(value)}")
+    out = []
+    for i, item in enumerate(value):
+        if not isinstance(item, (tuple, list)) or len(item) != 3:
+            raise InvalidInput(f"{what}[{i}] must be {form}, got {_show(item)}")
+        frame, force, moment = item
+        if not isinstance(frame, str):
+            raise InvalidInput(f"{what}[{i}]: the frame must be a name, got {frame!r}")
+        out.append(
+            (
+                frame,
+                vector(force, 3, f"{what}[{i}] force at {frame!r}", unit="N"),
+                vector(moment, 3, f"{what}[{i}] moment at {frame!r}", unit="N·m"),
+            )
+        )
+    return out
+
+
+_JOINT_WIDTH = {
+    int(mujoco.mjtJoint.mjJNT_FREE): 7,
+    int(mujoco.mjtJoint.mjJNT_BALL): 4,
+    int(mujoco.mjtJoint.mjJNT_SLIDE): 1,
+    int(mujoco.mjtJoint.mjJNT_HINGE): 1,
+}
+
+
+def joint_name(model: mujoco.MjModel, j: int) -> str:
+    """The name of joint ``j`` (``joint #j`` when it has none)."""
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint #{j}"
+
+
+def configuration(
+    model: mujoco.MjModel, q: Any, what: str = "q", *, sizes: Sequence[int] = ()
+) -> np.ndarray:
+    """``q`` as a configuration of ``model`` (a copy), checked joint by joint.
+
+    Args:
+        model: The model ``q`` belongs to.
+        q: ``nq`` numbers (or one of ``sizes``: a prefix of them, e.g. the robot's
+            own joints).
+        what: Name of the argument in messages.
+        sizes: Other accepted lengths.
+
+    Raises:
+        InvalidInput: Not numbers, the wrong length (the model's ``nq`` given: the
+            pose of another model), NaN/inf or ``|q_i| >`` :data:`Q_LIMIT` (the
+            joint named), or a free/ball joint's zero quaternion.
+    """
+    valid = (model.nq, *sizes)
+    if isinstance(q, (str, bytes)) or q is None:
+        raise InvalidInput(f"{what} must be {model.nq} numbers (the model's nq), got {q!r}")
+    try:
+        v = np.array(q, dtype=float)
+    except (TypeError, ValueError):
+        raise InvalidInput(
+            f"{what} must be {model.nq} numbers (the model's nq), got {q!r}"
+        ) from None
+    if v.ndim != 1 or len(v) not in valid:
+        lengths = " or ".join(str(n) for n in dict.fromkeys(valid))
+        raise InvalidInput(
+            f"{what} has shape {v.shape}, but this model's configuration has {lengths} "
+            "numbers: a pose of another model?"
+        )
+    for j in range(model.njnt):
+        a = int(model.jnt_qposadr[j])
+        width = _JOINT_WIDTH[int(model.jnt_type[j])]
+        if a >= len(v):
+            break
+        values = v[a : a + width]
+        if not np.all(np.isfinite(values)):
+            raise InvalidInput(
+                f"{what}: joint {joint_name(model, j)!r} holds NaN or inf ({values.tolist()})"
+            )
+        if np.any(np.abs(values) > Q_LIMIT):
+            raise InvalidInput(
+                f"{what}: joint {joint_name(model, j)!r} is at {values.tolist()}, beyond "
+                f"{Q_LIMIT:g} [rad or m]: an overflow or a units mistake"
+            )
+        if width >= 4 and np.linalg.norm(values[-4:]) < 1e-9:
+            raise InvalidInput(
+                f"{what}: joint {joint_name(model, j)!r} has a zero quaternion "
+                f"{values[-4:].tolist()}; give a non-zero quaternion (w, x, y, z)"
+            )
+    return v
+
+
+def output_path(path: Any, what: str) -> Path:
+    """``path`` as a file that can be written, checked before any work starts.
+
+    The check writes nothing that stays: missing directories are created and a
+    missing file is created, then both removed again; an existing file is opened
+    for appending (its content kept).
+
+    Raises:
+        InvalidInput: Not a path, a directory, below a file, or not writable (the
+            operating system's reason given).
+    """
+    if not isinstance(path, (str, os.PathLike)) or os.fspath(path) in ("", b""):
+        raise InvalidInput(f"{what} must be a file path, got {path!r}")
+    p = Path(os.fsdecode(os.fspath(path))).expanduser()
+    if p.is_dir():
+        raise InvalidInput(f"{what} {str(p)!r} is a directory; give a file path in it")
+    made: list[Path] = []
+    parent = p.absolute().parent
+    while not parent.exists():
+        made.append(parent)
+        parent = parent.parent
+    if not parent.is_dir():
+        raise InvalidInput(f"{what} {str(p)!r} cannot be written: {str(parent)!r} is a file")
+    existed = p.exists()
+    try:
+        for d in reversed(made):
+            d.mkdir()
+        with open(p, "ab"):
+            pass
+    except OSError as exc:
+        raise InvalidInput(f"{what} {str(p)!r} cannot be written: {exc.strerror or exc}") from None
+    finally:
+        if not existed and p.is_file():
+            p.unlink()
+        for d in made:
+            if d.is_dir() and not any(d.iterdir()):
+                d.rmdir()
+    return p

@@ -1,0 +1,314 @@
+"""DAQP backends: one level at a time, or the whole hierarchy in one call.
+
+* :class:`DAQPBackend` (``qp_solver="daqp"``): DAQP's dual active-set method on
+  each level's :class:`~pik_mj.qp.LevelProblem`.
+* :class:`HierarchicalBackend` (``qp_solver="daqp-hqp"``): the cascade as one
+  DAQP hierarchical least-squares problem (:class:`HierarchicalProblem`,
+  ``daqp.solve(..., break_points=...)``), every level exact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import daqp
+import numpy as np
+
+from .exceptions import InvalidInput
+from .qp import LevelProblem, QPSolution
+from .tasks.task import TaskRows
+
+DAQP_SETTINGS = (
+    "primal_tol",
+    "dual_tol",
+    "zero_tol",
+    "pivot_tol",
+    "progress_tol",
+    "cycle_tol",
+    "iter_limit",
+    "fval_bound",
+    "eps_prox",
+    "eta_prox",
+    "rel_subopt",
+    "abs_subopt",
+    "sing_tol",
+    "refactor_tol",
+    "time_limit",
+)
+"""Every key ``qp_args`` may hold for DAQP (``"daqp"`` and ``"daqp-hqp"``)."""
+
+_DAQP_EXIT = {
+    1: "optimal",
+    2: "optimal with soft constraints violated",
+    3: "a level of the hierarchy could not be solved (kept the solution above it)",
+    -1: "primal infeasible",
+    -2: "cycling detected",
+    -3: "unbounded",
+    -4: "iteration limit reached",
+    -5: "non-convex problem",
+    -6: "overdetermined initial active set",
+    -7: "time limit reached",
+    -8: "unsupported problem",
+}
+_DAQP_INF = 1e30
+
+
+def _daqp_status(exitflag: int) -> str:
+    return f"DAQP exitflag {exitflag}: {_DAQP_EXIT.get(exitflag, 'unknown')}"
+
+
+def _check_daqp_settings(settings: dict[str, Any]) -> dict[str, Any]:
+    unknown = sorted(set(settings) - set(DAQP_SETTINGS))
+    if unknown:
+        raise InvalidInput(
+            f"qp_args has unknown DAQP settings {unknown}; valid: {list(DAQP_SETTINGS)}"
+        )
+    for k, v in settings.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise InvalidInput(f"qp_args[{k!r}] must be a number, got {v!r}")
+        if not (np.isfinite(v) and v >= 0) and k not in ("eps_prox", "eta_prox"):
+            raise InvalidInput(f"qp_args[{k!r}] must be a finite number >= 0, got {v!r}")
+    return dict(settings)
+
+
+@dataclass
+class DAQPBackend:
+    """DAQP (dual active-set, exact) on one level at a time (``"daqp"``).
+
+    ``l <= A z <= u`` goes to DAQP as is (rows with ``l = u`` are equalities).
+    """
+
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.settings = _check_daqp_settings(self.settings)
+
+    def solve(self, problem: LevelProblem) -> QPSolution:
+        A = np.ascontiguousarray(problem.A, dtype=float)
+        u = np.minimum(problem.u, _DAQP_INF)
+        lo = np.maximum(problem.l, -_DAQP_INF)
+        sense = np.where(lo == u, 5, 0).astype(np.intc)
+        P = np.ascontiguousarray(problem.P, dtype=float)
+        z, _, exitflag, _ = daqp.solve(P, problem.q.astype(float), A, u, lo, sense, **self.settings)
+        ok = exitflag in (1, 2)
+        return QPSolution(np.array(z) if ok else None, _daqp_status(exitflag), ok, exitflag == -1)
+
+
+_IDENTITIES: dict[int, np.ndarray] = {}
+
+
+def _identity(n: int) -> np.ndarray:
+    """``I`` (n x n), made once per size (DAQP reads it and never writes it;
+    its Cython signature asks for a writable buffer)."""
+    if n not in _IDENTITIES:
+        _IDENTITIES[n] = np.eye(n)
+    return _IDENTITIES[n]
+
+
+class _Layout:
+    """Where each block of a :class:`HierarchicalProblem` goes, for one stack
+    shape (computed once per shape)."""
+
+    def __init__(self, nv: int, n_eq0: int, C: np.ndarray, n_keep: list, n_in: list):
+        n = nv + 1
+        self.C = C  # the hard inequality rows this layout was made for
+        nonzero = C != 0
+        single = np.count_nonzero(nonzero, axis=1) == 1
+        self.single_rows = np.flatnonzero(single)
+        self.general_rows = np.flatnonzero(~single)
+        cols = nonzero[self.single_rows].argmax(axis=1)
+        coef = C[self.single_rows, cols]
+        self.sides = []
+        for side in (coef > 0, coef < 0):
+            if side.any():
+                c = cols[side]
+                unique = np.unique(c).size == c.size
+                self.sides.append((self.single_rows[side], c, coef[side], unique))
+        self.n_general = n_eq0 + self.general_rows.size
+        self.blocks: list[tuple[int, int, int]] = []  # (first row, equality rows, rows)
+        i = self.n_general
+        break_points = [n + i]
+        self.levels: list[int] = []
+        for k, (n_eq, m_in) in enumerate(zip(n_keep, n_in, strict=True), start=1):
+            size = n_eq + m_in
+            self.blocks.append((i, n_eq, size))
+            if size:
+                i += size
+                break_points.append(n + i)
+                self.levels.append(k)
+        self.A_shape = (i, n)
+        self.n_bounds = n + i
+        self.sense = np.zeros(n + i, dtype=np.intc)
+        self.sense[n : n + n_eq0] = 5
+        for first, n_eq, size in self.blocks:
+            self.sense[n + first : n + first + n_eq] = 13  # equality (active, immutable), soft
+            self.sense[n + first + n_eq : n + first + size] = 8  # inequality, soft
+        self.break_points = np.array(break_points, dtype=np.intc)
+
+
+@dataclass
+class HierarchicalProblem:
+    """A whole priority hierarchy as one DAQP hierarchical least-squares problem.
+
+    Variables ``z = [x; d]``: the step ``x`` (``nv``) and one auxiliary ``d``
+    fixed at 0 by level 0. Level 0 holds the hard rows (single-entry rows as
+    bounds on ``x``); level ``k`` holds its equality rows ``√w_i a_i x = √w_i b_i``
+    and inequality rows ``√w_i c_i x ∈ √w_i [d_l, d_u]`` as soft constraints,
+    each with ``β_i`` in the ``d`` column so that every row of the level has the
+    same norm ``D_k = max_i w_i ‖a_i‖²`` (``β_i = √(D_k − w_i ‖a_i‖²)``). DAQP
+    normalizes each row, so a level then minimizes ``Σ w_i r_i² / D_k``: exactly
+    the weighted squared error of the cascade's level, up to the factor. Levels
+    are solved lexicographically, each keeping what the levels above achieved
+    (equality rows at their values, inequality rows within their bounds or at
+    their achieved violation), ties broken by the least ``‖x‖²``: the cascade
+    with ``λ_k → 0`` and ``τ = 0``.
+
+    Attributes:
+        H: Hessian ``I`` (nv + 1).
+        A: General rows (hard rows with several entries, then each level's rows).
+        bupper: Bounds: ``nv + 1`` simple bounds on ``z`` first, then one per row of A.
+        blower: Lower bounds, same layout.
+        sense: DAQP constraint types (0 inequality, 5 equality, +8 soft).
+        break_points: End index (into the bounds) of each level, level 0 first.
+        levels: Cascade level (1..K) of each soft block (empty levels are left out).
+        nv: Step size.
+    """
+
+    H: np.ndarray
+    A: np.ndarray
+    bupper: np.ndarray
+    blower: np.ndarray
+    sense: np.ndarray
+    break_points: np.ndarray
+    levels: list[int]
+    nv: int
+
+    @classmethod
+    def from_rows(
+        cls, hard: TaskRows, levels: list[TaskRows], cache: dict | None = None
+    ) -> HierarchicalProblem:
+        """The problem of a cascade's rows; ``cache`` (a dict kept by the caller)
+        holds the layout of each stack shape, so that only values are written."""
+        nv = hard.A.shape[1]
+        n = nv + 1
+        C = hard.C
+        keeps = [rows.w_A > 0 for rows in levels]
+        n_keep = [int(np.count_nonzero(k)) for k in keeps]
+        shape = (nv, hard.n_eq, *((k, r.n_eq, r.n_in) for k, r in zip(n_keep, levels, strict=True)))
+        layout = cache.get(shape) if cache is not None else None
+        if layout is None or layout.C is not C:  # new shape, or new hard rows
+            layout = _Layout(nv, hard.n_eq, C, n_keep, [r.n_in for r in levels])
+            if cache is not None:
+                cache[shape] = layout
+        A = np.zeros(layout.A_shape)
+        upper = np.empty(layout.n_bounds)
+        lower = np.empty(layout.n_bounds)
+        upper[:n], lower[:n] = _DAQP_INF, -_DAQP_INF
+        upper[nv] = lower[nv] = 0.0  # d = 0
+        # hard inequality rows with one entry c x_i in [l, u]: bounds on x_i,
+        # one side of the rows (c > 0, then c < 0) at a time
+        for rows_, cols, coef, unique in layout.sides:
+            a, b = hard.d_lower[rows_] / coef, hard.d_upper[rows_] / coef
+            lo_i, hi_i = (a, b) if coef[0] > 0 else (b, a)
+            if unique:  # at most one row per variable on this side (joint limits)
+                lower[cols] = np.maximum(lower[cols], lo_i)
+                upper[cols] = np.minimum(upper[cols], hi_i)
+            else:
+                np.maximum.at(lower, cols, lo_i)
+                np.minimum.at(upper, cols, hi_i)
+        r = hard.n_eq
+        A[:r, :nv] = hard.A
+        upper[n : n + r] = lower[n : n + r] = hard.b
+        g = layout.n_general
+        if g > r:
+            A[r:g, :nv] = C[layout.general_rows]
+            upper[n + r : n + g] = hard.d_upper[layout.general_rows]
+            lower[n + r : n + g] = hard.d_lower[layout.general_rows]
+        for rows, keep, (i, n_eq, size) in zip(levels, keeps, layout.blocks, strict=True):
+            if size == 0:
+                continue
+            block = A[i : i + size]
+            j = n + i
+            if n_eq == rows.n_eq:
+                sw = np.sqrt(rows.w_A)
+                np.multiply(sw[:, None], rows.A, out=block[:n_eq, :nv])
+                upper[j : j + n_eq] = lower[j : j + n_eq] = sw * rows.b
+            else:
+                sw = np.sqrt(rows.w_A[keep])
+                np.multiply(sw[:, None], rows.A[keep], out=block[:n_eq, :nv])
+                upper[j : j + n_eq] = lower[j : j + n_eq] = sw * rows.b[keep]
+            if rows.n_in:
+                sw_C = np.sqrt(rows.w_C)
+                np.multiply(sw_C[:, None], rows.C, out=block[n_eq:, :nv])
+                upper[j + n_eq : j + size] = sw_C * rows.d_upper
+                lower[j + n_eq : j + size] = sw_C * rows.d_lower
+            norms = np.einsum("ij,ij->i", block[:, :nv], block[:, :nv])
+            np.sqrt(np.maximum(max(float(norms.max()), 1e-300) - norms, 0.0), out=block[:, nv])
+        np.clip(upper, -_DAQP_INF, _DAQP_INF, out=upper)
+        np.clip(lower, -_DAQP_INF, _DAQP_INF, out=lower)
+        return cls(
+            _identity(n),
+            A,
+            upper,
+            lower,
+            layout.sense.copy(),  # DAQP may write flags into it
+            layout.break_points,
+            layout.levels,
+            nv,
+        )
+
+    def hard_violation(self, x: np.ndarray) -> float:
+        """Largest violation of level 0's rows (bounds and general rows) at ``x``."""
+        z = np.append(x, 0.0)
+        n = z.size
+        end = int(self.break_points[0])
+        v = np.concatenate([z, self.A[: end - n] @ z])
+        return float(np.max(np.maximum(self.blower[:end] - v, v - self.bupper[:end]), initial=0.0))
+
+
+@dataclass
+class HierarchicalBackend:
+    """The whole cascade in one DAQP call (``"daqp-hqp"``), see
+    :class:`HierarchicalProblem`. Each level is solved exactly (no ``λ_k``, no
+    ``τ``), so the per-level regularization options do not apply."""
+
+    settings: dict[str, Any] = field(default_factory=dict)
+    layouts: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        self.settings = _check_daqp_settings(self.settings)
+
+    def solve_hierarchy(self, problem: HierarchicalProblem) -> QPSolution:
+        z, _, exitflag, _ = daqp.solve(
+            problem.H,
+            np.zeros(problem.nv + 1),
+            problem.A,
+            problem.bupper,
+            problem.blower,
+            problem.sense,
+            problem.break_points,
+            **self.settings,
+        )
+        status = _daqp_status(exitflag)
+        x = np.array(z[: problem.nv])
+        tol = 1e-6 + 10 * float(self.settings.get("primal_tol", 1e-6))
+        if exitflag in (1, 2) or (exitflag == 3 and problem.hard_violation(x) <= tol):
+            return QPSolution(x, status, True)
+        # Was level 0 itself infeasible? (DAQP reports a failed level as exitflag 3.)
+        end = int(problem.break_points[0])
+        n = problem.nv + 1
+        _, _, alone, _ = daqp.solve(
+            problem.H,
+            np.zeros(n),
+            np.ascontiguousarray(problem.A[: end - n]),
+            problem.bupper[:end],
+            problem.blower[:end],
+            problem.sense[:end],
+        )
+        return QPSolution(None, status, False, infeasible=alone == -1)
+
+    def solve(self, problem: LevelProblem) -> QPSolution:
+        """One level alone (not used by the cascade, which hands this backend the
+        whole hierarchy): DAQP's plain QP."""
+        return DAQPBackend(self.settings).solve(problem)
