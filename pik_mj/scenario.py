@@ -236,6 +236,9 @@ class ScenarioResult:
             "max_drift": max(m.drift for m in parts),
             "contacts": {
                 "planned": list(dict.fromkeys(g for m in parts for g in m.planned_contacts)),
+                "planned_pairs": [
+                    list(p) for p in dict.fromkeys(p for m in parts for p in m.planned_pairs)
+                ],
                 "unexpected": [list(c) for m in parts for c in m.unexpected_contacts],
             },
             "fell": any(m.fell for m in parts),
@@ -462,7 +465,7 @@ def parser(
     :func:`rerun.script_add_args`), ``--json FILE``, ``--quiet`` (no progress) and,
     with ``hold``, ``--hold SECONDS`` (physics hold of the final pose, default 3;
     0: none) and ``--speed FRACTION`` (the iterates played in physics at this
-    fraction of the joint velocity limits, default 0.5; 0: not played).
+    fraction of the joint velocity limits, default 0.2; 0: not played).
 
     Args:
         doc: The scenario's docstring (its first line describes it).

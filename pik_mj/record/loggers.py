@@ -607,11 +607,18 @@ _WALK_SERIES = [
         ("zmp_reference", style.ZMP_REFERENCE, "ZMP reference"),
         ("zmp_inverse_dynamics", style.ZMP_INVERSE_DYNAMICS, "ZMP of the inverse dynamics"),
         ("zmp_measured", style.ZMP, "ZMP measured in physics"),
+        ("zmp_force_sensors", style.ZMP_FORCE_SENSORS, "ZMP from the feet's force sensors"),
         ("com", style.COM, "CoM"),
     )
 ] + [
     ("margin", "zmp_inverse_dynamics", style.ZMP_INVERSE_DYNAMICS, "ZMP of the inverse dynamics"),
     ("margin", "zmp_measured", style.ZMP, "ZMP measured in physics"),
+    (
+        "margin",
+        "zmp_force_sensors",
+        style.ZMP_FORCE_SENSORS,
+        "ZMP from the force sensors, to the feet carrying it",
+    ),
 ]
 
 
@@ -668,6 +675,7 @@ def log_walk(recorder: Recorder, pattern: Any, report: Any) -> None:
         during = np.vstack([during, np.zeros((K - len(during), 2))])
     margin_measured = support_margin(plan, during, pattern.sole_size)
     margin_id = support_margin(plan, pattern.zmp_computed, pattern.sole_size)
+    sensed = np.asarray(getattr(report, "zmp_force_sensors", np.zeros((0, 2))), dtype=float)
     rec.disable_timeline("iteration")
     last_polygon: Any = None
     for k in range(N):
@@ -710,6 +718,20 @@ def log_walk(recorder: Recorder, pattern: Any, report: Any) -> None:
             rec.log_point(paths.zmp, [p[0], p[1], z], radius=style.ZMP_RADIUS, color=style.ZMP)
             for axis, v in zip("xy", p, strict=True):
                 rec.log_scalar(paths.walk_series(axis, "zmp_measured"), v)
+        if k < len(sensed) and np.all(np.isfinite(sensed[k])):
+            p = sensed[k]
+            rec.log_point(
+                f"{paths.zmp}/force_sensors",
+                [p[0], p[1], z],
+                radius=style.ZMP_RADIUS * 0.6,
+                color=style.ZMP_FORCE_SENSORS,
+            )
+            for axis, v in zip("xy", p, strict=True):
+                rec.log_scalar(paths.walk_series(axis, "zmp_force_sensors"), v)
+            rec.log_scalar(
+                paths.walk_series("margin", "zmp_force_sensors"),
+                float(report.zmp_force_sensors_margin[k]),
+            )
     rec.log_text(
         f"walk: {len(plan.footsteps)} footsteps over {pattern.duration:.2f} s; ZMP of the "
         f"inverse dynamics at least {margin_id.min() * 1e3:.1f} mm inside the support polygon; "

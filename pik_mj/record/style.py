@@ -30,6 +30,8 @@ FOOTSTEP = (170, 170, 255)
 ZMP = (255, 0, 255)
 ZMP_REFERENCE = (255, 235, 0)
 ZMP_INVERSE_DYNAMICS = (255, 130, 0)
+#: The ZMP from the feet's force sensors (what the robot measures).
+ZMP_FORCE_SENSORS = (0, 200, 255)
 ZMP_RADIUS = 0.035
 
 TARGET = (60, 255, 140)

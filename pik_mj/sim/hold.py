@@ -483,7 +483,7 @@ def track(
     *,
     criteria: HoldCriteria,
     allowed: Sequence[str],
-    planned_self: set[frozenset[str]] | frozenset[frozenset[str]] = frozenset(),
+    planned_pairs: set[frozenset[str]] | frozenset[frozenset[str]] = frozenset(),
     external: Sequence[External] = (),
     callbacks: Sequence[Callback] = (),
     every: int = 1,
@@ -507,9 +507,10 @@ def track(
 
     where ``t_g`` is when geom ``g`` last came into contact (for a hold the
     reference is constant: the displacement since the start, and since touch-down).
-    A robot geom outside ``allowed`` touching the environment, or a self-contact
-    not in ``planned_self`` (unless ``criteria.allow_self_contact``), is
-    unexpected; the robot fell when its root height drops below
+    A contact is unexpected unless its robot geom is in ``allowed`` (touching
+    the environment anywhere), or the pair ``{robot geom, other geom}`` is in
+    ``planned_pairs`` (environment or self contact), or it is a self-contact
+    and ``criteria.allow_self_contact``; the robot fell when its root height drops below
     ``fall_ratio`` times the reference's. The CoM margin (a convex hull, ~0.5
     ms) and the frames' errors are evaluated every ``margin_every`` steps,
     callbacks get a :class:`HoldSample` every ``every`` steps.
@@ -559,13 +560,13 @@ def track(
         ref = reference.data
         touching = set()
         for c in scene._contacts(m, d, 0.0):
+            pair = frozenset((c.robot_geom, c.other_geom))
             if c.self_contact:
-                pair = frozenset((c.robot_geom, c.other_geom))
-                if not criteria.allow_self_contact and pair not in planned_self:
+                if not criteria.allow_self_contact and pair not in planned_pairs:
                     unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))
                 continue
             g = scene._geom_id[c.robot_geom]
-            if g in allowed_ids:
+            if g in allowed_ids or pair in planned_pairs:
                 touching.add(g)
             else:
                 unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))

@@ -27,16 +27,20 @@ solve's levels, else the seed's joint defaults (:data:`SEED_MAX_VELOCITY`:
 irteus ``rotational-joint`` 5 rad/s, ``linear-joint`` π/4 m/s, the
 ``6dof-joint`` of a floating base 1.6 m/s and π/4 rad/s). The waypoints sit at
 the nominal times ``σ_i = Σ_{k<i} T_k`` along a path linear between them in
-joint space (``mj_integratePos``); the path is travelled with the
+joint space (``mj_integratePos``); each segment (one solve's iterates, from
+the pose before its first iterate to its last) is travelled with the
 minimum-jerk time scaling
 
 .. math::
 
-    \sigma(t) = S\, \big(10 τ^3 - 15 τ^4 + 6 τ^5\big), \quad τ = t / T, \qquad
-    T = \tfrac{15}{8}\, S
+    \sigma(t) = \sigma_a + S_k\, \big(10 τ^3 - 15 τ^4 + 6 τ^5\big), \quad
+    τ = (t - t_k) / T_k, \qquad T_k = \tfrac{15}{8}\, S_k
 
-(``S = σ_N``), which starts and ends at rest with zero acceleration; its peak
-rate ``dσ/dt = 15 S / 8 T = 1`` keeps every joint within ``s θ̇_max``.
+(``S_k`` the segment's nominal time), which starts and ends at rest with zero
+acceleration: a sequence of solves (look, reach, lift) is a sequence of
+motions, not one path whose direction turns abruptly at a solve's boundary.
+The peak rate ``dσ/dt = 15 S_k / 8 T_k = 1`` keeps every joint within
+``s θ̇_max``.
 
 **Tracking.** The scene's position servos ``τ = k_p (u - q) - k_v q̇`` get the
 target ``u = q_{ref} + (k_v / k_p)\, \dot q_{ref}`` (the damping then acts on the
@@ -44,12 +48,13 @@ velocity error) and the static torques of the waypoints
 (:func:`pik_mj.sim.hold.holding_torques`, linear in ``σ`` between knots) as
 feed-forward. After the path the last pose is held for ``settle`` seconds.
 
-**Contacts.** The planned contacts are those of the static checks along the
-path: the robot geoms touching the environment (within the scene's
-``contact_tolerance``, :meth:`Scene.touching`, and penetrating by less than it)
-at any waypoint, the self-contacts touching so at any waypoint, and the scene's
-``allowed_contacts``. Any other contact in the physics is unexpected; a path
-that passes a limb through the body or an obstacle shows up there.
+**Contacts.** The planned contacts are the scene's ``allowed_contacts`` (the
+soles, with anything) and the geom pairs of the static checks along the path:
+a robot geom and the environment or robot geom it touches at a waypoint
+(within the scene's ``contact_tolerance``, :meth:`Scene.touching`, and
+penetrating by less than it), with each other only. Any other contact in the
+physics is unexpected; a path that passes a limb through the body or an
+obstacle between two waypoints shows up there.
 
 **A sequence of scenes.** A grasp changes the physics (a weld): play the part
 before it in the scene without the grasp, and the part after it in the scene
@@ -108,8 +113,11 @@ SEED_MAX_VELOCITY: dict[str, tuple[float, ...]] = {
 m/s]: ``rotational-joint`` 5, ``linear-joint`` π/4, ``sphere-joint`` π/4 per
 axis, ``6dof-joint`` (0.08/0.05, 0.08/0.05, 0.08/0.05, π/4, π/4, π/4)."""
 
-DEFAULT_SPEED = 0.5
-"""Fraction of the joint velocity limits a motion moves at: 2.5 rad/s for a hinge."""
+DEFAULT_SPEED = 0.2
+"""Fraction of the joint velocity limits a motion moves at: 1 rad/s for a hinge,
+0.32 m/s for a floating base. At half the seed's limits the servos of the
+sample humanoid let its root lag 2-4 cm behind a lean (wall_contact,
+fullbody_external_force); at 0.2 it stays within 1.5 cm."""
 
 DEFAULT_SETTLE = 0.3
 """Time [s] the last pose is held after the path."""
@@ -363,16 +371,32 @@ class MotionReference:
             steps = np.where(self._dv == 0.0, 0.0, np.abs(self._dv) / rate)
         self._T = steps.max(axis=1) if n > 1 else np.zeros(0)
         self.nominal = np.concatenate([[0.0], np.cumsum(self._T)])
-        S = float(self.nominal[-1])
-        self.duration = _PEAK_RATE * S
-        table = np.linspace(0.0, 1.0, 4001)
-        self.times = (
-            self.duration * np.interp(self.nominal / S, _min_jerk(table), table)
-            if S > 0
-            else np.zeros(n)
+        # each segment (solve) starts and ends at rest: its own min-jerk scaling
+        labels = [w.segment for w in path.items]
+        firsts = [0] + [i for i in range(1, n) if labels[i] != labels[i - 1]]
+        ends = [f - 1 for f in firsts[1:]] + [n - 1]
+        self._seg_s = np.array(
+            [
+                [self.nominal[max(a - 1, 0)], self.nominal[b]]
+                for a, b in zip(firsts, ends, strict=True)
+            ]
         )
+        self._seg_D = _PEAK_RATE * (self._seg_s[:, 1] - self._seg_s[:, 0])
+        self._seg_t = np.concatenate([[0.0], np.cumsum(self._seg_D)])
+        self.duration = float(self._seg_t[-1])
+        table = np.linspace(0.0, 1.0, 4001)
+        self.times = np.zeros(n)
+        for k, (a, b) in enumerate(zip(firsts, ends, strict=True)):
+            s0, s1 = self._seg_s[k]
+            if s1 > s0:
+                frac = (self.nominal[a : b + 1] - s0) / (s1 - s0)
+                self.times[a : b + 1] = self._seg_t[k] + self._seg_D[k] * np.interp(
+                    frac, _min_jerk(table), table
+                )
+            else:
+                self.times[a : b + 1] = self._seg_t[k]
         self._start = start
-        self.data = mujoco.MjData(scene.model)
+        self.data = mujoco.MjData(scene.model)  # the environment at qpos0
         self.waypoint = 0
         kv_kp = np.array([kv / kp for kp, kv in (scene.servo_gains[j] for j in scene.servo_joints)])
         self._kv_kp = kv_kp
@@ -436,11 +460,13 @@ class MotionReference:
     def update(self, t: float) -> None:
         """The reference at time ``t`` [s]: kinematics, servo targets and torques."""
         scene, rm = self.scene, self._rm
-        T, S = self.duration, float(self.nominal[-1])
-        if T > 0 and t < T:
-            tau_t = t / T
-            s = S * float(_min_jerk(tau_t))
-            rate = S / T * _min_jerk_rate(tau_t)  # dσ/dt
+        S = float(self.nominal[-1])
+        k = int(np.searchsorted(self._seg_t, t, side="right") - 1)
+        if 0 <= k < len(self._seg_D) and self._seg_D[k] > 0:
+            (s0, s1), D = self._seg_s[k], self._seg_D[k]
+            tau_t = (t - self._seg_t[k]) / D
+            s = s0 + (s1 - s0) * float(_min_jerk(tau_t))
+            rate = (s1 - s0) / D * _min_jerk_rate(tau_t)  # dσ/dt
         else:
             s, rate = S, 0.0
         if self._ramp:
@@ -456,7 +482,10 @@ class MotionReference:
         else:
             self._qd_ref = np.zeros(rm.nv)
         self._q_ref = q
-        self.data.qpos[:] = scene._qpos(q)
+        if scene.grasps:  # the grasped objects follow the hand
+            self.data.qpos[:] = scene._qpos(q)
+        else:  # the waypoints were checked (planned_contacts): no check per step
+            self.data.qpos[: len(q)] = q
         mujoco.mj_kinematics(scene.model, self.data)
         d = scene.data
         d.ctrl[scene._servo_ids] = (
@@ -502,8 +531,10 @@ class MotionReport:
         slip: Largest foot slip relative to the reference [m].
         slip_per_geom: Slip of each planned contact geom [m].
         fell: The root dropped below ``fall_ratio`` of its reference height.
-        planned_contacts: Robot geoms allowed to touch the environment (the
-            scene's, and those touching along the path).
+        planned_contacts: Robot geoms allowed to touch the environment
+            anywhere (the scene's ``allowed_contacts``, the criteria's ``allowed``).
+        planned_pairs: ``(robot geom, other geom)`` touching at a waypoint
+            (:func:`planned_contacts`): allowed with each other only.
         unexpected_contacts: ``(robot geom, other geom, first time [s])``.
         thresholds: The pass/fail thresholds used.
         steps: Physics steps taken.
@@ -531,6 +562,7 @@ class MotionReport:
     slip_per_geom: dict[str, float]
     fell: bool
     planned_contacts: list[str]
+    planned_pairs: list[tuple[str, str]]
     unexpected_contacts: list[tuple[str, str, float]]
     thresholds: dict[str, float]
     steps: int
@@ -572,6 +604,7 @@ class MotionReport:
             "slip_per_geom": dict(self.slip_per_geom),
             "contacts": {
                 "planned": list(self.planned_contacts),
+                "planned_pairs": [list(p) for p in self.planned_pairs],
                 "unexpected": [list(c) for c in self.unexpected_contacts],
             },
             "fell": self.fell,
@@ -603,23 +636,21 @@ class MotionReport:
 # play
 
 
-def planned_contacts(scene: Scene, path: Waypoints) -> tuple[list[str], set[frozenset[str]]]:
-    """Robot geoms touching the environment, and self-contact pairs, at any
-    waypoint: the static checks' contacts (:meth:`Scene.touching`), within the
-    scene's ``contact_tolerance`` of touching. A pair that penetrates deeper
-    than the tolerance at a waypoint collides there: it is not planned."""
-    geoms: dict[str, None] = {}
-    pairs: set[frozenset[str]] = set()
+def planned_contacts(scene: Scene, path: Waypoints) -> list[tuple[str, str]]:
+    """The geom pairs ``(robot geom, other geom)`` touching at any waypoint (with
+    the environment or self-contacts): the static checks' contacts
+    (:meth:`Scene.touching`), within the scene's ``contact_tolerance`` of
+    touching. A pair that penetrates deeper than the tolerance at a waypoint
+    collides there: it is not planned. A planned pair is planned with its
+    partner only: a hand meant to touch a handle that sweeps through the
+    counter makes an unexpected contact."""
+    pairs: dict[tuple[str, str], None] = {}
     tolerance = scene.contact_tolerance
     for w in path.items:
         for c in scene.touching(scene._qpos(w.q)):
-            if c.dist < -tolerance:
-                continue
-            if c.self_contact:
-                pairs.add(frozenset((c.robot_geom, c.other_geom)))
-            else:
-                geoms.setdefault(c.robot_geom)
-    return list(geoms), pairs
+            if c.dist >= -tolerance:
+                pairs.setdefault((c.robot_geom, c.other_geom))
+    return list(pairs)
 
 
 def play(
@@ -637,6 +668,7 @@ def play(
     margin_every: int = 10,
     feedforward: bool = True,
     start: MotionReport | PhysicsState | None = None,
+    planned: Sequence[tuple[str, str]] = (),
 ) -> MotionReport:
     """Play ``path`` in the scene's physics (module docstring).
 
@@ -663,6 +695,9 @@ def play(
         start: A motion (or its state) to continue from, e.g. the part before a
             grasp in the scene without the grasp; None: from rest at the first
             waypoint.
+        planned: More planned contacts ``(robot geom, other geom)``, e.g. a hand
+            closing on a handle it overlaps at the grasp (a pair penetrating
+            at a waypoint is not planned by itself).
 
     Returns:
         A :class:`MotionReport`.
@@ -711,9 +746,14 @@ def play(
         every=every,
         margin_every=margin_every,
     )
-    touching, self_pairs = planned_contacts(scene, path)
+    for pair in planned:
+        if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
+            raise InvalidInput(f"planned contacts are (robot geom, other geom) pairs, got {pair!r}")
+        scene._allowed([pair[0]])  # a robot geom (UnknownName lists them)
+        scene.model.geom(pair[1])
+    pairs = list(dict.fromkeys([*planned_contacts(scene, path), *map(tuple, planned)]))
     given = scene.allowed_contacts if criteria.allowed is None else scene._allowed(criteria.allowed)
-    allowed = list(dict.fromkeys([*scene.allowed_contacts, *given, *touching]))
+    allowed = list(dict.fromkeys([*scene.allowed_contacts, *given]))
     frames = [Frame.find(scene.model, name, kind) for name, kind in path.frames.items()]
     run = track(
         scene,
@@ -721,7 +761,7 @@ def play(
         max(duration, scene.model.opt.timestep),
         criteria=criteria,
         allowed=allowed,
-        planned_self=self_pairs,
+        planned_pairs={frozenset(p) for p in pairs},
         external=external,
         callbacks=as_callbacks(callback),
         every=every,
@@ -748,6 +788,7 @@ def play(
         slip_per_geom=run.slip_per_geom,
         fell=run.fell,
         planned_contacts=allowed,
+        planned_pairs=pairs,
         unexpected_contacts=[(a, b, t) for (a, b), t in run.unexpected.items()],
         thresholds=criteria.thresholds(),
         steps=run.steps,
