@@ -104,7 +104,7 @@ def test_a_too_fast_motion_is_caught(reach):
 def test_the_motion_is_recorded_on_sim_time(reach, tmp_path):
     """The motion logger's series read back: the tracking error every 10th
     sample, each waypoint's index at its time, the reference robot's poses."""
-    _, scene, path = reach
+    robot, scene, path = reach
     rec = Recorder.to_file(tmp_path / "m.rrd", "test")
     rec.log_model_geometry(robot.model, robot_root_body=robot.root_body)
     samples = []
