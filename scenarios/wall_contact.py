@@ -98,6 +98,7 @@ def run(
         callback=[checks, log, progress, path],
     )
     result.add_solve("hand to the wall", reach, checks, finish=[log, progress, path])
+    checks = scene.static_checker()
     log = recorder.solve_logger("lean on the wall", checks=checks)
     progress = Progress("lean on the wall", total=100, stream=None if quiet else sys.stderr)
     # The arm and head keep 2 cm off the wall while the body leans (the forearm
