@@ -32,6 +32,7 @@ from pik_mj import (
     Waypoints,
     fullbody_inverse_kinematics,
 )
+from pik_mj.camera import Camera
 from pik_mj.models import MODELS_DIR
 from pik_mj.record.loggers import SolveLogger
 from pik_mj.scenario import (
@@ -120,6 +121,7 @@ def run(
     box = model.geom("obstacle").id
     arm = [g for g in range(model.ngeom) if model.body(model.geom_bodyid[g]).name in ARM]
 
+    head = Camera(model, "head_camera")
     pairs = collision_pairs(robot.model, robot.data, list(ARM), ["obstacle"])
     avoid = CollisionAvoidanceTask(
         robot.configuration, pairs, yellow=YELLOW, orange=ORANGE, gain=GAIN
@@ -136,7 +138,7 @@ def run(
         figures[f"hand_error_{key}_m"] = hand
         if speed:
             clearance = Clearance(arm, box)
-            log = recorder.motion_logger()
+            log = recorder.motion_logger(cameras=[head])  # the robot's view, where MuJoCo renders
             motion = scene.play(path, speed=speed, callback=[log, clearance])
             log.finish(motion)
             figures[f"min_distance_reference_{key}_m"] = clearance.reference

@@ -363,7 +363,7 @@ class HoldLogger:
         self._skipped: Any = None
 
     def __call__(self, sample: HoldSample) -> None:
-        if self.calls == 0:
+        if self._starts(sample):
             self._begin(sample)
         n, self.calls = self.calls, self.calls + 1
         if n % self.every:
@@ -371,6 +371,10 @@ class HoldLogger:
             return
         self._skipped = None
         self._log(sample)
+
+    def _starts(self, sample: HoldSample) -> bool:
+        """The first sample starts the hold."""
+        return self.calls == 0
 
     def _begin(self, sample: HoldSample) -> None:
         self.recorder._begin_sim(sample.model, sample.data, float(sample.time))
@@ -492,15 +496,9 @@ class MotionLogger(HoldLogger):
         self._no_rendering: str | None = None
         self._next_image = -math.inf
 
-    def __call__(self, sample: HoldSample) -> None:
-        if sample.model is not self._model:
-            self._begin(sample)
-        n, self.calls = self.calls, self.calls + 1
-        if n % self.every:
-            self._skipped = sample
-            return
-        self._skipped = None
-        self._log(sample)
+    def _starts(self, sample: HoldSample) -> bool:
+        """A sample of another model than the last starts a run (a new scene)."""
+        return sample.model is not self._model
 
     def _begin(self, sample: HoldSample) -> None:
         from ..sensors import RobotSensors
