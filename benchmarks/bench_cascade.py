@@ -19,7 +19,8 @@ within 1 mm / 1 degree (at most 50 iterations):
 Time to solution is the wall time of the whole loop (the solve call, or mink's
 loop with its stop test), tasks built beforehand for both. Each figure is the
 median over targets in one round; the table shows the median over ``--rounds``
-rounds, and each ratio is the median of the ratios measured within a round.
+rounds, and each ratio is the median of the ratios measured within a round
+(their range over the rounds is printed too).
 
 Also measured: the worst foot drift over 50 iterations when the hand target is
 2 m out of reach, with pik_mj's FrameTasks and with raw ``mink.FrameTask``s in
@@ -155,17 +156,18 @@ def summarize(rounds: list[dict[str, list[Run]]]) -> dict[str, dict[str, float]]
             "ms_to_solution_runs": [float(m) for m in ms],
         }
 
-    def ratio(a: str, b: str) -> float:
-        per_round = [
-            np.median([r.seconds for r in rnd[a]]) / np.median([r.seconds for r in rnd[b]])
+    def ratios(a: str, b: str) -> list[float]:
+        return [
+            float(np.median([r.seconds for r in rnd[a]]) / np.median([r.seconds for r in rnd[b]]))
             for rnd in rounds
         ]
-        return float(np.median(per_round))
 
-    out["ratios"] = {
-        "pik osqp / mink osqp": ratio("pik osqp", "mink osqp"),
-        "pik daqp-hqp / mink daqp": ratio("pik daqp-hqp", "mink daqp"),
+    pairs = {
+        "pik osqp / mink osqp": ("pik osqp", "mink osqp"),
+        "pik daqp-hqp / mink daqp": ("pik daqp-hqp", "mink daqp"),
     }
+    out["ratio_runs"] = {label: ratios(a, b) for label, (a, b) in pairs.items()}
+    out["ratios"] = {label: float(np.median(r)) for label, r in out["ratio_runs"].items()}
     return out
 
 
@@ -180,7 +182,10 @@ def print_table(name: str, n: int, rounds: int, s: dict) -> None:
     ):
         print(f"{label:26}" + "".join(fmt.format(s[k][key]) for k in SOLVERS))
     for label, value in s["ratios"].items():
-        print(f"  time to solution, {label}: {value:.2f}")
+        runs = s["ratio_runs"][label]
+        print(
+            f"  time to solution, {label}: {value:.2f} (rounds: {min(runs):.2f} to {max(runs):.2f})"
+        )
 
 
 def main(argv=None) -> dict:

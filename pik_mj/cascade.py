@@ -143,8 +143,8 @@ class NullSpaceCascade:
     """The cascade's levels, one after the other.
 
     Keeps ``x`` (the step so far) and ``P``, the orthogonal projector onto the
-    null space of every kept equality row. Level ``k`` (equality rows
-    ``Â = W^½ A_k``, ``r = W^½ (b_k − A_k x)``) minimizes
+    null space of every kept equality row (None while it is ``I``). Level
+    ``k`` (equality rows ``Â = W^½ A_k``, ``r = W^½ (b_k − A_k x)``) minimizes
     ``‖Â (x + P v) − W^½ b_k‖² + λ_k ‖x + P v‖²``; with ``B = Â P``:
 
     .. math::
@@ -161,14 +161,15 @@ class NullSpaceCascade:
     def __init__(self, hard: TaskRows, backend: QPBackend | None, relaxation: float, role: str):
         nv = hard.A.shape[1]
         self.backend, self.tau, self.role = backend, relaxation, role
+        self.nv = nv
         self.x = np.zeros(nv)
-        self.P = np.eye(nv)
+        self.P: np.ndarray | None = None  # None: still I (the products with it are skipped)
         # The inequality rows to respect, stacked: C x in [lo, hi], each row
         # widened by (slack - s0) times its 1-norm (the feasibility errors of
         # the backend solutions from its own level on).
         self.C, self.lo, self.hi = hard.C, hard.d_lower, hard.d_upper
         self.s0 = np.zeros(hard.n_in)
-        self.norm1 = np.abs(hard.C).sum(axis=1)
+        self._norm1: np.ndarray | None = None  # of C's rows, made when first needed
         self.slack = 0.0  # Σ feasibility errors of backend solutions so far
         # kept equality rows E x = e (the hard ones, then each level's)
         self.E, self.e = hard.A, hard.b
@@ -184,8 +185,19 @@ class NullSpaceCascade:
     def _keep(self, A: np.ndarray) -> None:
         if A.shape[0] == 0:
             return
-        B = A @ self.P
-        self.P = self.P - B.T @ (_pinv_psd(B @ B.T) @ B)
+        if self.P is None:
+            B = A
+            self.P = np.eye(self.nv) - B.T @ (_pinv_psd(B @ B.T) @ B)
+        else:
+            B = A @ self.P
+            self.P = self.P - B.T @ (_pinv_psd(B @ B.T) @ B)
+
+    @property
+    def norm1(self) -> np.ndarray:
+        """1-norm of each inequality row of :attr:`C`."""
+        if self._norm1 is None or self._norm1.size != self.C.shape[0]:
+            self._norm1 = np.abs(self.C).sum(axis=1)
+        return self._norm1
 
     def _excess(self, x: np.ndarray) -> np.ndarray:
         """Violation of each inequality row at ``x`` beyond its allowance (<= 0: met)."""
@@ -200,12 +212,15 @@ class NullSpaceCascade:
         x = self.x
         sw = np.sqrt(rows.w_A)
         A_hat = sw[:, None] * rows.A
-        B = A_hat @ self.P
-        r = sw * rows.b - A_hat @ x + B @ x
+        if self.P is None:  # B = Â, and r + B x = W^½ b
+            B, r = A_hat, sw * rows.b
+        else:
+            B = A_hat @ self.P
+            r = sw * rows.b - A_hat @ x + B @ x
         G = B @ B.T
         G.flat[:: G.shape[0] + 1] += lam
         u = B.T @ np.linalg.solve(G, r) if lam > 0 else B.T @ (_pinv_psd(G) @ r)
-        return x - self.P @ x + u
+        return u if self.P is None else x - self.P @ x + u
 
     def _violated(self, rows: TaskRows, x: np.ndarray, tol: float) -> tuple:
         """``(kept rows, own rows)`` violated by more than ``tol`` at ``x``."""
@@ -219,7 +234,7 @@ class NullSpaceCascade:
         inequality rows within their (widened) bounds, the level's own
         inequality rows with slacks. Sparse when the Jacobians are (OSQP's
         iterations then cost little)."""
-        n, m = self.P.shape[0], rows.n_in
+        n, m = self.nv, rows.n_in
         WA = rows.w_A[:, None] * rows.A
         P = np.zeros((n + m, n + m))
         P[:n, :n] = rows.A.T @ WA
@@ -278,7 +293,6 @@ class NullSpaceCascade:
                 self.lo = np.concatenate([self.lo, np.minimum(rows.d_lower, cx) - tau])
                 self.hi = np.concatenate([self.hi, np.maximum(rows.d_upper, cx) + tau])
                 self.s0 = np.concatenate([self.s0, np.full(rows.n_in, s0)])
-                self.norm1 = np.concatenate([self.norm1, np.abs(rows.C).sum(axis=1)])
         return x_k, problem, violation
 
 

@@ -11,8 +11,9 @@ a failing problem can be inspected and re-solved anywhere. Backends:
   sparsity pattern per level and problem shape; after a level's first problem
   in a solve, only ``update()`` + warm start. ``make_backend("osqp")`` hands
   out one backend per thread and settings, kept across solves (a motion calls
-  :func:`pik_mj.solve` every tick); each solve sets its levels up afresh once,
-  so that its result does not depend on the solves before it.
+  :func:`pik_mj.solve` every tick); a later solve reuses a level's workspace
+  when the pattern is the same, reset to the state of a fresh setup, so that
+  its result does not depend on the solves before it.
 * :class:`~pik_mj.qp_daqp.DAQPBackend` (``"daqp"``): DAQP's dual active-set
   method, per level.
 * :class:`~pik_mj.qp_daqp.HierarchicalBackend` (``"daqp-hqp"``): the whole
@@ -192,18 +193,53 @@ _OSQP_STATUS_TEXT = {
 }
 
 
+_OSQP_RHO = 0.1
+"""OSQP's default initial ``ρ`` (its setting ``rho``)."""
+
+_UPPER: dict[int, np.ndarray] = {}
+
+
+def _upper(n: int) -> np.ndarray:
+    """The upper triangle (diagonal included) of an n x n matrix, as a mask
+    (made once per size, read-only)."""
+    if n not in _UPPER:
+        mask = np.triu(np.ones((n, n), dtype=bool))
+        mask.flags.writeable = False
+        _UPPER[n] = mask
+    return _UPPER[n]
+
+
+def _masks(problem: LevelProblem) -> tuple[np.ndarray, np.ndarray]:
+    """The sparsity patterns of a problem: ``P``'s upper triangle (diagonal
+    always in) and ``A``.
+
+    The pattern is the nonzeros as they are, although a posture's coincidental
+    zeros (an aligned root) cost one more setup() when they fill in:
+    densifying Jacobian rows up front was measured slower, as every later
+    update refactorizes a denser KKT system.
+    """
+    P_mask = (problem.P != 0) & _upper(problem.P.shape[0])
+    P_mask.flat[:: P_mask.shape[0] + 1] = True
+    return P_mask, problem.A != 0
+
+
 @dataclass
 class _OSQPLevel:
     solver: osqp.OSQP
     P_pattern: _Pattern
     A_pattern: _Pattern
     epoch: int = 0  # the solve this workspace last served
+    key: tuple = ()  # its key in OSQPBackend._levels (level and pattern)
 
 
 @dataclass
 class OSQPBackend:
-    """OSQP with one cached solver per level and shape: set up at the level's
-    first problem of a solve (:meth:`start`), then updated and warm-started.
+    """OSQP with one cached solver per level and shape: set up once, then
+    updated and warm-started. A solve's (:meth:`start`) first problem of a
+    level reuses the workspace when its sparsity pattern is exactly the
+    workspace's, with ``ρ`` and the iterates reset (the result of a fresh
+    setup, bit for bit); otherwise it is set up afresh. A pattern that grows
+    within a solve is set up again, grown.
 
     Args:
         settings: OSQP settings overriding :data:`OSQP_DEFAULTS` (keys:
@@ -225,6 +261,7 @@ class OSQPBackend:
     setups: int = 0
     fallbacks: int = 0
     _levels: OrderedDict[tuple, _OSQPLevel] = field(default_factory=OrderedDict, repr=False)
+    _current: dict[tuple, _OSQPLevel] = field(default_factory=dict, repr=False)
     _epoch: int = 0
 
     def __post_init__(self) -> None:
@@ -237,43 +274,34 @@ class OSQPBackend:
 
     def start(self) -> None:
         """A new solve begins (see :meth:`solve`: each level's first problem in
-        it is set up afresh)."""
+        it starts from a fresh setup's state)."""
         self._epoch += 1
 
     def solve(self, problem: LevelProblem) -> QPSolution:
-        P = problem.P
         key = (problem.role, problem.level, problem.A.shape)
-        cached = self._levels.get(key)
+        cached = self._current.get(key)
         try:
             if (
-                cached is None
-                or cached.epoch != self._epoch
-                or not cached.P_pattern.covers(P)
-                or not cached.A_pattern.covers(problem.A)
+                cached is not None
+                and cached.epoch == self._epoch
+                and cached.P_pattern.covers(problem.P)
+                and cached.A_pattern.covers(problem.A)
             ):
-                # A level's first problem in a solve is set up afresh: OSQP's
-                # update path reproduces a fresh setup only to rounding, and a
-                # solve's result must not depend on the solves before it.
-                old = cached if cached is not None and cached.epoch == self._epoch else None
-                cached = self._setup(problem, key, old)
+                self._update(cached, problem)  # warm-started from the last problem
             else:
-                self._levels.move_to_end(key)
-                # The extension's own update/solve: osqp's Python wrapper spends ~4x
-                # the C solve time per call on bookkeeping for derivatives.
-                ext = cached.solver._solver
-                ext.update_data_vec(
-                    q=problem.q,
-                    l=np.maximum(problem.l, -_OSQP_INFTY),
-                    u=np.minimum(problem.u, _OSQP_INFTY),
-                )
-                ext.update_data_mat(
-                    P_x=cached.P_pattern.data(P),
-                    P_i=None,
-                    A_x=cached.A_pattern.data(problem.A),
-                    A_i=None,
-                )
+                # A level's first problem in this solve, or one whose pattern
+                # grew: the workspace of exactly that pattern, in the state a
+                # fresh setup() leaves (whatever solves it served before).
+                P_mask, A_mask = _masks(problem)
+                if cached is not None and cached.epoch == self._epoch:  # grow, never shrink
+                    P_mask |= cached.P_pattern.mask
+                    A_mask |= cached.A_pattern.mask
+                cached = self._workspace(key, P_mask, A_mask, problem)
+                self._current[key] = cached
         except osqp.OSQPException as exc:
-            self._levels.pop(key, None)
+            failed = self._current.pop(key, None)
+            if failed is not None:  # its state is unknown: never serve it again
+                self._levels.pop(failed.key, None)
             code = int(exc.args[0]) if exc.args else 0
             return QPSolution(None, f"OSQP: {_OSQP_ERRORS.get(code, f'error {code}')}", False)
         cached.epoch = self._epoch
@@ -297,19 +325,54 @@ class OSQPBackend:
             return QPSolution(None, f"{text}; {self.fallback}: {rescue.status}", False)
         return QPSolution(None, text, False)
 
-    def _setup(self, problem: LevelProblem, key: tuple, old: _OSQPLevel | None) -> _OSQPLevel:
-        # The pattern is the nonzeros as they are, although a posture's
-        # coincidental zeros (an aligned root) cost one more setup() when they
-        # fill in: densifying Jacobian rows up front was measured slower, as
-        # every later update refactorizes a denser KKT system.
-        upper = np.triu(np.ones(problem.P.shape, dtype=bool))
-        P_mask = (problem.P != 0) & upper
-        P_mask[np.diag_indices_from(P_mask)] = True
-        A_mask = problem.A != 0
-        if old is not None:  # grow, never shrink
-            P_mask |= old.P_pattern.mask
-            A_mask |= old.A_pattern.mask
-        P_pattern, A_pattern = _Pattern(P_mask, upper), _Pattern(A_mask)
+    def _workspace(
+        self, key: tuple, P_mask: np.ndarray, A_mask: np.ndarray, problem: LevelProblem
+    ) -> _OSQPLevel:
+        """The workspace of ``key`` with exactly this pattern, reset (see
+        :meth:`_reset`), or a new one set up."""
+        pattern = (key, P_mask.tobytes(), A_mask.tobytes())
+        cached = self._levels.get(pattern)
+        if cached is None:
+            return self._setup(problem, pattern, P_mask, A_mask)
+        self._levels.move_to_end(pattern)
+        self._current[key] = cached  # (dropped by solve() if the update fails)
+        self._update(cached, problem)
+        self._reset(cached, problem)
+        return cached
+
+    def _update(self, cached: _OSQPLevel, problem: LevelProblem) -> None:
+        """New values in the workspace's pattern (the extension's own update:
+        osqp's Python wrapper spends ~4x the C solve time per call on
+        bookkeeping for derivatives)."""
+        ext = cached.solver._solver
+        ext.update_data_vec(
+            q=problem.q,
+            l=np.maximum(problem.l, -_OSQP_INFTY),
+            u=np.minimum(problem.u, _OSQP_INFTY),
+        )
+        ext.update_data_mat(
+            P_x=cached.P_pattern.data(problem.P),
+            P_i=None,
+            A_x=cached.A_pattern.data(problem.A),
+            A_i=None,
+        )
+
+    def _reset(self, cached: _OSQPLevel, problem: LevelProblem) -> None:
+        """The state ``setup()`` leaves: the initial ``ρ`` (adaptive ``ρ``
+        changed it) and a cold start. The KKT matrix is then refactored from
+        the same values in the same pattern, so the iterates are those of a
+        fresh setup, bit for bit (tested)."""
+        ext = cached.solver._solver
+        ext.update_rho(float(self.settings.get("rho", _OSQP_RHO)))
+        if ext.get_settings().warm_starting:
+            # (warm_start() also turns warm starting on: a workspace without
+            # it, the correction's, cold-starts every solve by itself)
+            ext.warm_start(np.zeros(problem.P.shape[0]), np.zeros(problem.A.shape[0]))
+
+    def _setup(
+        self, problem: LevelProblem, key: tuple, P_mask: np.ndarray, A_mask: np.ndarray
+    ) -> _OSQPLevel:
+        P_pattern, A_pattern = _Pattern(P_mask, _upper(problem.P.shape[0])), _Pattern(A_mask)
         settings = dict(self.settings)
         if problem.role == "correction":
             # The correction ends on a level whose null space only the
@@ -328,7 +391,7 @@ class OSQPBackend:
             **settings,
         )
         self.setups += 1
-        level = _OSQPLevel(solver, P_pattern, A_pattern, self._epoch)
+        level = _OSQPLevel(solver, P_pattern, A_pattern, self._epoch, key)
         self._levels[key] = level
         self._levels.move_to_end(key)
         while len(self._levels) > self.capacity:

@@ -347,10 +347,11 @@ def test_tight_osqp_rarely_needs_the_fallback():
     assert backend.fallbacks <= 0.2 * levels_solved, (backend.fallbacks, levels_solved)
 
 
-def test_osqp_backend_sets_up_once_per_level_and_solve_then_updates():
-    """Within a solve (between two ``start()``), each level is set up once and
-    updated after; a new solve sets its levels up afresh, and gives the same
-    result for the same problem whatever came before."""
+def test_osqp_workspaces_serve_later_solves_with_the_result_of_a_fresh_setup():
+    """Each level is set up once: later problems of the same solve update it,
+    and a later solve (after ``start()``) reuses it when the pattern is the
+    same, reset to the state setup() leaves, so that the result is bit for bit
+    that of a fresh backend whatever came before."""
     rng = np.random.default_rng(3)
     backend = OSQPBackend()
     hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
@@ -361,13 +362,52 @@ def test_osqp_backend_sets_up_once_per_level_and_solve_then_updates():
     assert backend.setups == 3
     backend.start()
     again = [solve_cascade(hard, s, regs, backend, closed_form=False).x for s in stacks[::-1]]
-    assert backend.setups == 6
+    assert backend.setups == 3  # reused across solves
     backend.start()
     np.testing.assert_array_equal(
         solve_cascade(hard, stacks[0], regs, backend, closed_form=False).x, first[0]
     )
+    fresh = OSQPBackend()
+    fresh.start()
+    np.testing.assert_array_equal(
+        solve_cascade(hard, stacks[-1], regs, fresh, closed_form=False).x, again[0]
+    )
     # the same problem warm-started from others: the same up to OSQP's tolerance
     assert np.abs(again[-1] - first[0]).max() <= 1e-4
+
+    # the correction's workspaces (no warm start) too: the same sequence of
+    # problems gives what a fresh backend gives
+    def corrections(b):
+        b.start()
+        return [solve_cascade(hard, s, regs, b, 1e-5, "correction", False).x for s in stacks]
+
+    fixes = [corrections(backend) for _ in range(2)]
+    assert backend.setups == 6
+    np.testing.assert_array_equal(fixes[0], fixes[1])
+    np.testing.assert_array_equal(fixes[1], corrections(OSQPBackend()))
+
+
+def test_osqp_workspaces_of_a_grown_pattern_serve_later_solves():
+    """A level whose pattern grows within a solve (a coincidental zero of the
+    first problem fills in) is set up again, grown; a later solve of the same
+    problems reuses both workspaces and gives the same result bit for bit."""
+    rng = np.random.default_rng(5)
+    hard = TaskRows.inequality(np.eye(NV), -0.4, 0.4)
+    dense = [random_rows(rng, 3, 2) for _ in range(2)]
+    sparse = [r._replace(A=np.where(np.abs(r.A) < 0.5, 0.0, r.A)) for r in dense]
+    regs = [Regularization()] * 2
+
+    def one_solve(backend):
+        backend.start()
+        return [solve_cascade(hard, s, regs, backend, closed_form=False).x for s in (sparse, dense)]
+
+    backend = OSQPBackend()
+    first = one_solve(backend)
+    assert backend.setups == 4  # each level: its sparse pattern, then grown
+    again = one_solve(backend)
+    assert backend.setups == 4
+    for a, b in zip(first, again, strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 # -------------------------------------------------------- hierarchical backend
