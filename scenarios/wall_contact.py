@@ -43,6 +43,7 @@ from pik_mj.scenario import (
     report,
 )
 from pik_mj.sensors import RobotSensors, SensorTrace
+from pik_mj.solve import TrustRegion
 from pik_mj.spatial import yaw_of
 from pik_mj.tasks.collision import collision_pairs
 
@@ -52,6 +53,10 @@ PALM_OFFSET = 0.02  # [m] from the hand site to the palm face (hand box half thi
 LEAN = 0.1  # [m] CoM target past the toes
 BUMPER = "rarm_bumper"  # touch sensor site around the right hand
 TOUCHING = 1e-3  # [m] hand-wall distance at which the palm is on the wall
+# The step rule the palm-then-lean path was tuned with (a first radius of 0.5
+# ends the palm's solve with the forearm nearer the wall than the lean's
+# clearance, which then never holds: the lean reverts).
+STEPS = TrustRegion(radius=1.0)
 
 
 def run(
@@ -95,6 +100,7 @@ def run(
         limbs=["rarm"],
         rotation_axis=["y"],
         stop=100,
+        trust_region=STEPS,
         callback=[checks, log, progress, path],
     )
     result.add_solve("hand to the wall", reach, checks, finish=[log, progress, path])
@@ -117,6 +123,7 @@ def run(
         extra_levels=[[lean_task]],
         stop=100,
         min_loop=15,  # the lean is not checked (it stops where the SCFR keeps it)
+        trust_region=STEPS,
         callback=[checks, log, progress, path.segment("lean on the wall")],
     )
     result.add_solve("lean on the wall", res, checks, finish=[log, progress, path])
