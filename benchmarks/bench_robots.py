@@ -3,33 +3,40 @@
 Robots: Unitree G1, H1, Booster T1 (MuJoCo Menagerie, through ``MENAGERIE_ROOT``
 or the ``mujoco-menagerie`` cache; a robot that is not on the machine is
 skipped, saying so), the project's ``sample_humanoid`` and dm_control's
-``dm_humanoid``. For each, with nothing written by hand:
+``dm_humanoid``. Each is built with nothing written by hand:
+``Robot.from_model(name)`` (standing keyframe, limbs found from the tree, put
+down on the floor) and ``Scene.from_robot(robot)`` (its own position actuators
+as servos, the other joints' servo gains from its inertia). Then ``--n`` random
+right-hand (``rarm`` end frame) targets, seeded:
 
-* the standing pose by :func:`pik_mj.keyframes.standing_pose`, its limbs by
-  :func:`pik_mj.limbs.find_limbs`, its soles by :func:`pik_mj.ground.sole_polygons`;
-* ``--n`` random right-hand (``rarm`` end frame) position targets, seeded, in a
-  box around the hand's start scaled by the standing height ``h`` of the root:
-
-  .. math::
-
-      \\Delta p \\in [0, 0.3h] \\times [-0.25h, 0.1h] \\times [-0.1h, 0.3h]
-
+* **reachable by construction**: from the standing pose, the right arm's joints
+  are drawn ``q_i ~ N(q_i0, σ²)`` clipped to their ranges shrunk by 5 % at each
+  end (the rest of the robot as it stands); the draw is kept when the CoM stays
+  ``MARGIN`` inside the soles' support polygon, no watched pair comes nearer
+  than the avoidance allows and nothing but the feet comes within 1 cm of the
+  floor. The hand's pose there is the target, position and orientation (1 mm
+  and 1°; Unitree H1's and Booster T1's arms have 4 joints, but with the legs
+  and the floating base they reach these poses too): a solution exists, so the
+  converged figure measures the solver, not the sampling;
 * :func:`pik_mj.ik.fullbody_inverse_kinematics` (root bounds, posture as its
-  defaults, ``stop=100``): level 1 = both feet fixed + the CoM inside the soles'
-  support polygon shrunk by ``MARGIN`` (:class:`~pik_mj.tasks.support_polygon.SupportPolygonTask`)
+  defaults, ``stop=100``): level 1 = both feet fixed + the CoM inside the
+  soles' support polygon (collision geometry, :func:`pik_mj.ground.sole_polygons`)
+  shrunk by ``MARGIN`` (:class:`~pik_mj.tasks.support_polygon.SupportPolygonTask`)
   + self-collision avoidance (:class:`~pik_mj.tasks.collision.CollisionAvoidanceTask`,
   yellow zone 10 cm, orange zone 1 cm, every pair of the robot's bodies less
   adjacent ones, pairs touching in the standing pose and pairs whose distance
-  the hand's and legs' joints cannot change); level 2 = the hand.
+  the hand's and legs' joints cannot change); level 2 = the hand;
+* the same stack without the avoidance task, same target, back to back (both
+  see the same machine load);
+* the final pose (with avoidance) held 3 s in the robot's scene
+  (:meth:`pik_mj.sim.Scene.hold`, default :class:`~pik_mj.sim.HoldCriteria`:
+  base drift < 1 cm, foot slip < 2 mm, no fall, only the feet touching).
 
 Columns: degrees of freedom (``nv``), watched collision pairs, IK converged %,
-median over targets of the CPU ms per iteration with avoidance and without it
-(the same stack less the avoidance task, same targets), their ratio, and the hold pass % — **not yet
-measured**: it needs the scene made from the robot (``Scene.from_robot``) and
-the robot's own actuators as servos (issue 14's integration phase).
-
-Each target is solved with and without avoidance back to back, so both see the
-same machine load; ``--qp-solver daqp`` runs every level on DAQP instead of OSQP.
+median over targets of the CPU ms per iteration with avoidance and without it,
+their ratio, IK converged % without avoidance, hold pass % (of all targets) and
+the largest base drift of the passing holds. ``--qp-solver daqp`` runs every
+level on DAQP instead of OSQP.
 
 Run: ``MENAGERIE_ROOT=... OPENBLAS_NUM_THREADS=1 python benchmarks/bench_robots.py [--n 50]``
 """
@@ -38,16 +45,15 @@ from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from pik_mj.ground import sole_polygons
+from pik_mj import HoldCriteria, Robot, Scene
+from pik_mj.balance import support_polygon
+from pik_mj.ground import foot_geoms, geom_heights, sole_polygons, subtree_bodies
 from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.keyframes import standing_pose
-from pik_mj.limbs import find_limbs
-from pik_mj.models import load_model, menagerie_available, menagerie_models
-from pik_mj.robot import Robot
+from pik_mj.models import menagerie_available, menagerie_models
 from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs, moving_pairs
 from pik_mj.tasks.support_polygon import SupportPolygonTask
 
@@ -55,9 +61,9 @@ ROBOTS = ("unitree_g1", "unitree_h1", "booster_t1", "sample_humanoid", "dm_human
 HAND = "rarm"
 MARGIN = 0.02  # [m] CoM kept this far inside the support polygon
 YELLOW, ORANGE = 0.1, 0.01  # [m] collision avoidance: watched below, kept above
-BOX = (np.array([0.0, -0.25, -0.1]), np.array([0.3, 0.1, 0.3]))  # × standing height
-IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
-HOLD_PENDING = "n/a"  # the hold pass column, until Scene.from_robot and the servos land
+SIGMA = 0.5  # [rad] spread of the random arm joints about the standing pose
+CLEARANCE = 0.01  # [m] a target pose keeps all but the feet this far above the floor
+HOLD = 3.0  # [s]
 
 
 @dataclass
@@ -71,7 +77,9 @@ class Row:
     ms_per_iteration: float  # median, with avoidance [ms]
     ms_per_iteration_without: float  # median, same targets without avoidance [ms]
     converged_without: float
-    hold_pass: str = HOLD_PENDING
+    hold_pass: float  # fraction of targets whose final pose held
+    max_drift: float  # [m] largest base drift of the passing holds
+    failures: list[str] = field(default_factory=list)
 
     @property
     def ratio(self) -> float:
@@ -79,16 +87,15 @@ class Row:
 
 
 class Setup:
-    """A robot ready to solve: standing pose, limbs, soles, collision pairs."""
+    """A robot as it is shipped, its scene, its soles and watched collision pairs."""
 
     def __init__(self, name: str):
         self.name = name
-        model = load_model(name)
-        pose = standing_pose(model)
-        self.robot = Robot(model, limbs=find_limbs(model, pose.qpos))
-        self.q0 = pose.qpos.copy()
-        self.robot.configuration.update(self.q0)
+        self.robot = Robot.from_model(name, required_limbs=(HAND, "rleg", "lleg"))
+        self.scene = Scene.from_robot(self.robot)
+        self.q0 = self.robot.configuration.q.copy()
         self.soles = sole_polygons(self.robot)
+        self.region = support_polygon(self.soles)
         m = self.robot.model
         root = self.robot.root_body_id
         bodies = [
@@ -100,55 +107,90 @@ class Setup:
         # joints move (the other joints are frozen by fullbody_inverse_kinematics)
         moving = [j for limb in (HAND, "rleg", "lleg") for j in self.robot.limb(limb).joints]
         self.pairs = moving_pairs(m, collision_pairs(m, self.robot.data, bodies), moving)
-        limb = self.robot.limb(HAND)
-        self.p_hand = self.robot.frame_pose(limb.end_frame, limb.end_frame_type).translation()
-        self.height = float(self.robot.root_pose()[0][2] - min(p[:, 2].min() for p in self.soles))
+        self.arm = self.robot.limb(HAND)
+        self.feet = set(foot_geoms(self.robot))
+        self.bodies = subtree_bodies(m, root)
 
-    def targets(self, n: int, seed: int) -> np.ndarray:
-        rng = np.random.default_rng(seed)
-        return self.p_hand + self.height * rng.uniform(*BOX, size=(n, 3))
+    def _avoidance(self) -> CollisionAvoidanceTask:
+        return CollisionAvoidanceTask(
+            self.robot.configuration, self.pairs, yellow=YELLOW, orange=ORANGE
+        )
 
-    def solve(self, target: np.ndarray, avoidance: bool, qp_solver: str = "osqp"):
-        """Reach ``target`` from the standing pose; the result and the avoidance task."""
+    def targets(self, n: int, seed: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """``n`` hand poses ``(p_WH, quat_WH)`` reachable by construction (module docstring)."""
+        robot, rng = self.robot, np.random.default_rng(seed)
+        lo, hi = robot.joint_limits(self.arm.joints)
+        lo, hi = np.where(np.isfinite(lo), lo, -np.pi), np.where(np.isfinite(hi), hi, np.pi)
+        lo, hi = lo + 0.05 * (hi - lo), hi - 0.05 * (hi - lo)
+        q_arm0 = robot.angle_vector(self.arm.joints)
+        robot.configuration.update(self.q0)
+        avoid = self._avoidance()  # its bounds: the standing pose's
+        out = []
+        while len(out) < n:
+            robot.configuration.update(self.q0)
+            robot.set_angle_vector(
+                np.clip(q_arm0 + rng.normal(0.0, SIGMA, len(q_arm0)), lo, hi), self.arm.joints
+            )
+            if (
+                self.region.signed_distance(robot.com()) < MARGIN
+                or not avoid.is_satisfied(robot.configuration)
+                or self._floor_clearance() < CLEARANCE
+            ):
+                continue
+            X = robot.frame_pose(self.arm.end_frame, self.arm.end_frame_type)
+            out.append((X.translation(), X.rotation().wxyz))
+        robot.configuration.update(self.q0)
+        return out
+
+    def _floor_clearance(self) -> float:
+        """Height [m] of the lowest collision geom that is not a foot's."""
+        heights = geom_heights(self.robot.model, self.robot.data, self.bodies)
+        return min((h for g, h in heights.items() if g not in self.feet), default=np.inf)
+
+    def solve(self, target, avoidance: bool, qp_solver: str = "osqp"):
+        """Reach ``target`` from the standing pose."""
         robot = self.robot
         robot.configuration.update(self.q0)
         support = SupportPolygonTask(
             robot.configuration, self.soles, root_body=robot.root_body, margin=MARGIN
         )
-        avoid = (
-            [CollisionAvoidanceTask(robot.configuration, self.pairs, yellow=YELLOW, orange=ORANGE)]
-            if avoidance
-            else []
-        )
-        result = fullbody_inverse_kinematics(
+        return fullbody_inverse_kinematics(
             robot,
-            [(target, IDENTITY)],
+            [target],
             limbs=[HAND],
-            rotation_axis=[None],  # position only
             balance=[support],
-            collision_avoidance=avoid,
+            collision_avoidance=[self._avoidance()] if avoidance else [],
             stop=100,
             revert_if_fail=False,
             qp_solver=qp_solver,
         )
-        return result, avoid
 
 
-def run_robot(name: str, n: int, seed: int, qp_solver: str = "osqp") -> Row:
-    """Each target solved with and without avoidance, one after the other, so
-    that both variants see the same machine load. Time per iteration is the
-    process's CPU time of a solve over its iterations (steadier than wall time
-    on a shared machine; run with one BLAS thread: ``OPENBLAS_NUM_THREADS=1``)."""
+def run_robot(name: str, n: int, seed: int, qp_solver: str = "osqp", hold: float = HOLD) -> Row:
+    """Each target solved with and without avoidance, one after the other, then
+    the pose with avoidance held. Time per iteration is the process's CPU time of
+    a solve over its iterations (steadier than wall time on a shared machine;
+    run with one BLAS thread: ``OPENBLAS_NUM_THREADS=1``)."""
     setup = Setup(name)
     converged: dict[bool, list[bool]] = {True: [], False: []}
     per_iteration: dict[bool, list[float]] = {True: [], False: []}
+    held, drifts, failures = [], [], []
     for target in setup.targets(n, seed):
-        for avoidance in (True, False):
+        for avoidance in (False, True):  # the avoidance solve last: its pose is held
             t0 = time.process_time()
-            result, _ = setup.solve(target, avoidance, qp_solver)
+            result = setup.solve(target, avoidance, qp_solver)
             cpu = time.process_time() - t0
             converged[avoidance].append(result.converged)
             per_iteration[avoidance].append(cpu / max(result.iterations, 1))
+        if hold > 0:
+            report = setup.scene.hold(
+                setup.robot.configuration.q.copy(), hold, criteria=HoldCriteria()
+            )
+            held.append(report.passed)
+            if report.passed:
+                drifts.append(report.drift)
+            else:
+                failures += report.failures
     return Row(
         robot=name,
         nv=setup.robot.model.nv,
@@ -157,6 +199,9 @@ def run_robot(name: str, n: int, seed: int, qp_solver: str = "osqp") -> Row:
         ms_per_iteration=1e3 * float(np.median(per_iteration[True])),
         ms_per_iteration_without=1e3 * float(np.median(per_iteration[False])),
         converged_without=float(np.mean(converged[False])),
+        hold_pass=float(np.mean(held)) if held else float("nan"),
+        max_drift=max(drifts, default=float("nan")),
+        failures=failures,
     )
 
 
@@ -170,6 +215,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--robots", nargs="*", default=list(ROBOTS))
     parser.add_argument("--qp-solver", default="osqp", help="osqp (default) or daqp")
+    parser.add_argument("--hold", type=float, default=HOLD, help="hold duration [s]; 0: none")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
     rows, skipped = [], []
@@ -178,23 +224,27 @@ def main(argv: list[str] | None = None) -> dict:
         if not available(name):
             skipped.append(name)
             continue
-        rows.append(run_robot(name, args.n, args.seed, args.qp_solver))
+        rows.append(run_robot(name, args.n, args.seed, args.qp_solver, args.hold))
     if not args.quiet:
         print(
             f"{'robot':16} {'nv':>3} {'pairs':>5} {'IK conv':>7} {'ms/it':>6} "
-            f"{'ms/it w/o':>9} {'ratio':>5} {'conv w/o':>8} {'hold pass':>9}"
+            f"{'ms/it w/o':>9} {'ratio':>5} {'conv w/o':>8} {'hold pass':>9} {'drift mm':>8}"
         )
         for r in rows:
             print(
-                f"{r.robot:16} {r.nv:3d} {r.pairs:5d} {100 * r.converged:6.0f}% "
-                f"{r.ms_per_iteration:6.2f} {r.ms_per_iteration_without:9.2f} "
-                f"{r.ratio:5.2f} {100 * r.converged_without:7.0f}% {r.hold_pass:>9}"
+                f"{r.robot:16} {r.nv:3d} {r.pairs:5d} "
+                f"{100 * r.converged:6.0f}% {r.ms_per_iteration:6.2f} "
+                f"{r.ms_per_iteration_without:9.2f} {r.ratio:5.2f} "
+                f"{100 * r.converged_without:7.0f}% {100 * r.hold_pass:8.0f}% "
+                f"{1e3 * r.max_drift:8.2f}"
             )
+            for failure in sorted(set(r.failures)):
+                print(f"{'':16}   hold failure: {failure}")
         for name in skipped:
             print(f"{name:16} skipped: not under MENAGERIE_ROOT nor in the mujoco-menagerie cache")
         print(
             f"{args.n} targets per robot, seed {args.seed}, QP solver {args.qp_solver}, "
-            f"{time.perf_counter() - t0:.0f} s"
+            f"hold {args.hold} s, {time.perf_counter() - t0:.0f} s"
         )
     return {
         "targets": args.n,

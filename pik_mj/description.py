@@ -20,7 +20,9 @@ found as usual (:func:`pik_mj.limbs.find_limbs`, :func:`pik_mj.keyframes.standin
     [soles]
     rleg = ["right_sole"]             # collision geoms the right foot stands on
 
-Load it with :func:`load_description`; :func:`robot_limbs` gives the limbs.
+Pass the file to :meth:`pik_mj.Robot.from_model` (``description=PATH``) or to a
+scenario (``pik-mj run fullbody_reach --description PATH``); :func:`load_description`
+reads it, :func:`robot_limbs` gives the limbs.
 """
 
 from __future__ import annotations
@@ -38,9 +40,8 @@ import numpy as np
 
 from .exceptions import InvalidInput
 from .keyframes import StandingPose, standing_pose
-from .limbs import HUMANOID_LIMBS, LimbsNotFound, find_limbs, limb_from_end
+from .limbs import HUMANOID_LIMBS, Limb, find_limbs, limb_from_end
 from .models import _looks_like_path as looks_like_path
-from .robot import Limb
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -177,6 +178,7 @@ def robot_limbs(
     description: RobotDescription | None = None,
     qpos: np.ndarray | None = None,
     *,
+    root_body: int | str | None = None,
     required: Sequence[str] = HUMANOID_LIMBS,
 ) -> dict[str, Limb]:
     """The robot's limbs: the described ones, the others found from the tree.
@@ -186,7 +188,10 @@ def robot_limbs(
         description: What the user described (None: find everything).
         qpos: Standing configuration for the search; default the description's
             (or the rule's) standing pose.
-        required: Limb names that must be there in the end.
+        root_body: The robot's top-level body (name or id); default the
+            description's, else :func:`pik_mj.frames.robot_root_body`.
+        required: Limb names that must be there in the end (the others are
+            found if they can be).
 
     Raises:
         LimbsNotFound: A required limb is neither described nor found.
@@ -197,15 +202,12 @@ def robot_limbs(
         name: limb_from_end(model, name, x.end, joints=x.joints, start=x.start)
         for name, x in description.limbs.items()
     }
+    if root_body is None:
+        root_body = description.root_body
     if qpos is None:
-        qpos = description.standing_pose(model).qpos
+        qpos = standing_pose(model, description.keyframe, root_body=root_body).qpos
     still = [n for n in required if n not in described]
-    try:
-        found = find_limbs(model, qpos, root_body=description.root_body, required=still)
-    except LimbsNotFound as err:
-        if still:
-            raise
-        found = err.found
+    found = find_limbs(model, qpos, root_body=root_body, required=still)
     return {**found, **described}
 
 

@@ -35,8 +35,7 @@ import qpsolvers
 from . import inputs
 from .balance import ContactConstraint, wrench_constraints
 from .exceptions import InvalidInput, PikError, UnknownName
-from .frames import Frame
-from .robot import robot_root_body
+from .frames import Frame, robot_root_body
 from .spatial import STANDARD_GRAVITY, skew
 
 _ANGLE_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))

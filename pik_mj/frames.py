@@ -5,6 +5,8 @@ A frame is a body, site or geom of the MJCF. Its pose is read from
 ``geom_xpos``/``geom_xmat``) and its Jacobians come from ``mj_jacBody``,
 ``mj_jacSite`` or ``mj_jacGeom``. The configuration must be current
 (``mink.Configuration.update`` runs ``mj_kinematics`` and ``mj_comPos``).
+
+:func:`robot_root_body` says which top-level body of a model is the robot.
 """
 
 from __future__ import annotations
@@ -103,3 +105,63 @@ class Frame:
 
     def __repr__(self) -> str:
         return f"Frame({self.frame_type} {self.name!r})"
+
+
+def _body_name(model: mujoco.MjModel, b: int) -> str:
+    return mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or ""
+
+
+def robot_root_body(model: mujoco.MjModel, root_body: int | str | None = None) -> int:
+    """Id of the robot's top-level body: the one choice every part of pik_mj makes.
+
+    Args:
+        model: The model (a robot alone, or with an environment).
+        root_body: A body name or id (any body but the world; its subtree is the
+            robot). None picks among the top-level bodies (children of the
+            world): those with a free joint if any, then the one with the most
+            degrees of freedom in its subtree.
+
+    Raises:
+        UnknownName: No body ``root_body``.
+        InvalidInput: ``root_body`` is the world, or the default is ambiguous.
+    """
+    top = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
+    names = [_body_name(model, b) or f"#{b}" for b in top]
+    if root_body is not None:
+        if isinstance(root_body, (int, np.integer)) and not isinstance(root_body, bool):
+            b = int(root_body)
+            if not 0 <= b < model.nbody:
+                raise InvalidInput(f"body id {b} is out of range [0, {model.nbody})")
+        elif isinstance(root_body, str):
+            b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
+            if b < 0:
+                all_names = [_body_name(model, i) for i in range(model.nbody)]
+                raise UnknownName("body", root_body, [n for n in all_names if n])
+        else:
+            raise InvalidInput(f"root_body must be a body name, got {type(root_body).__name__}")
+        if b == 0:
+            raise InvalidInput(
+                f"root_body {root_body!r} is the world body, whose subtree holds the "
+                f"environment too; give the robot's top-level body, one of {names}"
+            )
+        return int(b)
+    if not top:
+        raise InvalidInput("the model has no body besides the world")
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    floating = [
+        b for b in top if model.body_jntnum[b] > 0 and model.jnt_type[model.body_jntadr[b]] == free
+    ]
+    candidates = floating or top
+    dofs = [int(model.body_dofnum[model.body_rootid == b].sum()) for b in candidates]
+    best = max(dofs)
+    if dofs.count(best) > 1:
+        tied = [
+            _body_name(model, b) or f"#{b}"
+            for b, n in zip(candidates, dofs, strict=True)
+            if n == best
+        ]
+        raise InvalidInput(
+            f"cannot tell which top-level body is the robot: {tied} have {best} degrees of "
+            f"freedom each (top-level bodies: {names}); name the robot's root body"
+        )
+    return int(candidates[dofs.index(best)])

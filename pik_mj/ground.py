@@ -54,6 +54,10 @@ _MIN_SOLE_POINTS = 3
 _G = mujoco.mjtGeom
 
 
+class NoCollisionGeometry(InvalidInput):
+    """The bodies asked about carry no collision geom: nothing of them touches a floor."""
+
+
 def _in_pairs(model: mujoco.MjModel) -> np.ndarray:
     """Mask (ngeom,) of the geoms named by an explicit ``<contact><pair>``."""
     mask = np.zeros(model.ngeom, dtype=bool)
@@ -201,7 +205,7 @@ def geom_heights(
     geoms = collision_geoms(model, bodies)
     if geoms.size == 0:
         names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(b)) for b in bodies]
-        raise InvalidInput(
+        raise NoCollisionGeometry(
             f"bodies {names} have no collision geom (contype or conaffinity non-zero): "
             "nothing of them can touch the floor"
         )
@@ -270,6 +274,66 @@ def sole_polygon(
     return np.column_stack([hull, np.full(len(hull), pts[:, 2].mean())])
 
 
+FLAT_TOLERANCE = 0.01
+"""Height [m] above a foot's lowest point within which :func:`sole_normal` takes
+its geoms' bottom points as the sole (a foot tilted by 1° over 20 cm: 3.5 mm)."""
+
+
+def sole_normal(
+    model: mujoco.MjModel, data: mujoco.MjData, geoms: Sequence[int]
+) -> np.ndarray | None:
+    """Upward unit normal (3,) of the sole formed by the collision ``geoms`` of a
+    foot: the plane fitted (least squares, ``np.linalg.svd``) to their bottom
+    points within :data:`FLAT_TOLERANCE` of the lowest (:func:`bottom_points`),
+    or None when these span no area (a point or a line: a ball or a blade).
+
+    ``[0, 0, 1]`` for a foot standing flat; a foot whose sole is tilted by ``θ``
+    gives a normal ``θ`` away from up.
+    """
+    if len(geoms) == 0:
+        return None
+    lowest = min(lowest_height(model, data, int(g)) for g in geoms)
+    pts = np.vstack([bottom_points(model, data, int(g), FLAT_TOLERANCE) for g in geoms])
+    pts = pts[pts[:, 2] <= lowest + FLAT_TOLERANCE]
+    centred = pts - pts.mean(axis=0)
+    if len(pts) < _MIN_SOLE_POINTS:
+        return None
+    _, sv, vt = np.linalg.svd(centred)
+    if sv[1] < 1e-6 * max(sv[0], 1e-12) or sv[1] < 1e-6:  # collinear: no plane
+        return None
+    n = vt[2]
+    return n if n[2] >= 0 else -n
+
+
+def _described_soles(robot: Robot) -> Mapping[str, Sequence[str]]:
+    return {} if robot.description is None else robot.description.soles
+
+
+def foot_geoms(
+    robot: Robot,
+    legs: Sequence[str] = ("rleg", "lleg"),
+    *,
+    soles: Mapping[str, Sequence[int | str]] | None = None,
+) -> list[int]:
+    """The collision geoms the robot stands on: per leg, the geoms of ``soles``
+    (default: the robot description's ``[soles]``), else every collision geom of
+    the leg's foot (the body of its end frame and the bodies below it: toes).
+
+    Legs the robot does not have are skipped (a fixed-base arm stands on nothing).
+    """
+    soles = _described_soles(robot) if soles is None else soles
+    model = robot.model
+    out: list[int] = []
+    for leg in legs:
+        if leg in soles:
+            out += [_element_id(model, "geom", g) for g in soles[leg]]
+        elif leg in robot.limbs:
+            limb = robot.limbs[leg]
+            body = Frame.find(model, limb.end_frame, limb.end_frame_type).body_id
+            out += collision_geoms(model, subtree_bodies(model, body)).tolist()
+    return list(dict.fromkeys(out))
+
+
 def sole_polygons(
     robot: Robot,
     legs: Sequence[str] = ("rleg", "lleg"),
@@ -279,22 +343,21 @@ def sole_polygons(
 ) -> list[np.ndarray]:
     """Sole polygons of the robot's feet in the world [m], one ``(k, 3)`` array per leg.
 
-    The collision-geometry replacement of :func:`pik_mj.ik.sole_polygons`: per
-    leg, :func:`sole_polygon` of the body of the leg's end frame (visual geoms and
-    parts above the sole ignored), or of the leg's geoms in ``soles`` (a robot
-    description's ``[soles]``).
+    Per leg, :func:`sole_polygon` of the body of the leg's end frame (visual
+    geoms and parts above the sole ignored), or of the leg's geoms in ``soles``
+    (default: the robot description's ``[soles]``).
 
     Raises:
         UnknownName: A leg the robot does not have, or an unknown sole geom.
         InvalidInput: A foot without collision geoms, or touching at fewer than 3
             points (no area to stand on).
     """
+    soles = _described_soles(robot) if soles is None else soles
     polys = []
     for leg in legs:
         limb = robot.limb(leg)
         body = Frame.find(robot.model, limb.end_frame, limb.end_frame_type).body_id
-        geoms = None if soles is None else soles.get(leg)
-        poly = sole_polygon(robot.model, robot.data, body, tolerance, geoms=geoms)
+        poly = sole_polygon(robot.model, robot.data, body, tolerance, geoms=soles.get(leg))
         if len(poly) < _MIN_SOLE_POINTS:
             raise InvalidInput(
                 f"the foot of limb {leg!r} (body {robot.model.body(body).name!r}) touches "
@@ -303,6 +366,33 @@ def sole_polygons(
             )
         polys.append(poly)
     return polys
+
+
+def sole_size(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[float, float]:
+    """Length and width [m] of the soles: the extent of :func:`sole_polygons`
+    along the x and y axes of each leg's end frame (the sole frame, at the sole's
+    centre), the same for every leg (what walking plans footsteps with).
+
+    Raises:
+        InvalidInput: A sole not centred on its end frame, or legs whose soles
+            differ (by more than 1 mm).
+    """
+    sizes = []
+    for leg, pts in zip(legs, sole_polygons(robot, legs), strict=True):
+        limb = robot.limb(leg)
+        X = robot.frame_pose(limb.end_frame, limb.end_frame_type)
+        local = (pts - X.translation()) @ X.rotation().as_matrix()
+        lo, hi = local[:, :2].min(axis=0), local[:, :2].max(axis=0)
+        if np.any(np.abs(lo + hi) > 1e-3):
+            raise InvalidInput(
+                f"the sole of {leg!r} is not centred on its end frame "
+                f"{limb.end_frame!r} (x, y extents {lo} .. {hi} m)"
+            )
+        sizes.append(hi - lo)
+    if np.ptp(np.array(sizes), axis=0).max() > 1e-3:
+        raise InvalidInput(f"the soles of {list(legs)} differ in size: {np.array(sizes)} m")
+    length, width = np.mean(sizes, axis=0)
+    return float(length), float(width)
 
 
 def _element_id(model: mujoco.MjModel, kind: str, element: int | str) -> int:

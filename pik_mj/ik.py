@@ -3,11 +3,12 @@
 
 Both functions build a stack of levels for :func:`pik_mj.solve.solve` and run it:
 
-* :func:`inverse_kinematics` — level 0: joint limits, and every degree of freedom
+* :func:`inverse_kinematics` — level 0: joint limits, the MJCF couplings
+  (:class:`~pik_mj.couplings.CouplingTask`, when the model has any), and every degree of freedom
   outside the used chains frozen (hard ``x_i = 0``; a floating base stays where it
   is); level 1: one frame task per target; level 2: look-at (if any); then the
   caller's ``extra_levels``; last: posture towards the start (not checked).
-* :func:`fullbody_inverse_kinematics` — level 0: joint limits, frozen dofs and the
+* :func:`fullbody_inverse_kinematics` — level 0: joint limits, couplings, frozen dofs and the
   root's displacement box (irteus ``:min``/``:max`` of the root-link virtual joint);
   level 1: feet fixed where they are, the centroid over the feet on the
   selected axes and the ``collision_avoidance`` tasks; level 2: the targets;
@@ -43,8 +44,10 @@ import numpy as np
 
 from . import dynamics, inputs
 from .callbacks import Callback
+from .couplings import CouplingTask, find_couplings
 from .exceptions import InvalidInput
 from .frames import Frame
+from .ground import sole_polygons
 from .robot import Robot
 from .solve import SolveResult, solve
 from .tasks.com import CentroidTask
@@ -62,8 +65,6 @@ __all__ = [
     "fullbody_inverse_kinematics",
     "gaze_angle",
     "inverse_kinematics",
-    "sole_polygons",
-    "sole_size",
     "static_balance_point",
 ]
 
@@ -170,60 +171,6 @@ def _parse_forces(robot: Robot, external_forces: Any) -> list[tuple[Frame, np.nd
         (Frame.find(robot.model, name), f, n)
         for name, f, n in inputs.wrenches(external_forces, "external_forces")
     ]
-
-
-def sole_polygons(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> list[np.ndarray]:
-    """Bottom faces of the feet in the world [m], one ``(k, 3)`` array per leg.
-
-    Per leg: the corners of the world-frame boxes bounding the geoms of the body
-    of the leg's end frame (MuJoCo's ``geom_aabb`` placed by ``geom_xpos``,
-    ``geom_xmat``), keeping those at the lowest height.
-    """
-    model, data = robot.model, robot.data
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    polys = []
-    for leg in legs:
-        limb = robot.limb(leg)
-        body = Frame.find(model, limb.end_frame, limb.end_frame_type).body_id
-        corners = [
-            (model.geom_aabb[g, :3] + signs * model.geom_aabb[g, 3:])
-            @ data.geom_xmat[g].reshape(3, 3).T
-            + data.geom_xpos[g]
-            for g in np.flatnonzero(model.geom_bodyid == body)
-        ]
-        if not corners:
-            raise InvalidInput(f"the end body of limb {leg!r} has no geoms to stand on")
-        pts = np.vstack(corners)
-        bottom = pts[pts[:, 2] <= pts[:, 2].min() + 1e-6]
-        polys.append(bottom if len(bottom) >= 3 else pts)
-    return polys
-
-
-def sole_size(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[float, float]:
-    """Length and width [m] of the soles: the extent of :func:`sole_polygons`
-    along the x and y axes of each leg's end frame (the sole frame, at the sole's
-    centre), the same for every leg.
-
-    Raises:
-        InvalidInput: A sole not centred on its end frame, or legs whose soles
-            differ (by more than 1 mm).
-    """
-    sizes = []
-    for leg, pts in zip(legs, sole_polygons(robot, legs), strict=True):
-        limb = robot.limb(leg)
-        X = robot.frame_pose(limb.end_frame, limb.end_frame_type)
-        local = (pts - X.translation()) @ X.rotation().as_matrix()
-        lo, hi = local[:, :2].min(axis=0), local[:, :2].max(axis=0)
-        if np.any(np.abs(lo + hi) > 1e-3):
-            raise InvalidInput(
-                f"the sole of {leg!r} is not centred on its end frame "
-                f"{limb.end_frame!r} (x, y extents {lo} .. {hi} m)"
-            )
-        sizes.append(hi - lo)
-    if np.ptp(np.array(sizes), axis=0).max() > 1e-3:
-        raise InvalidInput(f"the soles of {list(legs)} differ in size: {np.array(sizes)} m")
-    length, width = np.mean(sizes, axis=0)
-    return float(length), float(width)
 
 
 # ---------------------------------------------------------------------------
@@ -467,6 +414,34 @@ def _tasks(value: Any, what: str) -> list[Any]:
     return list(value)
 
 
+def _couplings(robot: Robot, used: set[str]) -> tuple[list[Task], set[str]]:
+    """The model's MJCF couplings as a :class:`~pik_mj.couplings.CouplingTask` (none
+    without any), and ``used`` grown by every joint coupled to a used one: a
+    coupled joint moves with its partner, it is not frozen."""
+    found = find_couplings(robot.model).couplings
+    if not found:
+        return [], used
+    model = robot.model
+    groups = [
+        {
+            model.joint(int(model.dof_jntid[d])).name
+            for c in (coupling.y, coupling.x)
+            if c is not None
+            for d in c.dofadr
+        }
+        for coupling in found
+    ]
+    used = set(used)
+    grown = True
+    while grown:
+        grown = False
+        for group in groups:
+            if group & used and not group <= used:
+                used |= group
+                grown = True
+    return [CouplingTask(robot.configuration, found)], used
+
+
 def _limits(robot: Robot) -> Task:
     """Seed ``minmax-angle-task`` on every limited joint, hard at level 0."""
     return JointLimitTask.all_limited(robot.configuration)
@@ -599,7 +574,8 @@ def _build_ik_levels(
             used |= set(robot.joint_list(head.end_frame, head.end_frame_type))
         elif joints is None:
             used |= set(head.joints)
-    level0: list[Any] = [_limits(robot)]
+    couplings, used = _couplings(robot, used)
+    level0: list[Any] = [_limits(robot), *couplings]
     freeze = _freeze_task(robot, _dofs_of(robot, used, with_root=False))
     if freeze is not None:
         level0.append(freeze)
@@ -761,7 +737,8 @@ def fullbody_inverse_kinematics(
     if isinstance(joints, str) and joints == "all":
         used = set(robot.joint_names)
 
-    level0: list[Any] = [_limits(robot)]
+    couplings, used = _couplings(robot, used)
+    level0: list[Any] = [_limits(robot), *couplings]
     freeze = _freeze_task(robot, _dofs_of(robot, used, with_root=True))
     if freeze is not None:
         level0.append(freeze)

@@ -11,19 +11,23 @@ Rule, first match wins:
 4. the zero pose ``qpos0`` (Unitree H1 and dm_control's humanoids have no keyframe).
 
 The chosen pose is returned as it is written, with its gap to the floor
-(:func:`pik_mj.ground.floor_gap`): putting the robot down on the floor (Robotis
-OP3's zero pose floats 21 mm) is the scene's job.
+(:func:`pik_mj.ground.floor_gap`). :meth:`pik_mj.Robot.from_model` makes it a
+pose standing on the floor: a zero pose whose soles are tilted gets its feet
+turned flat (keyframe ``pik_mj_standing``; dm_control's humanoid, 8 mrad), and
+the robot is put down onto z = 0 (Robotis OP3's zero pose floats 21 mm).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput, UnknownName
-from .ground import floor_gap
+from .frames import robot_root_body
+from .ground import NoCollisionGeometry, floor_gap
 
 STANDING_KEYFRAME_NAMES = (
     "stand",
@@ -52,7 +56,8 @@ class StandingPose:
         rule: Why it was chosen (``"named by the caller"``, ``"standing name"``,
             ``"first keyframe"``, ``"zero pose"``).
         floor_gap: Height of the robot's lowest collision geom above ``z = 0`` [m]
-            in this configuration (positive: floating).
+            in this configuration (positive: floating); NaN for a robot without
+            collision geoms.
     """
 
     qpos: np.ndarray
@@ -68,6 +73,8 @@ class StandingPose:
         else:
             what = f"keyframe {self.keyframe!r}" if self.keyframe else f"keyframe #{self.index}"
         gap_mm = 1e3 * self.floor_gap
+        if not np.isfinite(gap_mm):
+            return f"{what} ({self.rule}), no collision geometry"
         where = f"{gap_mm:.1f} mm above" if gap_mm >= 0 else f"{-gap_mm:.1f} mm into"
         return f"{what} ({self.rule}), {where} the floor"
 
@@ -86,11 +93,34 @@ def _find_keyframe(model: mujoco.MjModel, keyframe: str | int) -> int:
             )
         return int(keyframe)
     if not isinstance(keyframe, str):
-        raise InvalidInput(f"keyframe must be a name or an index, got {keyframe!r}")
+        raise InvalidInput(
+            f"keyframe must be a keyframe name (a string) or an index, got {keyframe!r}"
+        )
     names = keyframe_names(model)
     if keyframe in names:
         return names.index(keyframe)
     raise UnknownName("keyframe", keyframe, names)
+
+
+def choose_keyframe(
+    model: mujoco.MjModel, keyframe: str | int | None = None
+) -> tuple[int | None, str]:
+    """``(index, rule)`` of the keyframe to stand in (rule in the module docstring):
+    the keyframe index, or None for ``qpos0``, and why it was chosen.
+
+    Raises:
+        UnknownName: ``keyframe`` is not a keyframe of the model (lists them).
+        InvalidInput: A bad index.
+    """
+    if keyframe is not None:
+        return _find_keyframe(model, keyframe), "named by the caller"
+    lowered = [model.key(k).name.lower() for k in range(model.nkey)]
+    standing = [n for n in STANDING_KEYFRAME_NAMES if n in lowered]
+    if standing:
+        return lowered.index(standing[0]), "standing name"
+    if model.nkey:
+        return 0, "first keyframe"
+    return None, "zero pose"
 
 
 def standing_pose(
@@ -105,53 +135,26 @@ def standing_pose(
         model: The robot's model.
         keyframe: A keyframe name (``"#2"`` or ``2`` for an unnamed one) that
             overrides the rule.
-        root_body: The robot's top-level body for the floor gap; default the
-            top-level body with the most degrees of freedom.
+        root_body: The robot's top-level body for the floor gap; default
+            :func:`pik_mj.frames.robot_root_body`.
 
     Raises:
         UnknownName: ``keyframe`` is not a keyframe of the model (lists them).
-        InvalidInput: A bad index, or a robot without collision geoms.
+        InvalidInput: A bad index.
     """
-    if keyframe is not None:
-        index, rule = _find_keyframe(model, keyframe), "named by the caller"
-    else:
-        lowered = [model.key(k).name.lower() for k in range(model.nkey)]
-        standing = [n for n in STANDING_KEYFRAME_NAMES if n in lowered]
-        if standing:
-            index, rule = lowered.index(standing[0]), "standing name"
-        elif model.nkey:
-            index, rule = 0, "first keyframe"
-        else:
-            index, rule = None, "zero pose"
+    index, rule = choose_keyframe(model, keyframe)
     qpos = (model.qpos0 if index is None else model.key_qpos[index]).copy()
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
     mujoco.mj_kinematics(model, data)
-    root = top_level_body(model) if root_body is None else root_body
+    try:
+        gap = floor_gap(model, data, robot_root_body(model, root_body))
+    except NoCollisionGeometry:
+        gap = math.nan
     return StandingPose(
         qpos=qpos,
         keyframe=None if index is None else model.key(index).name,
         index=index,
         rule=rule,
-        floor_gap=floor_gap(model, data, root),
+        floor_gap=gap,
     )
-
-
-def top_level_body(model: mujoco.MjModel) -> int:
-    """The top-level body (child of the world) with the most degrees of freedom below it.
-
-    Raises:
-        InvalidInput: No body besides the world, or a tie (name the root body instead).
-    """
-    top = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
-    if not top:
-        raise InvalidInput("the model has no body besides the world")
-    dofs = [int(model.body_dofnum[model.body_rootid == b].sum()) for b in top]
-    best = [b for b, n in zip(top, dofs, strict=True) if n == max(dofs)]
-    if len(best) > 1:
-        names = [model.body(b).name or f"#{b}" for b in best]
-        raise InvalidInput(
-            f"cannot tell which top-level body is the robot: {names} have {max(dofs)} "
-            "degrees of freedom each; name the robot's root body"
-        )
-    return best[0]

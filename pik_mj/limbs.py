@@ -3,7 +3,9 @@
 In the standing configuration (:func:`pik_mj.keyframes.standing_pose`):
 
 * **legs** end in the bodies whose collision geoms touch the floor: those within
-  :data:`FOOT_TOLERANCE` of the robot's lowest point. The touching bodies hang
+  3 mm (:data:`pik_mj.ground.DEFAULT_TOLERANCE`) of the robot's lowest point, or
+  within :data:`FOOT_TOLERANCE` when they turn a line or a face to the floor (a
+  heel or a toe lying flat, not the rounded end of a shank). The touching bodies hang
   off one branching body ``L`` (the pelvis; Booster T1's waist); each branch of
   ``L`` holding touching bodies is a leg, ending at the deepest body common to
   its touching bodies (dm_control's CMU humanoid: foot and toes touch, the leg
@@ -18,13 +20,16 @@ In the standing configuration (:func:`pik_mj.keyframes.standing_pose`):
   to its leaves (the wrist, not one of the fingers);
 * **torso**: the joints between ``L`` and the arms' branching body ``A``, ending
   at the lower of the two; **head**: a chain with joints hanging off ``A`` that
-  is neither arm nor leg and lies on the middle line.
+  is neither arm nor leg and lies on the middle line;
+* a robot with a **fixed base** whose tree is one chain (seed 001's 3-DoF arm)
+  is one limb, ``arm``, from its first joint to its leaf.
 
 A limb holds the hinge and slide joints from its first body to its end body and
 an end frame: the site named like the end body, else the end body's only point
 site that is not a touch sensor's zone (volume sites are sensing zones), else
-the end body itself. These rules reproduce pik_mj's naming of ``sample_humanoid`` and
-the tables of dm_control's two humanoids (tested).
+the end body itself. These rules reproduce pik_mj's naming of ``sample_humanoid``
+(``rleg_*`` joints, ``rleg_end`` sites) and the limb tables of dm_control's two
+humanoids (tested against them).
 
 When the tree does not give the limbs asked for, :func:`find_limbs` raises
 :class:`LimbsNotFound` before any solve, naming what it found and how to
@@ -33,6 +38,7 @@ describe the limbs instead (:mod:`pik_mj.description`).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -40,16 +46,25 @@ import mujoco
 import numpy as np
 
 from .exceptions import InvalidInput
-from .frames import Frame
-from .ground import geom_heights, subtree_bodies
-from .keyframes import standing_pose, top_level_body
-from .robot import Limb
+from .frames import Frame, robot_root_body
+from .ground import (
+    DEFAULT_TOLERANCE,
+    NoCollisionGeometry,
+    bottom_points,
+    geom_heights,
+    subtree_bodies,
+)
+from .keyframes import standing_pose
 from .tasks.joint_limit import find_joint
 
+LIMB_NAMES = ("rarm", "larm", "rleg", "lleg", "torso", "head", "arm")
+"""Names :func:`find_limbs` gives, in the order a robot lists its limbs."""
+
 FOOT_TOLERANCE = 0.02
-"""Height above the robot's lowest point [m] under which a collision geom touches
-the floor for leg finding. The CMU humanoid's zero pose has its heels 12.6 mm
-above its toes; G1's ankle pitch link is 28 mm above its soles."""
+"""Height above the robot's lowest point [m] under which a collision geom lying
+flat touches the floor for leg finding. The CMU humanoid's zero pose has its
+heels (capsules lying along the foot) 12.6 mm above its toes; G1's ankle pitch
+link is 28 mm above its soles."""
 
 LATERAL = 0.02
 """Distance [m] from the middle plane beyond which a leaf lies on a side."""
@@ -64,10 +79,31 @@ OVERRIDE_HINT = (
     "    [limbs.rleg]\n"
     '    end = "right_foot"\n'
     '    joints = ["right_hip", "right_knee", "right_ankle"]   # optional\n'
-    "loaded with pik_mj.description.load_description(path), or pass limbs= to Robot"
+    "given as Robot.from_model(model, description=PATH), or on the command line as\n"
+    "    pik-mj run fullbody_reach --model MODEL --description PATH"
 )
 
 _ANGLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+@dataclass(frozen=True)
+class Limb:
+    """A kinematic chain of the robot (irteus ``:rarm``, ``:lleg``, ...).
+
+    Attributes:
+        name: Limb name, e.g. ``"rarm"``.
+        joints: Joint names from the limb's root towards its end.
+        end_frame: Name of the end-effector frame (irteus ``:end-coords``).
+        end_frame_type: ``"site"`` or ``"body"``.
+        root_body: The limb's first link: the body moved by ``joints[0]``
+            (irteus ``:root-link``).
+    """
+
+    name: str
+    joints: tuple[str, ...]
+    end_frame: str
+    end_frame_type: str
+    root_body: str
 
 
 class LimbsNotFound(InvalidInput):
@@ -214,23 +250,18 @@ def find_limbs(
         model: The robot's model.
         qpos: A configuration standing on the floor (nq,); default
             :func:`pik_mj.keyframes.standing_pose`.
-        root_body: The robot's top-level body (name or id); default the one with
-            the most degrees of freedom.
-        required: Limb names that must be found.
+        root_body: The robot's top-level body (name or id); default
+            :func:`pik_mj.frames.robot_root_body`.
+        required: Limb names that must be found (the others are found if they can be).
 
     Returns:
-        ``{name: Limb}`` with names among ``rleg, lleg, rarm, larm, torso, head``.
+        ``{name: Limb}``, names among :data:`LIMB_NAMES` in that order.
 
     Raises:
         LimbsNotFound: A required limb is not found (message: what was found and
             how to describe the limbs instead).
     """
-    if root_body is None:
-        root = top_level_body(model)
-    elif isinstance(root_body, str):
-        root = model.body(root_body).id
-    else:
-        root = int(root_body)
+    root = robot_root_body(model, root_body)
     if qpos is None:
         pose = standing_pose(model, root_body=root)
         qpos, where = pose.qpos, pose.describe()
@@ -242,22 +273,46 @@ def find_limbs(
     tree = _tree(model, qpos, root)
     details = [f"standing configuration: {where}"]
     limbs: dict[str, Limb] = {}
-
-    def fail(message: str) -> LimbsNotFound:
-        return LimbsNotFound(
-            f"cannot find the limbs {list(required)} of the robot with root body "
-            f"{tree.name(root)!r}: {message}",
+    problem = _search(tree, limbs, details)
+    limbs = {n: limbs[n] for n in LIMB_NAMES if n in limbs}
+    missing = [n for n in required if n not in limbs]
+    if missing:
+        raise LimbsNotFound(
+            f"cannot find the limbs {missing} of the robot with root body "
+            f"{tree.name(root)!r}: {problem or 'not in the tree'}",
             limbs,
             details,
         )
+    return limbs
 
-    heights = geom_heights(model, tree.data, tree.bodies)
+
+def _search(tree: _Tree, limbs: dict[str, Limb], details: list[str]) -> str | None:
+    """Fill ``limbs`` (and ``details``) by the rules of the module docstring;
+    returns why the search stopped early, or None."""
+    model, root = tree.model, tree.root
+    try:
+        heights = geom_heights(model, tree.data, tree.bodies)
+    except NoCollisionGeometry as err:
+        return str(err)
+    if _fixed_base(model, root):
+        leaves = tree.leaves(root, set())
+        joints = tree.joints(root, leaves[0]) if len(leaves) == 1 else []
+        if joints:  # a fixed-base serial chain: a manipulator arm
+            limbs["arm"] = make_limb(model, "arm", joints, leaves[0])
+            details.append(f"a fixed-base serial chain ending at {tree.name(leaves[0])!r}: an arm")
+            return None
     lowest = min(heights.values())
     touching = sorted(
-        {int(model.geom_bodyid[g]) for g, h in heights.items() if h <= lowest + FOOT_TOLERANCE}
+        {
+            int(model.geom_bodyid[g])
+            for g, h in heights.items()
+            if h <= lowest + DEFAULT_TOLERANCE
+            or (h <= lowest + FOOT_TOLERANCE and _lies_flat(model, tree.data, g))
+        }
     )
     details.append(
-        f"bodies within {FOOT_TOLERANCE} m of the lowest point: {[tree.name(b) for b in touching]}"
+        f"bodies touching the floor (within {DEFAULT_TOLERANCE} m of the lowest point, or "
+        f"{FOOT_TOLERANCE} m lying flat): {[tree.name(b) for b in touching]}"
     )
     hip = tree.common(touching)
     branches: dict[int, list[int]] = {}
@@ -271,9 +326,7 @@ def find_limbs(
         + (f" in the branches {[tree.name(b) for b in branches]}" if branches else "")
     )
     if n_legs != 2:
-        if {"rleg", "lleg"} & set(required):
-            raise fail(f"the floor is touched by {n_legs} leg(s), not 2")
-        return limbs
+        return f"the floor is touched by {n_legs} leg(s), not 2"
     (start_a, feet_a), (start_b, feet_b) = branches.items()
     foot_a, foot_b = tree.common(feet_a), tree.common(feet_b)
 
@@ -282,7 +335,7 @@ def find_limbs(
     between = tree.data.xpos[foot_a] - tree.data.xpos[foot_b]
     between[2] = 0.0
     if np.linalg.norm(between) < LATERAL:
-        raise fail("the two feet are not apart sideways: no left and right")
+        return "the two feet are not apart sideways: no left and right"
     axis = int(np.argmax(np.abs(R_WB.T @ between)))
 
     def side(b: int) -> float:
@@ -304,10 +357,29 @@ def find_limbs(
     if arms:
         shoulders = tree.common([int(model.body_parentid[s]) for s, _ in arms.values()])
         _add_torso_and_head(tree, limbs, hip, shoulders, leg_bodies, arms, side)
-    missing = [n for n in required if n not in limbs]
-    if missing:
-        raise fail(f"{missing} not found")
-    return limbs
+    return None
+
+
+def _lies_flat(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> bool:
+    """Whether ``geom`` turns a line or a face to the floor, not a point: a box or
+    a cylinder; a capsule lying within 45° of horizontal (the CMU humanoid's heel
+    capsules, tilted 10°), not an upright one (the rounded end of a shank); a
+    mesh whose parts within :data:`FOOT_TOLERANCE` of its lowest point lie more
+    than 1 cm apart; never a sphere or an ellipsoid."""
+    kind = int(model.geom_type[geom])
+    if kind in (mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_CYLINDER):
+        return True
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return abs(float(data.geom_xmat[geom][8])) < math.sqrt(0.5)  # |cos| of axis to z
+    if kind == mujoco.mjtGeom.mjGEOM_MESH:
+        pts = bottom_points(model, data, geom, FOOT_TOLERANCE)
+        return float(np.max(np.ptp(pts[:, :2], axis=0))) > 0.01
+    return False
+
+
+def _fixed_base(model: mujoco.MjModel, root: int) -> bool:
+    j = int(model.body_jntadr[root])
+    return j < 0 or int(model.jnt_type[j]) != int(mujoco.mjtJoint.mjJNT_FREE)
 
 
 def _arms(tree: _Tree, leg_bodies: set[int], side) -> dict[str, tuple[int, int]]:

@@ -12,21 +12,19 @@ and gives irteus-style accessors: ``angle_vector``, ``link_list``,
 end-effector frames, mass, centroid and centroid Jacobian. MuJoCo computes all
 kinematics.
 
-A floating-base robot's start pose stands on the floor z = 0: its lowest sole
-(or foot) collision geom touches the plane (dm_control's humanoids start 0.2 m
-up; they are lowered), so the IK's world and the physics' world are the same.
-
-Limbs are found by name:
-
-* models following the pik_mj naming (``models/sample_humanoid.xml``): every
-  joint named ``{limb}_...`` belongs to limb ``rarm``, ``larm``, ``rleg``,
-  ``lleg``, ``torso`` or ``head``; its end frame is the site ``{limb}_end``;
-* dm_control's ``humanoid.xml`` and ``humanoid_CMU.xml`` and the 3-DoF arm:
-  the explicit tables below.
+Any MJCF is taken as it is shipped: the start pose is a keyframe chosen by
+:func:`pik_mj.keyframes.choose_keyframe`; a floating-base robot's start pose
+stands on the floor z = 0, its lowest collision geom touching the plane
+(dm_control's humanoids start 0.2 m up, Robotis OP3's zero pose floats 21 mm:
+they are lowered), so the IK's world and the physics' world are the same; the
+limbs are found from the kinematic tree (:func:`pik_mj.limbs.find_limbs`), and
+what the tree does not tell is written in a robot description
+(:mod:`pik_mj.description`).
 """
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
@@ -37,15 +35,24 @@ import mujoco
 import numpy as np
 
 from pik_mj import inputs
+from pik_mj.description import RobotDescription, load_description, robot_limbs
 from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.frames import robot_root_body
+from pik_mj.ground import NoCollisionGeometry, floor_gap, foot_geoms, sole_normal
+from pik_mj.keyframes import choose_keyframe
+from pik_mj.limbs import LIMB_NAMES, Limb, LimbsNotFound, find_limbs
 from pik_mj.models import model_path
 
+__all__ = ["Limb", "LimbsNotFound", "Robot", "RobotSource", "robot_root_body"]
+
 FRAME_TYPES = ("site", "body", "geom")
-LIMB_NAMES = ("rarm", "larm", "rleg", "lleg", "torso", "head")
-RESET_KEYFRAME = "reset_pose"
+STANDING_KEYFRAME = "pik_mj_standing"
+"""Name of the keyframe :meth:`Robot.from_model` adds for a robot without any
+whose zero pose does not stand flat on its soles (dm_control's humanoid)."""
 GROUND_TOLERANCE = 1e-6
-"""[m] A floating-base robot whose soles are farther than this from the floor
-(above or below) at its start pose is moved onto it by :meth:`Robot.from_model`."""
+"""[m] A floating-base robot whose lowest collision geom is farther than this from
+the floor (above or below) at its start pose is moved onto it by
+:meth:`Robot.from_model`."""
 
 _FRAME_OBJ = {
     "site": mujoco.mjtObj.mjOBJ_SITE,
@@ -53,142 +60,16 @@ _FRAME_OBJ = {
     "geom": mujoco.mjtObj.mjOBJ_GEOM,
 }
 _FRAME_COUNT = {"site": "nsite", "body": "nbody", "geom": "ngeom"}
+_QPOS_SIZE = {
+    int(mujoco.mjtJoint.mjJNT_FREE): 7,
+    int(mujoco.mjtJoint.mjJNT_BALL): 4,
+    int(mujoco.mjtJoint.mjJNT_SLIDE): 1,
+    int(mujoco.mjtJoint.mjJNT_HINGE): 1,
+}
 _ANGLE_JOINTS = (
     int(mujoco.mjtJoint.mjJNT_HINGE),
     int(mujoco.mjtJoint.mjJNT_SLIDE),
 )
-
-
-@dataclass(frozen=True)
-class Limb:
-    """A kinematic chain of the robot (irteus ``:rarm``, ``:lleg``, ...).
-
-    Attributes:
-        name: Limb name, e.g. ``"rarm"``.
-        joints: Joint names from the limb's root towards its end.
-        end_frame: Name of the end-effector frame (irteus ``:end-coords``).
-        end_frame_type: ``"site"`` or ``"body"``.
-        root_body: The limb's first link: the body moved by ``joints[0]``
-            (irteus ``:root-link``).
-    """
-
-    name: str
-    joints: tuple[str, ...]
-    end_frame: str
-    end_frame_type: str
-    root_body: str
-
-
-# (limb, joints, end frame, end frame type) of models without pik_mj naming.
-_LimbRow = tuple[str, tuple[str, ...], str, str]
-
-
-def _sides(row: _LimbRow, left: str, right: str) -> list[_LimbRow]:
-    """The right-side and left-side copies of a row written with ``{s}``."""
-    limb, joints, end, kind = row
-    return [
-        (limb.format(s=s), tuple(j.format(s=n) for j in joints), end.format(s=n), kind)
-        for s, n in (("r", right), ("l", left))
-    ]
-
-
-DM_HUMANOID_LIMBS: tuple[_LimbRow, ...] = (
-    ("torso", ("abdomen_z", "abdomen_y", "abdomen_x"), "pelvis", "body"),
-    *_sides(
-        (
-            "{s}leg",
-            (
-                "{s}_hip_x",
-                "{s}_hip_z",
-                "{s}_hip_y",
-                "{s}_knee",
-                "{s}_ankle_y",
-                "{s}_ankle_x",
-            ),
-            "{s}_foot",
-            "body",
-        ),
-        "left",
-        "right",
-    ),
-    *_sides(
-        (
-            "{s}arm",
-            ("{s}_shoulder1", "{s}_shoulder2", "{s}_elbow"),
-            "{s}_hand",
-            "site",
-        ),
-        "left",
-        "right",
-    ),
-)
-"""dm_control ``suite/humanoid.xml``: the head has no joint, so no head limb."""
-
-DM_HUMANOID_CMU_LIMBS: tuple[_LimbRow, ...] = (
-    (
-        "torso",
-        tuple(f"{b}r{a}" for b in ("lowerback", "upperback", "thorax") for a in "zyx"),
-        "thorax",
-        "body",
-    ),
-    (
-        "head",
-        tuple(f"{b}r{a}" for b in ("lowerneck", "upperneck", "head") for a in "zyx"),
-        "head",
-        "body",
-    ),
-    *_sides(
-        (
-            "{s}leg",
-            tuple(
-                "{s}" + j
-                for j in (
-                    "femurrz",
-                    "femurry",
-                    "femurrx",
-                    "tibiarx",
-                    "footrz",
-                    "footrx",
-                )
-            ),
-            "{s}foot",
-            "body",
-        ),
-        "l",
-        "r",
-    ),
-    *_sides(
-        (
-            "{s}arm",
-            tuple(
-                "{s}" + j
-                for j in (
-                    "claviclerz",
-                    "claviclery",
-                    "humerusrz",
-                    "humerusry",
-                    "humerusrx",
-                    "radiusrx",
-                    "wristry",
-                    "handrz",
-                    "handrx",
-                )
-            ),
-            "{s}hand",
-            "body",
-        ),
-        "l",
-        "r",
-    ),
-)
-"""dm_control ``suite/humanoid_CMU.xml`` (toes, fingers and thumbs left out)."""
-
-THREE_DOF_ARM_LIMBS: tuple[_LimbRow, ...] = (
-    ("arm", ("joint0", "joint1", "joint2"), "end", "site"),
-)
-"""``models/three_dof_arm.xml`` (seed 001's ``3dof-robot``)."""
-
-_LIMB_TABLES = (DM_HUMANOID_LIMBS, DM_HUMANOID_CMU_LIMBS, THREE_DOF_ARM_LIMBS)
 
 
 def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
@@ -197,79 +78,6 @@ def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
 
 def _id(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:
     return mujoco.mj_name2id(model, obj, name)
-
-
-def robot_root_body(
-    model: mujoco.MjModel, root_body: str | None = None, *, limb_bodies: Sequence[int] = ()
-) -> int:
-    """Id of the robot's top-level body: the one choice every part of pik_mj makes.
-
-    Args:
-        model: The model (a robot alone, or with an environment).
-        root_body: A body name (any body but the world; its subtree is the
-            robot). None picks among the top-level bodies (children of the
-            world): the one holding ``limb_bodies`` if they share one; else those
-            with a free joint if any, then the one with the most degrees of
-            freedom in its subtree.
-        limb_bodies: Ids of bodies known to be the robot's (e.g. its limbs').
-
-    Raises:
-        UnknownName: No body ``root_body``.
-        InvalidInput: ``root_body`` is the world, or the default is ambiguous.
-    """
-    top = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
-    names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in top]
-    if root_body is not None:
-        if not isinstance(root_body, str):
-            raise InvalidInput(f"root_body must be a body name, got {type(root_body).__name__}")
-        b = _id(model, mujoco.mjtObj.mjOBJ_BODY, root_body)
-        if b < 0:
-            all_names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, i) for i in range(model.nbody)]
-            raise UnknownName("body", root_body, all_names)
-        if b == 0:
-            raise InvalidInput(
-                f"root_body {root_body!r} is the world body, whose subtree holds the "
-                f"environment too; give the robot's top-level body, one of {names}"
-            )
-        return int(b)
-    if not top:
-        raise InvalidInput("the model has no body besides the world")
-    roots = {int(model.body_rootid[b]) for b in limb_bodies}
-    if len(roots) == 1:
-        return roots.pop()
-    free = int(mujoco.mjtJoint.mjJNT_FREE)
-    floating = [
-        b for b in top if model.body_jntnum[b] > 0 and model.jnt_type[model.body_jntadr[b]] == free
-    ]
-    candidates = floating or top
-    dofs = [int(model.body_dofnum[model.body_rootid == b].sum()) for b in candidates]
-    best = max(dofs)
-    if dofs.count(best) > 1:
-        raise InvalidInput(
-            f"cannot tell which top-level body is the robot among {names}; pass root_body"
-        )
-    return int(candidates[dofs.index(best)])
-
-
-def sole_geoms(model: mujoco.MjModel, bodies: np.ndarray) -> list[int]:
-    """The robot's sole collision geoms: the named collision geoms of ``bodies``
-    (a mask over ``model``'s bodies) whose name contains ``sole``; without any,
-    those on bodies whose name contains ``foot``."""
-    geoms = [
-        g
-        for g in range(model.ngeom)
-        if bodies[model.geom_bodyid[g]]
-        and (model.geom_contype[g] or model.geom_conaffinity[g])
-        and _name(model, mujoco.mjtObj.mjOBJ_GEOM, g)
-    ]
-    soles = [g for g in geoms if "sole" in _name(model, mujoco.mjtObj.mjOBJ_GEOM, g)]
-    if soles:
-        return soles
-    return [
-        g
-        for g in geoms
-        if "foot" in _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g]))
-    ]
 
 
 ModelLike = str | os.PathLike[str] | mujoco.MjSpec
@@ -285,16 +93,19 @@ class RobotSource:
         environment: Environment name, path or spec, or None.
         at: Placement: a site of the environment, ``(x, y, yaw)`` or
             ``(x, y, z, yaw)`` [m, rad], or None.
-        keyframe: The start pose's keyframe, or None (``reset_pose`` if the model
-            has one, else ``qpos0``).
+        keyframe: The start pose's keyframe (name or index), or None
+            (:func:`pik_mj.keyframes.choose_keyframe`).
         root_body: The robot's top-level body, or None (:func:`robot_root_body`).
+        description: The robot description file (absolute path) or a
+            :class:`~pik_mj.description.RobotDescription`, or None.
     """
 
     model: ModelLike
     environment: ModelLike | None = None
     at: str | tuple[float, ...] | None = None
-    keyframe: str | None = None
+    keyframe: str | int | None = None
     root_body: str | None = None
+    description: str | RobotDescription | None = None
 
     @property
     def serializable(self) -> bool:
@@ -302,7 +113,8 @@ class RobotSource:
         return not any(isinstance(x, mujoco.MjSpec) for x in (self.model, self.environment))
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready ``{"model", "environment", "at", "keyframe", "root_body"}``.
+        """JSON-ready ``{"model", "environment", "at", "keyframe", "root_body",
+        "description"}`` (a description given as an object is written as its keys).
 
         Raises:
             InvalidInput: The model or the environment was given as an MjSpec.
@@ -320,6 +132,11 @@ class RobotSource:
             "at": self.at if self.at is None or isinstance(self.at, str) else list(self.at),
             "keyframe": self.keyframe,
             "root_body": self.root_body,
+            "description": (
+                self.description.to_dict()
+                if isinstance(self.description, RobotDescription)
+                else self.description
+            ),
         }
 
     @classmethod
@@ -334,9 +151,16 @@ class RobotSource:
                 f'a robot source needs "model" (a name or an MJCF path), got {data!r}'
             )
         values = {f.name: data.get(f.name) for f in fields(cls)}
-        for key in ("environment", "keyframe", "root_body"):
+        for key in ("environment", "root_body"):
             if values[key] is not None and not isinstance(values[key], str):
                 raise InvalidInput(f"robot source {key!r} must be a string or null")
+        key = values["keyframe"]
+        if key is not None and (isinstance(key, bool) or not isinstance(key, (str, int))):
+            raise InvalidInput(f"robot source 'keyframe' must be a name, an index or null: {key!r}")
+        if isinstance(values["description"], Mapping):
+            values["description"] = RobotDescription.from_dict(values["description"])
+        elif values["description"] is not None and not isinstance(values["description"], str):
+            raise InvalidInput("robot source 'description' must be a path, a table or null")
         at = values["at"]
         if at is not None and not isinstance(at, str):
             if not isinstance(at, (list, tuple)) or not all(
@@ -345,6 +169,28 @@ class RobotSource:
                 raise InvalidInput(f'robot source "at" must be a site name or numbers, got {at!r}')
             values["at"] = tuple(float(x) for x in at)
         return cls(**values)
+
+
+def _description(
+    description: str | os.PathLike[str] | RobotDescription | None,
+) -> RobotDescription | None:
+    if description is None or isinstance(description, RobotDescription):
+        return description
+    if isinstance(description, (str, os.PathLike)):
+        return load_description(description)
+    raise InvalidInput(
+        "description must be a robot description file (.toml or .json) or a "
+        f"RobotDescription, got {type(description).__name__}"
+    )
+
+
+def _source_description(
+    description: str | os.PathLike[str] | RobotDescription | None,
+) -> str | RobotDescription | None:
+    """A description file's absolute path (found from anywhere), or the object."""
+    if isinstance(description, (str, os.PathLike)):
+        return os.path.abspath(os.fspath(description))
+    return description
 
 
 def _source_name(model: ModelLike) -> ModelLike:
@@ -366,12 +212,16 @@ class Robot:
 
     Args:
         model: The compiled model (a robot alone or with an environment).
-        root_body: Name of the robot's top-level body. By default the top-level
-            body holding the joints of the detected limbs, or, without limbs, as
-            :func:`robot_root_body`.
-        limbs: Explicit limb table ``{name: Limb}``; detected from names if None.
-        keyframe: Keyframe of the start pose (:meth:`reset_pose`); default
-            ``reset_pose`` if the model has one, else ``qpos0``.
+        root_body: Name of the robot's top-level body (default: the
+            description's, else :func:`robot_root_body`).
+        limbs: Explicit limb table ``{name: Limb}``; None: the description's
+            limbs, the others found from the kinematic tree in the start pose
+            (:func:`pik_mj.description.robot_limbs`; none required).
+        keyframe: Keyframe of the start pose (:meth:`reset_pose`), by name or
+            index (default: the description's, else
+            :func:`pik_mj.keyframes.choose_keyframe`).
+        description: What a robot description file states
+            (:class:`~pik_mj.description.RobotDescription`), or None.
 
     Attributes:
         model: The compiled model.
@@ -381,7 +231,11 @@ class Robot:
         source: The :class:`RobotSource` that rebuilds it, or None.
         placement: ``(x, y, z, yaw)`` [m, rad] where the robot's model frame was
             put (``at``), or None.
-        keyframe: The start pose's keyframe (:meth:`reset_pose`), or None for ``qpos0``.
+        keyframe: The start pose's keyframe (:meth:`reset_pose`): name, index of an
+            unnamed one, or None for ``qpos0``.
+        keyframe_rule: Why that keyframe (:func:`pik_mj.keyframes.choose_keyframe`).
+        description: The robot description, or None.
+        limbs: ``{name: Limb}``, in the order of :data:`pik_mj.limbs.LIMB_NAMES`.
 
     Raises:
         UnknownName: ``root_body``, ``keyframe`` or a limb's joint/frame does not exist.
@@ -395,7 +249,8 @@ class Robot:
         *,
         root_body: str | None = None,
         limbs: Mapping[str, Limb] | None = None,
-        keyframe: str | None = None,
+        keyframe: str | int | None = None,
+        description: RobotDescription | None = None,
     ):
         if not isinstance(model, mujoco.MjModel):
             raise InvalidInput(
@@ -407,6 +262,8 @@ class Robot:
         self.spec: mujoco.MjSpec | None = None
         self.source: RobotSource | None = None
         self.placement: tuple[float, float, float, float] | None = None
+        self._own_nq: int | None = None
+        self.description = description
         top_level = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
         if not top_level:
             raise InvalidInput("the model has no body besides the world")
@@ -414,20 +271,11 @@ class Robot:
             isinstance(limbs, Mapping) and all(isinstance(x, Limb) for x in limbs.values())
         ):
             raise InvalidInput(f"limbs must be a mapping of names to Limb, got {limbs!r}")
-        if keyframe is not None and not isinstance(keyframe, str):
-            raise InvalidInput(f"keyframe must be a keyframe name (a string), got {keyframe!r}")
-        detected = self._detect_limbs() if limbs is None else dict(limbs)
-        self._root_id = robot_root_body(
-            model,
-            root_body,
-            limb_bodies=[
-                b
-                for b in (
-                    _id(model, mujoco.mjtObj.mjOBJ_BODY, x.root_body) for x in detected.values()
-                )
-                if b >= 0
-            ],
-        )
+        if root_body is None and description is not None:
+            root_body = description.root_body
+        if root_body is not None and not isinstance(root_body, str):
+            raise InvalidInput(f"root_body must be a body name, got {type(root_body).__name__}")
+        self._root_id = robot_root_body(model, root_body)
         if self._root_id not in top_level:
             names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in top_level]
             raise InvalidInput(
@@ -442,36 +290,50 @@ class Robot:
             _name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self._angle_joint_ids
         ]
         self._joint_index = {n: i for i, n in enumerate(self.joint_names)}
-        if limbs is not None:
-            for limb in detected.values():
-                self._check_limb(limb)
-        self.limbs: dict[str, Limb] = {
-            name: limb
-            for name, limb in detected.items()
-            if model.body_rootid[model.body(limb.root_body).id] == self._root_id
-        }
-        keys = [_name(model, mujoco.mjtObj.mjOBJ_KEY, k) for k in range(model.nkey)]
-        if keyframe is not None and keyframe not in keys:
-            raise UnknownName("keyframe", keyframe, keys)
-        self.keyframe = (
-            keyframe
-            if keyframe is not None
-            else (RESET_KEYFRAME if RESET_KEYFRAME in keys else None)
-        )
+        if keyframe is None and description is not None:
+            keyframe = description.keyframe
+        self._key_index, self.keyframe_rule = choose_keyframe(model, keyframe)
         self.reset_pose()
+        if limbs is None:
+            limbs = robot_limbs(
+                model, description, self.configuration.q, root_body=self._root_id, required=()
+            )
+        else:
+            for limb in limbs.values():
+                self._check_limb(limb)
+        order = [n for n in LIMB_NAMES if n in limbs] + [n for n in limbs if n not in LIMB_NAMES]
+        self.limbs: dict[str, Limb] = {name: limbs[name] for name in order}
+
+    @property
+    def keyframe(self) -> str | int | None:
+        """The start pose's keyframe (:meth:`reset_pose`): its name, its index when it
+        has none, or None for ``qpos0``; chosen by
+        :func:`pik_mj.keyframes.choose_keyframe` (:attr:`keyframe_rule` says why)."""
+        if self._key_index is None:
+            return None
+        return self.model.key(self._key_index).name or self._key_index
 
     @classmethod
     def from_model(
         cls,
-        model: ModelLike,
+        model: ModelLike | None = None,
         *,
         environment: ModelLike | None = None,
         at: str | Sequence[float] | None = None,
-        keyframe: str | None = None,
+        keyframe: str | int | None = None,
         root_body: str | None = None,
         limbs: Mapping[str, Limb] | None = None,
+        description: str | os.PathLike[str] | RobotDescription | None = None,
+        required_limbs: Sequence[str] = (),
     ) -> Robot:
-        """The robot of ``model``, standing in its world.
+        """The robot of ``model``, standing in its world, its MJCF as it is shipped.
+
+        Its start pose is a keyframe (:func:`pik_mj.keyframes.choose_keyframe`:
+        the one named, else one named like a standing pose, else the first, else
+        ``qpos0``), its limbs are found from the kinematic tree in that pose
+        (:func:`pik_mj.limbs.find_limbs`), and what the tree does not tell can be
+        described (``description``, :mod:`pik_mj.description`). Elements the
+        MJCF leaves unnamed get names (:func:`pik_mj.sim.environment.name_unnamed`).
 
         The robot's spec is the host of its world: the robot's top-level body is
         placed at ``at`` (:func:`pik_mj.sim.environment.place_root`), and the
@@ -479,42 +341,81 @@ class Robot:
         (:func:`pik_mj.sim.environment.attach_environment`), so the robot's
         ``qpos`` is a prefix of the world's and the robot and the environment's
         objects (e.g. the room's ``kettle_handle`` site) share one world frame. A
-        floating-base robot is first moved along z so that its lowest sole geom
-        (:func:`sole_geoms`) touches z = 0 at its start pose (when it is farther
-        than :data:`GROUND_TOLERANCE`), in its qpos0 and its keyframes.
+        floating-base robot is first moved along z so that its lowest collision
+        geom touches z = 0 at its start pose (:func:`pik_mj.ground.floor_gap`,
+        when it is farther than :data:`GROUND_TOLERANCE`; Robotis OP3's zero pose
+        floats 21 mm), in its qpos0 and its keyframes.
 
         Args:
-            model: Model name (:func:`pik_mj.models.available_models`), MJCF path,
-                or an :class:`mujoco.MjSpec` (copied; its source cannot be
-                written to JSON).
+            model: Model name (:func:`pik_mj.models.available_models`, a MuJoCo
+                Menagerie robot such as ``"unitree_g1"``), MJCF path, or an
+                :class:`mujoco.MjSpec` (copied; its source cannot be written to
+                JSON). None: the description's ``model``.
             environment: Environment name, path or spec, or None (the robot alone).
             at: A site of the environment (its position and heading), or
                 ``(x, y, yaw)`` / ``(x, y, z, yaw)`` [m, rad]: where the robot's model
                 frame goes.
-            keyframe: Keyframe of the start pose (default ``reset_pose`` if any).
-            root_body: The robot's top-level body (default: see
-                :func:`robot_root_body`).
-            limbs: Explicit limb table (default: detected from names).
+            keyframe: Keyframe of the start pose, by name or index (default: the
+                description's, else the rule above).
+            root_body: The robot's top-level body (default: the description's,
+                else :func:`pik_mj.frames.robot_root_body`).
+            limbs: Explicit limb table (default: the description's limbs, the
+                others found from the tree).
+            description: A robot description file (``.toml``/``.json``) or a
+                :class:`~pik_mj.description.RobotDescription`.
+            required_limbs: Limb names the caller needs: when one is neither
+                described nor found, :class:`~pik_mj.limbs.LimbsNotFound` says so
+                here, before any work (what was found, how to describe it).
 
         Raises:
-            UnknownName: Unknown model name, site, keyframe or body.
-            InvalidInput: A model that does not load or compile, a bad placement.
+            UnknownName: Unknown model name, site, keyframe, body, or a described
+                frame or joint.
+            InvalidInput: A model that does not load or compile, a bad placement
+                or description.
+            LimbsNotFound: A limb of ``required_limbs`` is not there.
         """
-        from pik_mj.sim.environment import as_spec, attach_environment, place_root, placement
+        from pik_mj.sim.environment import (
+            as_spec,
+            attach_environment,
+            name_unnamed,
+            place_root,
+            placement,
+        )
 
+        described = _description(description)
+        if model is None and described is not None and described.model is not None:
+            model = described.model
         for what, value in (("model", model), ("environment", environment)):
             if not isinstance(value, (str, os.PathLike, mujoco.MjSpec)) and (
                 value is not None or what == "model"
             ):
                 raise InvalidInput(
                     f"{what} must be a model name, an MJCF path or a mujoco.MjSpec, got {value!r}"
+                    + (" (or a description whose 'model' names it)" if what == "model" else "")
                 )
         spec = as_spec(model)
+        name_unnamed(spec)
         try:
             alone = spec.compile()
         except ValueError as err:
             raise InvalidInput(f"model {spec.modelname!r} does not compile: {err}") from err
-        robot = cls(alone, root_body=root_body, limbs=limbs, keyframe=keyframe)
+        robot = cls(
+            alone, root_body=root_body, limbs=limbs, keyframe=keyframe, description=described
+        )
+        if robot.keyframe is None and robot.has_floating_base:
+            flat = robot._flat_stance()
+            if flat is not None:  # the zero pose with its soles made flat: a keyframe
+                spec.add_key(name=STANDING_KEYFRAME, qpos=flat.tolist())
+                alone = spec.compile()
+                robot = cls(
+                    alone,
+                    root_body=root_body,
+                    limbs=limbs,
+                    keyframe=STANDING_KEYFRAME,
+                    description=described,
+                )
+                robot.keyframe_rule = "zero pose, soles made flat"
+        robot.require_limbs(required_limbs)
         env_spec = None if environment is None else as_spec(environment)
         env_model = None
         if env_spec is not None:
@@ -525,8 +426,8 @@ class Robot:
                     f"environment {env_spec.modelname!r} does not compile: {err}"
                 ) from err
         p_WR, yaw = (np.zeros(3), 0.0) if at is None else placement(at, env_model)
-        dz = -robot._ground_gap(spec) if robot.has_floating_base else 0.0
-        if abs(dz) <= GROUND_TOLERANCE:
+        dz = -robot.floor_gap() if robot.has_floating_base else 0.0
+        if not abs(dz) > GROUND_TOLERANCE:  # within tolerance, or NaN: no collision geom
             dz = 0.0
         world = alone
         if at is not None or dz != 0.0 or env_spec is not None:
@@ -538,14 +439,23 @@ class Robot:
                 world = spec.compile()
             except ValueError as err:
                 raise InvalidInput(f"the robot's world does not compile: {err}") from err
-        out = cls(world, root_body=robot.root_body, limbs=limbs, keyframe=keyframe)
+        out = cls(
+            world,
+            root_body=robot.root_body,
+            limbs=robot.limbs,
+            keyframe=robot.keyframe,
+            description=described,
+        )
+        out.keyframe_rule = robot.keyframe_rule
         out.spec = spec
+        out._own_nq = int(alone.nq)
         out.source = RobotSource(
             _source_name(model),
             None if environment is None else _source_name(environment),
             at if at is None or isinstance(at, str) else tuple(float(x) for x in at),
             keyframe,
             root_body,
+            _source_description(description),
         )
         if at is not None:
             out.placement = (float(p_WR[0]), float(p_WR[1]), float(p_WR[2]), float(yaw))
@@ -562,65 +472,70 @@ class Robot:
             at=source.at,
             keyframe=source.keyframe,
             root_body=source.root_body,
+            description=source.description,
         )
 
-    def _ground_gap(self, spec: mujoco.MjSpec) -> float:
-        """Smallest distance [m] of the sole geoms to the plane z = 0 at the start
-        pose (``mj_geomDistance``; negative: they sink into it); 0 without soles.
+    def _flat_stance(self, tolerance: float = 1e-4) -> np.ndarray | None:
+        """The start configuration with each foot turned so that its sole is
+        horizontal (:func:`pik_mj.ground.sole_normal`), or None when the soles
+        already are within ``tolerance`` [rad] (or there are no legs).
 
-        ``spec`` is the robot's spec (``self.model`` compiled); a plane is added to
-        a copy of it.
+        dm_control's humanoid stands in its zero pose on capsules tilted by
+        8 mrad: held in physics it rocks onto them and drifts 15 mm. The feet are
+        turned by the leg joints (:func:`pik_mj.ik.inverse_kinematics`: each
+        foot's orientation ``R_c R_WF``, ``R_c`` the smallest rotation taking the
+        sole's normal to up, and its horizontal position), the rest of the robot
+        as it is.
         """
-        probe = spec.copy()
-        probe.worldbody.add_geom(
-            name="pik_mj_ground_probe", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.0, 1.0, 0.1]
-        )
-        m = probe.compile()
-        soles = sole_geoms(m, np.asarray(m.body_rootid) == self._root_id)
-        if not soles:
-            return 0.0
-        d = mujoco.MjData(m)
-        d.qpos[:] = self.configuration.q
-        mujoco.mj_kinematics(m, d)
-        ground = m.geom("pik_mj_ground_probe").id
-        return min(mujoco.mj_geomDistance(m, d, g, ground, 10.0, None) for g in soles)
+        from pik_mj.ik import inverse_kinematics  # the IK is built on the robot
+
+        legs = [x for x in ("rleg", "lleg") if x in self.limbs]
+        targets = []
+        tilt = 0.0
+        for leg in legs:
+            limb = self.limbs[leg]
+            n = sole_normal(self.model, self.data, foot_geoms(self, [leg]))
+            if n is None:
+                return None
+            axis = np.cross(n, [0.0, 0.0, 1.0])
+            angle = float(np.arctan2(np.linalg.norm(axis), n[2]))
+            tilt = max(tilt, angle)
+            R_c = mink.SO3.exp(axis / max(np.linalg.norm(axis), 1e-12) * angle)
+            X = self.frame_pose(limb.end_frame, limb.end_frame_type)
+            targets.append((X.translation(), (R_c @ X.rotation()).wxyz))
+        if not legs or tilt <= tolerance:
+            return None
+        q0 = self.configuration.q.copy()
+        try:
+            result = inverse_kinematics(
+                self,
+                targets,
+                limbs=legs,
+                translation_axis="z",  # the height is free: the robot is put down after
+                thre=1e-4,
+                rthre=1e-4,
+                stop=50,
+                revert_if_fail=True,
+            )
+            if not result.converged:
+                return None
+            q = self.configuration.q.copy()
+            adr = self._free_qposadr()
+            q[adr : adr + 7] = q0[adr : adr + 7]  # the base stays exactly where it was
+            return q
+        finally:
+            self.configuration.update(q0)
+
+    def floor_gap(self) -> float:
+        """Height [m] of the robot's lowest collision geom above the floor z = 0 in
+        its current configuration (:func:`pik_mj.ground.floor_gap`; negative: it
+        sinks in), NaN for a robot without collision geoms."""
+        try:
+            return floor_gap(self.model, self.data, self._root_id)
+        except NoCollisionGeometry:
+            return math.nan
 
     # ------------------------------------------------------------------ limbs
-    def _detect_limbs(self) -> dict[str, Limb]:
-        model = self.model
-        joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in range(model.njnt)]
-        limbs: dict[str, Limb] = {}
-        for limb in LIMB_NAMES:
-            own = tuple(
-                n
-                for j, n in enumerate(joints)
-                if n.startswith(f"{limb}_") and int(model.jnt_type[j]) in _ANGLE_JOINTS
-            )
-            if not own:
-                continue
-            end = f"{limb}_end"
-            if _id(model, mujoco.mjtObj.mjOBJ_SITE, end) >= 0:
-                limbs[limb] = self._make_limb(limb, own, end, "site")
-            else:  # e.g. the torso: its last link is the end frame.
-                last = model.jnt_bodyid[model.joint(own[-1]).id]
-                body = _name(model, mujoco.mjtObj.mjOBJ_BODY, last)
-                limbs[limb] = self._make_limb(limb, own, body, "body")
-        if limbs:
-            return limbs
-        names = set(joints)
-        for table in _LIMB_TABLES:
-            if all(
-                set(row[1]) <= names and _id(model, _FRAME_OBJ[row[3]], row[2]) >= 0
-                for row in table
-            ):
-                return {row[0]: self._make_limb(*row) for row in table}
-        return {}
-
-    def _make_limb(self, name: str, joints: tuple[str, ...], end: str, end_type: str) -> Limb:
-        first = self.model.joint(joints[0]).id
-        root = _name(self.model, mujoco.mjtObj.mjOBJ_BODY, self.model.jnt_bodyid[first])
-        return Limb(name, tuple(joints), end, end_type, root)
-
     def _check_limb(self, limb: Limb) -> None:
         for joint in limb.joints:
             self._angle_joint_id(joint)
@@ -631,12 +546,49 @@ class Robot:
             if self.model.body_rootid[self._frame_body_id(frame, kind)] != self._root_id:
                 raise InvalidInput(f"limb {limb.name!r}: {kind} {frame!r} is not on the robot")
 
+    def _limb_search(self, names: Sequence[str]) -> LimbsNotFound | None:
+        """Why the limbs ``names`` are missing: the error :func:`find_limbs` gives
+        when asked for them in the start pose (what it saw and found), or None."""
+        missing = [n for n in names if n not in self.limbs]
+        if not missing:
+            return None
+        q = self.configuration.q.copy()
+        self.reset_pose()
+        try:
+            find_limbs(self.model, self.configuration.q, root_body=self._root_id, required=missing)
+        except LimbsNotFound as err:
+            return LimbsNotFound(str(err.args[0]).split("\n")[0], self.limbs, err.details)
+        finally:
+            self.configuration.update(q)
+        return LimbsNotFound(f"the robot has no limb {missing}", self.limbs, [])
+
+    def require_limbs(self, names: Sequence[str]) -> None:
+        """Raise :class:`~pik_mj.limbs.LimbsNotFound` (what was found, how to
+        describe the limbs) unless the robot has every limb in ``names``."""
+        if isinstance(names, str):
+            names = [names]
+        error = self._limb_search(list(names))
+        if error is not None:
+            raise error
+
     def limb(self, name: str) -> Limb:
-        """The limb called ``name`` (irteus ``(send robot :rarm)``)."""
+        """The limb called ``name`` (irteus ``(send robot :rarm)``).
+
+        Raises:
+            UnknownName: No limb ``name`` (lists the robot's limbs; for a name
+                :func:`~pik_mj.limbs.find_limbs` gives, such as ``larm``, how to
+                describe it). :meth:`require_limbs` says what the search saw.
+        """
         try:
             return self.limbs[name]
         except KeyError:
-            raise UnknownName("limb", name, self.limbs) from None
+            err = UnknownName("limb", name, self.limbs)
+            if name in LIMB_NAMES:
+                err.args = (
+                    f"{err.args[0]}; the robot's tree does not give it: name it in a robot "
+                    "description (Robot.from_model(..., description=PATH))",
+                )
+            raise err from None
 
     # ---------------------------------------------------------------- state
     @property
@@ -656,10 +608,16 @@ class Robot:
 
     @property
     def own_nq(self) -> int:
-        """Length of the robot's own part of ``q``: its joints come first, the
+        """Length of the robot's own part of ``q``: its MJCF's joints (the robot's,
+        and those of other top-level bodies its MJCF has) come first, the
         environment's (e.g. the room's kettle) after them."""
-        k = len(self._robot_joint_ids)
-        return int(self.model.nq if k == self.model.njnt else self.model.jnt_qposadr[k])
+        if self._own_nq is not None:
+            return self._own_nq
+        ends = [
+            int(self.model.jnt_qposadr[j]) + _QPOS_SIZE[int(self.model.jnt_type[j])]
+            for j in self._robot_joint_ids
+        ]
+        return max(ends, default=0)
 
     @property
     def has_floating_base(self) -> bool:
@@ -771,11 +729,14 @@ class Robot:
         q[adr + 3 : adr + 7] = quat
         self.configuration.update(q)
 
+    def start_q(self) -> np.ndarray:
+        """The start configuration (nq,): keyframe :attr:`keyframe`, or ``qpos0``; a copy."""
+        k = self._key_index
+        return (self.model.qpos0 if k is None else self.model.key_qpos[k]).copy()
+
     def reset_pose(self) -> None:
         """Go to the start pose: keyframe :attr:`keyframe`, or ``qpos0`` without one."""
-        k = -1 if self.keyframe is None else _id(self.model, mujoco.mjtObj.mjOBJ_KEY, self.keyframe)
-        q = self.model.key_qpos[k] if k >= 0 else self.model.qpos0
-        self.configuration.update(q.copy())
+        self.configuration.update(self.start_q())
 
     # ------------------------------------------------------------- frames
     def _frame_body_id(self, name: str, frame_type: str) -> int:

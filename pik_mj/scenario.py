@@ -37,7 +37,7 @@ import rerun as rr
 from . import inputs
 from .balance import support_polygon
 from .exceptions import InvalidInput, PikError
-from .ik import sole_polygons
+from .ground import sole_polygons
 from .record import Recorder
 from .robot import Robot
 from .sim import (
@@ -108,7 +108,7 @@ def jsonable(value: Any, where: str = "value") -> Any:
 
 def com_margin(robot: Robot, point: np.ndarray | None = None) -> float:
     """Signed distance [m] of the CoM's (or ``point``'s) ground projection to the edges
-    of the support polygon of both soles (:func:`pik_mj.ik.sole_polygons`),
+    of the support polygon of both soles (:func:`pik_mj.ground.sole_polygons`),
     positive inside."""
     region = support_polygon(sole_polygons(robot))
     return float(region.signed_distance(robot.com() if point is None else np.asarray(point)))
@@ -432,8 +432,11 @@ class OptionError(InvalidInput):
 
 class ScenarioParser(argparse.ArgumentParser):
     """The argument parser of a scenario's ``main`` (:func:`parser`): after parsing,
-    it checks that the output files (``--save``, ``--json``) can be written, before
+    it checks that the output files (``--save``, ``--json``) can be written and
+    that ``--model``/``--description`` give a robot the scenario can move, before
     any work starts (a usage error otherwise)."""
+
+    robot_option: _RobotOption | None = None
 
     def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
         ns = super().parse_args(args, namespace)
@@ -449,7 +452,51 @@ class ScenarioParser(argparse.ArgumentParser):
                 self.error(str(exc))
         if len(outputs) == 2 and Path(outputs[0][1]).resolve() == Path(outputs[1][1]).resolve():
             self.error(f"--save and --json name the same file {outputs[0][1]!r}; give two files")
+        if self.robot_option is not None:
+            try:
+                ns.model = self.robot_option.check(ns.model, getattr(ns, "description", None))
+            except InvalidInput as exc:
+                self.error(str(exc))
         return ns
+
+
+@dataclass(frozen=True)
+class _RobotOption:
+    """What ``--model`` (and ``--description``) must give a scenario: a robot that
+    loads and has ``limbs`` (and a floating base with ``floating_base``)."""
+
+    default: str
+    limbs: tuple[str, ...]
+    floating_base: bool
+
+    def check(self, model: str | None, description: str | None) -> str | None:
+        """The model to run (the default when neither option names one), once a
+        robot was built from it and its description.
+
+        Raises:
+            InvalidInput: Why not, one line starting with the option to blame.
+        """
+        if model is None and description is None:
+            model = self.default
+        option = "--model" if model is not None else "--description"
+        named = f"model {model!r}" if model is not None else f"the model of {description!r}"
+        try:
+            robot = Robot.from_model(model, description=description)
+        except PikError as exc:
+            raise InvalidInput(f"argument {option}: {exc}") from None
+        missing = [x for x in self.limbs if x not in robot.limbs]
+        if missing:
+            hint = "" if description else "; name them in a robot description: --description PATH"
+            raise InvalidInput(
+                f"argument {option}: {named} has no limb {', '.join(missing)}, which this "
+                f"scenario moves (its limbs: {', '.join(robot.limbs) or 'none'}){hint}"
+            )
+        if self.floating_base and not robot.has_floating_base:
+            raise InvalidInput(
+                f"argument {option}: {named} has no floating base (a free joint at its "
+                f"root {robot.root_body!r}), which this scenario needs"
+            )
+        return model
 
 
 def parser(
@@ -459,6 +506,7 @@ def parser(
     model: str | None = None,
     limbs: Sequence[str] = (),
     floating_base: bool = False,
+    description: bool = False,
 ) -> ScenarioParser:
     """The options of a scenario's ``main``: rerun's (``--save FILE.rrd``,
     ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
@@ -475,6 +523,9 @@ def parser(
             and a floating base with ``floating_base``).
         limbs: Limbs the scenario moves (checked on ``--model``).
         floating_base: The scenario needs a floating base (checked on ``--model``).
+        description: With ``model``, add ``--description FILE`` (a robot description,
+            :mod:`pik_mj.description`), checked with ``--model``; ``--model``'s
+            default then applies when neither is given.
     """
     p = ScenarioParser(description=(doc or "").strip().splitlines()[0])
     rr.script_add_args(p)
@@ -495,12 +546,20 @@ def parser(
             f"limits (default {DEFAULT_SPEED:g}; 0: not played)",
         )
     if model is not None:
+        p.robot_option = _RobotOption(model, tuple(limbs), floating_base)
         p.add_argument(
             "--model",
-            type=_model_option(tuple(limbs), floating_base),
-            default=model,
-            help=f"robot model name or MJCF path (default {model})",
+            help=f"robot: a model name ({model}, dm_humanoid, a MuJoCo Menagerie robot "
+            "such as unitree_g1) or an MJCF path (default: "
+            + ("the description's model, else " if description else "")
+            + f"{model})",
         )
+        if description:
+            p.add_argument(
+                "--description",
+                help="robot description file (.toml/.json): limbs, keyframe, soles the "
+                "kinematic tree does not tell",
+            )
     return p
 
 
@@ -551,31 +610,6 @@ def count(text: str) -> int:
     except ValueError:
         value = text
     return inputs.integer(value, "a count", low=1)
-
-
-def _model_option(limbs: tuple[str, ...], floating_base: bool) -> Any:
-    """The argparse type of ``--model``: the name as given, once a robot was built
-    from it and has ``limbs`` (and a floating base if ``floating_base``)."""
-
-    def model(text: str) -> str:
-        try:
-            robot = Robot.from_model(text)
-        except PikError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-        missing = [x for x in limbs if x not in robot.limbs]
-        if missing:
-            raise argparse.ArgumentTypeError(
-                f"model {text!r} has no limb {', '.join(missing)}, which this scenario "
-                f"moves (its limbs: {', '.join(robot.limbs) or 'none'})"
-            )
-        if floating_base and not robot.has_floating_base:
-            raise argparse.ArgumentTypeError(
-                f"model {text!r} has no floating base (a free joint at its root "
-                f"{robot.root_body!r}), which this scenario needs"
-            )
-        return text
-
-    return model
 
 
 @_argument_type

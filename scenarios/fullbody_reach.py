@@ -7,8 +7,12 @@ the floating base moves within the seed's root-link bounds. The seed first bends
 the waist by 10° (done where the robot has ``torso_waist_p``). dm_control's
 humanoid has its root at the chest, not the waist, and cannot crouch as deep
 within the root bounds: its hand target is (0.3, 0.1, -0.5) m from its root.
-Every iteration is checked statically in the robot's scene; the iterates are
-played in physics as a motion, and the final pose is held in physics.
+Any other robot (``--model unitree_g1``, an MJCF path; ``--description FILE``
+when its limbs are not found from its tree) reaches with its left hand
+(0.6, 0.2, 0.4) L from where the hand is at the start, L the arm's length
+(shoulder to hand). Every iteration is checked statically in the robot's scene;
+the iterates are played in physics as a motion, and the final pose is held in
+physics.
 """
 
 from __future__ import annotations
@@ -42,8 +46,9 @@ HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
     "dm_humanoid_cmu": (0.4, 0.1, -0.6),
     "dm_humanoid": (0.3, 0.1, -0.5),
 }
-OTHER_MODELS = (0.3, 0.1, -0.4)
+OTHER_MODELS = (0.6, 0.2, 0.4)  # [arm lengths] from the hand's start, other robots
 FEET = ("rleg", "lleg")
+HAND = "larm"
 
 
 def foot_poses(robot: Robot) -> list:
@@ -53,13 +58,14 @@ def foot_poses(robot: Robot) -> list:
 def run(
     recorder: Recorder,
     *,
-    model: str = "sample_humanoid",
+    model: str | None = "sample_humanoid",
+    description: str | None = None,
     hold: float = DEFAULT_HOLD,
     speed: float = DEFAULT_SPEED,
     quiet: bool = True,
 ) -> ScenarioResult:
     result = ScenarioResult(NAME)
-    robot = Robot.from_model(model)
+    robot = Robot.from_model(model, description=description, required_limbs=[*FEET, HAND])
     if "torso_waist_p" in robot.joint_names:  # seed: (send *robot* :torso :waist-p :joint-angle 10)
         robot.set_angle_vector([np.deg2rad(10.0)], ["torso_waist_p"])
     scene = Scene.from_robot(robot)
@@ -67,7 +73,13 @@ def run(
     feet0 = foot_poses(robot)
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     p_root, _ = robot.root_pose()
-    target = p_root + np.array(HAND_OFFSETS.get(str(model), OTHER_MODELS))
+    arm = robot.limb(HAND)
+    if str(model) in HAND_OFFSETS:
+        target = p_root + np.array(HAND_OFFSETS[str(model)])
+    else:
+        p_hand = robot.frame_pose(arm.end_frame, arm.end_frame_type).translation()
+        length = np.linalg.norm(p_hand - robot.frame_pose(arm.root_body, "body").translation())
+        target = p_hand + length * np.array(OTHER_MODELS)
 
     checks = scene.static_checker()
     log = recorder.solve_logger("reach", checks=checks, start=robot)
@@ -76,7 +88,7 @@ def run(
     res = fullbody_inverse_kinematics(
         robot,
         [(target, np.array([1.0, 0.0, 0.0, 0.0]))],
-        limbs=["larm"],
+        limbs=[HAND],
         rotation_axis=[None],
         target_centroid_pos=p_mid,
         centroid_axes="z",
@@ -98,11 +110,11 @@ def run(
     result.add_balance(scene, static, held, criteria)
 
     feet1 = foot_poses(robot)
-    hand = robot.frame_pose(robot.limb("larm").end_frame, robot.limb("larm").end_frame_type)
+    hand = robot.frame_pose(arm.end_frame, arm.end_frame_type)
     com = robot.com()
     result.main = "reach"
     result.figures = {
-        "model": model,
+        "model": str(robot.source.model),
         "hand_target_m": target,
         "hand_error_m": float(np.linalg.norm(hand.translation() - target)),
         "feet_moved_m": max(
@@ -134,10 +146,23 @@ def run(
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(__doc__, model="sample_humanoid", limbs=(*FEET, "larm"), floating_base=True)
+    p = parser(
+        __doc__,
+        model="sample_humanoid",
+        limbs=(*FEET, HAND),
+        floating_base=True,
+        description=True,
+    )
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, model=args.model, hold=args.hold, speed=args.speed, quiet=args.quiet)
+        result = run(
+            recorder,
+            model=args.model,
+            description=args.description,
+            hold=args.hold,
+            speed=args.speed,
+            quiet=args.quiet,
+        )
     return report(result, args)
 
 

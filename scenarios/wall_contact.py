@@ -32,7 +32,7 @@ from pik_mj import (
     fullbody_inverse_kinematics,
 )
 from pik_mj.balance import contact_from_normal, foot_contact, static_equilibrium
-from pik_mj.ik import sole_size
+from pik_mj.ground import sole_size
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,

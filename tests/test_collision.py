@@ -215,6 +215,44 @@ def test_prefilter_never_drops_a_near_pair_and_evaluate_agrees():
     assert np.mean(skipped) > 0.5  # most pairs are never measured
 
 
+def test_floating_base_rows_only_on_the_joints_between_the_bodies():
+    """The sample humanoid in random poses, every pair in a 0.3 m yellow zone: each
+    row is zero (to rounding) outside the joints between its two bodies, the
+    floating base's columns included (it moves both witness points alike), not
+    zero on them, and the rows match finite differences of MuJoCo's distances for
+    random motions of every joint, floating base included."""
+    robot = Robot.from_model("sample_humanoid")
+    m, conf = robot.model, robot.configuration
+    bodies = [m.body(b).name for b in range(1, m.nbody) if m.body_geomnum[b] > 0]
+    pairs = collision_pairs(m, robot.data, bodies)
+    rng = np.random.default_rng(3)
+    lo, hi = robot.joint_limits()
+    q_start = robot.angle_vector()
+    for _ in range(3):
+        robot.set_angle_vector(q_start + 0.3 * rng.uniform(lo, hi))
+        task = CollisionAvoidanceTask(conf, pairs, yellow=0.3, orange=0.0)
+        rows = task.compute_rows(conf)
+        assert len(task.row_pairs) > 10
+        for r, i in enumerate(task.row_pairs):
+            b1, b2 = (m.geom_bodyid[g] for g in (pairs[i].geom1, pairs[i].geom2))
+            between = np.zeros(m.nv, dtype=bool)
+            for b in _ancestors(m, b1) ^ _ancestors(m, b2):  # up to the common ancestor
+                between[m.body_dofadr[b] : m.body_dofadr[b] + m.body_dofnum[b]] = True
+            assert np.all(np.abs(rows.C[r, ~between]) < 1e-12)
+            assert np.any(np.abs(rows.C[r, between]) > 1e-6)
+        base = m.body_dofadr[robot.root_body_id]
+        assert np.all(np.abs(rows.C[:, base : base + 6]) < 1e-12)
+        _fd_check(conf, task, rng)
+
+
+def _ancestors(model: mujoco.MjModel, b: int) -> set[int]:
+    out = {int(b)}
+    while b != 0:
+        b = model.body_parentid[b]
+        out.add(int(b))
+    return out
+
+
 def test_moving_pairs_are_those_whose_distance_changes():
     """Pairs kept for the right arm's joints are exactly those whose distance
     changes when those joints (and only those) move at random."""

@@ -12,7 +12,6 @@ from pik_mj import ground
 from pik_mj.balance import convex_hull_2d, polygon_area
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import Frame
-from pik_mj.ik import sole_polygons as bounding_box_soles
 from pik_mj.keyframes import standing_pose
 from pik_mj.limbs import find_limbs
 from pik_mj.models import load_model, load_spec
@@ -197,13 +196,18 @@ def test_sole_polygon_matches_mujoco_contacts(foot, area, n):
         assert _outside(poly[:, :2], hull) <= 1e-3
 
 
-def test_sole_polygon_ignores_visual_geoms_that_the_bounding_box_takes():
+def test_sole_polygon_ignores_visual_geoms():
+    """The box foot's collision box is 0.22 x 0.10 m; its visual box (0.30 x 0.16 m,
+    what bounding boxes of every geom gave) is left out."""
     model = mujoco.MjModel.from_xml_string(_FEET)
     robot = Robot(model, limbs={"leg": Limb("leg", (), "box_foot", "body", "box_foot")})
     new = ground.sole_polygons(robot, ["leg"])[0]
-    old = bounding_box_soles(robot, ["leg"])[0]
     assert np.ptp(new[:, :2], axis=0) == pytest.approx([0.22, 0.10], abs=1e-9)
-    assert np.ptp(old[:, :2], axis=0) == pytest.approx([0.30, 0.16], abs=1e-9)  # the visual box
+    foot = model.body("box_foot").id
+    visual = [
+        g for g in range(model.ngeom) if model.geom_bodyid[g] == foot and not model.geom_contype[g]
+    ]
+    assert 2 * model.geom_size[visual[0], :2] == pytest.approx([0.30, 0.16], abs=1e-9)
 
 
 def test_sole_geoms_given_by_name_and_bad_names():
@@ -229,14 +233,20 @@ def test_tilted_foot_has_no_area():
 
 
 def test_sample_humanoid_soles_are_its_box_soles():
-    """Box feet without visual geoms: the old bounding-box rule was right here."""
+    """Box feet without visual geoms: each sole is its box's bottom face, centred
+    on the leg's end site (the sole's centre)."""
     robot = Robot(load_model("sample_humanoid"))
-    for new, old in zip(ground.sole_polygons(robot), bounding_box_soles(robot), strict=True):
-        assert np.allclose(np.sort(new[:, :2], axis=0), np.sort(old[:, :2], axis=0), atol=1e-9)
+    for leg, poly in zip(("rleg", "lleg"), ground.sole_polygons(robot), strict=True):
+        box = robot.model.geom(f"{leg}_sole")
+        assert np.ptp(poly[:, :2], axis=0) == pytest.approx(2 * box.size[:2], abs=1e-9)
+        centre = robot.frame_pose(f"{leg}_end").translation()
+        assert poly.mean(axis=0) == pytest.approx(centre, abs=1e-9)
+    assert ground.sole_size(robot) == pytest.approx((0.22, 0.12), abs=1e-9)
 
 
 # ---------------------------------------------------------------- real robots
-# (foot length x width of the new polygon [m], of the old bounding boxes [m], area [m²])
+# (foot length x width of the sole polygon [m], of the bounding boxes of every geom
+# on the foot, visual meshes included, which pik_mj used before [m], area [m²])
 _MENAGERIE_SOLES = {
     "unitree_g1": ((0.170, 0.060), (0.213, 0.076), 0.0094),
     "unitree_h1": ((0.175, 0.060), (0.248, 0.088), 0.0053),
@@ -247,8 +257,9 @@ _MENAGERIE_SOLES = {
 @pytest.mark.parametrize("name", list(_MENAGERIE_SOLES))
 def test_menagerie_soles_against_mujoco_contacts(name):
     """In the standing pose put 3 mm into a floor: each sole polygon and the hull
-    of MuJoCo's contact points on that foot agree within 1 mm both ways; the old
-    bounding boxes (visual meshes included) are larger by the measured amounts."""
+    of MuJoCo's contact points on that foot agree within 1 mm both ways; the
+    bounding boxes of all the foot's geoms (visual meshes included) are larger by
+    the measured amounts."""
     model = menagerie_model(name)
     pose = standing_pose(model)
     q = pose.qpos.copy()
@@ -257,13 +268,32 @@ def test_menagerie_soles_against_mujoco_contacts(name):
     robot.configuration.update(q)
     size, old_size, area = _MENAGERIE_SOLES[name]
     spec = load_spec(name)
-    for leg, poly, old in zip(
-        ("rleg", "lleg"), ground.sole_polygons(robot), bounding_box_soles(robot), strict=True
-    ):
+    for leg, poly in zip(("rleg", "lleg"), ground.sole_polygons(robot), strict=True):
         assert np.ptp(poly[:, :2], axis=0) == pytest.approx(size, abs=1e-3)
+        old = _bounding_box_sole(robot, leg)
         assert np.ptp(old[:, :2], axis=0) == pytest.approx(old_size, abs=1e-3)
         assert polygon_area(poly[:, :2]) == pytest.approx(area, abs=1e-4)
         foot = Frame.find(model, robot.limb(leg).end_frame).body_id
         contacts = _floor_contacts(spec, q, model.body(foot).name)
         assert _outside(contacts[:, :2], poly[:, :2]) <= 1e-3
         assert _outside(poly[:, :2], convex_hull_2d(contacts[:, :2])) <= 1e-3
+
+
+def _bounding_box_sole(robot: Robot, leg: str) -> np.ndarray:
+    """The bottom corners of the world boxes bounding every geom of the leg's end
+    body (MuJoCo's ``geom_aabb`` placed by ``geom_xpos``, ``geom_xmat``), visual
+    meshes included: the sole pik_mj took before it used the collision geometry."""
+    model, data = robot.model, robot.data
+    limb = robot.limb(leg)
+    body = Frame.find(model, limb.end_frame, limb.end_frame_type).body_id
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    pts = np.vstack(
+        [
+            (model.geom_aabb[g, :3] + signs * model.geom_aabb[g, 3:])
+            @ data.geom_xmat[g].reshape(3, 3).T
+            + data.geom_xpos[g]
+            for g in np.flatnonzero(model.geom_bodyid == body)
+        ]
+    )
+    bottom = pts[pts[:, 2] <= pts[:, 2].min() + 1e-6]
+    return bottom if len(bottom) >= 3 else pts

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.ground import sole_polygons
 from pik_mj.ik import (
     fullbody_inverse_kinematics,
     gaze_angle,
     inverse_kinematics,
-    sole_polygons,
     static_balance_point,
 )
 from pik_mj.robot import Robot

@@ -21,16 +21,110 @@ from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.keyframes import standing_pose
 from pik_mj.limbs import LimbsNotFound, find_limbs, limb_from_end
 from pik_mj.models import load_model, load_spec
-from pik_mj.robot import Robot
+from pik_mj.robot import Limb, Robot
 
 
 # ------------------------------------------------------- the project's own robots
+def _sides(limb, joints, end, kind, left, right):
+    """The right and left copies of a limb written with ``{s}`` (limb) / ``{n}`` (names)."""
+    return {
+        limb.format(s=s): (tuple(j.format(n=n) for j in joints), end.format(n=n), kind)
+        for s, n in (("r", right), ("l", left))
+    }
+
+
+# The limbs of dm_control's humanoids before find_limbs: their limb tables,
+# written out: {limb: (joints, end frame, its type)}.
+_DM_HUMANOID = {
+    "torso": (("abdomen_z", "abdomen_y", "abdomen_x"), "pelvis", "body"),
+    **_sides(
+        "{s}leg",
+        [f"{{n}}_{j}" for j in ("hip_x", "hip_z", "hip_y", "knee", "ankle_y", "ankle_x")],
+        "{n}_foot",
+        "body",
+        "left",
+        "right",
+    ),
+    **_sides(
+        "{s}arm",
+        [f"{{n}}_{j}" for j in ("shoulder1", "shoulder2", "elbow")],
+        "{n}_hand",
+        "site",
+        "left",
+        "right",
+    ),
+}
+_DM_HUMANOID_CMU = {
+    "torso": (
+        tuple(f"{b}r{a}" for b in ("lowerback", "upperback", "thorax") for a in "zyx"),
+        "thorax",
+        "body",
+    ),
+    "head": (
+        tuple(f"{b}r{a}" for b in ("lowerneck", "upperneck", "head") for a in "zyx"),
+        "head",
+        "body",
+    ),
+    **_sides(
+        "{s}leg",
+        ["{n}" + j for j in ("femurrz", "femurry", "femurrx", "tibiarx", "footrz", "footrx")],
+        "{n}foot",
+        "body",
+        "l",
+        "r",
+    ),
+    **_sides(
+        "{s}arm",
+        [
+            "{n}" + j
+            for j in (
+                "claviclerz",
+                "claviclery",
+                "humerusrz",
+                "humerusry",
+                "humerusrx",
+                "radiusrx",
+                "wristry",
+                "handrz",
+                "handrx",
+            )
+        ],
+        "{n}hand",
+        "body",
+        "l",
+        "r",
+    ),
+}
+
+
+def _sample_naming(model) -> dict:
+    """sample_humanoid's naming rule: limb ``x`` holds the joints ``x_*`` and ends at
+    the site ``x_end``, or, without one, at the body of its last joint."""
+    names = [model.joint(j).name for j in range(1, model.njnt)]
+    out = {}
+    for limb in ("rarm", "larm", "rleg", "lleg", "torso", "head"):
+        joints = tuple(n for n in names if n.startswith(limb + "_"))
+        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, f"{limb}_end") >= 0:
+            out[limb] = (joints, f"{limb}_end", "site")
+        else:
+            out[limb] = (joints, model.body(model.joint(joints[-1]).bodyid[0]).name, "body")
+    return out
+
+
 @pytest.mark.parametrize("name", ["sample_humanoid", "dm_humanoid", "dm_humanoid_cmu"])
 def test_same_limbs_as_the_naming_and_the_tables(name):
-    """sample_humanoid's rleg_*/..._end naming and the dm_control tables in
-    pik_mj.robot, limb for limb (joints, end frame and its type, first body)."""
+    """sample_humanoid's rleg_*/..._end naming and dm_control's limb tables, limb
+    for limb (joints, end frame and its type, first body: the body of the first
+    joint); Robot finds the same ones."""
     model = load_model(name)
-    assert find_limbs(model) == Robot(model).limbs
+    tables = {"dm_humanoid": _DM_HUMANOID, "dm_humanoid_cmu": _DM_HUMANOID_CMU}
+    expected = tables[name] if name in tables else _sample_naming(model)
+    found = find_limbs(model)
+    assert set(found) == set(expected)
+    for limb, (joints, end, kind) in expected.items():
+        first = model.body(model.joint(joints[0]).bodyid[0]).name
+        assert found[limb] == Limb(limb, joints, end, kind, first)
+    assert Robot.from_model(name).limbs == found
 
 
 def test_turned_root_keeps_left_and_right():
@@ -117,7 +211,7 @@ def test_no_limbs_is_a_clear_error_naming_what_was_found():
     message = str(err.value)
     assert "['foot']" in message  # the body touching the floor
     assert "touched by 1 leg(s), not 2" in message
-    assert "[limbs.rarm]" in message and "load_description" in message
+    assert "[limbs.rarm]" in message and "description=PATH" in message
     assert err.value.found == {}
     assert isinstance(err.value, InvalidInput)
 

@@ -7,8 +7,9 @@ import json
 
 import mujoco
 import mujoco_menagerie
+import numpy as np
 import pytest
-from local_menagerie import menagerie_model
+from local_menagerie import menagerie_model, requires_menagerie
 
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.models import (
@@ -122,3 +123,57 @@ def test_real_menagerie_humanoids_load(name, nq, nv, nbody):
     assert (model.nq, model.nv, model.nbody) == (nq, nv, nbody)
     # the robot alone: no floor plane of the robot's scene.xml
     assert mujoco.mjtGeom.mjGEOM_PLANE not in set(model.geom_type)
+
+
+# ------------------------------------------------ the robots end to end (issue 14)
+def test_fullbody_reach_runs_on_unitree_g1(tmp_path, capsys):
+    """``pik-mj run fullbody_reach --model unitree_g1``: limbs, standing keyframe and
+    soles found, its own position actuators as servos; every check and the 3 s
+    hold pass, with nothing written by the user."""
+    requires_menagerie("unitree_g1")
+    from pik_mj import cli
+
+    js = tmp_path / "g1.json"
+    args = ["run", "fullbody_reach", "--model", "unitree_g1", "--headless", "--quiet"]
+    code = cli.main([*args, "--json", str(js)])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    summary = json.loads(js.read_text())
+    assert summary["passed"] and summary["balance"]["hold"]["passed"]
+    assert summary["balance"]["hold"]["simulated"] == pytest.approx(3.0)
+    assert summary["balance"]["hold"]["drift"] < 2e-3
+    assert summary["figures"]["hand_error_m"] < 1e-3
+
+
+@pytest.mark.parametrize(
+    ("name", "own_servos", "joint"),
+    [("unitree_h1", 0, "left_elbow"), ("booster_t1", 23, "Left_Elbow_Pitch")],
+)
+def test_servos_of_h1_and_t1(name, own_servos, joint):
+    """H1 ships motors: the scene adds servos with kp = ω² M_jj (checked against
+    mj_fullM at the start pose); T1 ships position actuators: they are its servos.
+    Either way an elbow bent 0.3 rad more is held there in physics."""
+    requires_menagerie(name)
+    from pik_mj import Robot, Scene
+    from pik_mj.sim.servos import DEFAULT_BANDWIDTH
+
+    robot = Robot.from_model(name)
+    scene = Scene.from_robot(robot)
+    assert len(scene.robot_servos) == own_servos
+    assert set(scene.servo_joints) == set(robot.joint_names)
+    if not own_servos:
+        data = mujoco.MjData(robot.model)
+        data.qpos[:] = robot.start_q()
+        mujoco.mj_forward(robot.model, data)
+        M = np.zeros((robot.model.nv, robot.model.nv))
+        mujoco.mj_fullM(robot.model, data, M)
+        dof = robot.model.joint(joint).dofadr[0]
+        kp, kv = scene.servo_gains[joint]
+        assert kp == pytest.approx(DEFAULT_BANDWIDTH**2 * M[dof, dof], rel=1e-9)
+        assert kv == pytest.approx(2 * DEFAULT_BANDWIDTH * M[dof, dof], rel=1e-9)
+    q = robot.configuration.q.copy()
+    adr = robot.model.joint(joint).qposadr[0]
+    q[adr] += 0.3
+    report = scene.hold(q, 1.0)
+    assert report.passed, report.failures
+    assert scene.data.qpos[adr] == pytest.approx(q[adr], abs=5e-3)

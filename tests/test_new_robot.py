@@ -82,7 +82,7 @@ def test_a_new_robot_reaches_stands_holds_and_is_recorded(tmp_path):
     path.write_text(WALKER)
     robot = pik_mj.Robot.from_model(path)
     assert robot.root_body == "torso" and robot.has_floating_base
-    assert set(robot.limbs) == {"rarm", "rleg", "lleg"}  # found from the joint names
+    assert set(robot.limbs) == {"rarm", "rleg", "lleg"}  # found from the kinematic tree
     # its start pose stands on the floor: the soles' bottom faces at z = 0
     for sole in ("rleg_sole", "lleg_sole"):
         g = robot.model.geom(sole)

@@ -44,12 +44,12 @@ def _fresh_forward(model: mujoco.MjModel, qpos: np.ndarray) -> mujoco.MjData:
             "pelvis",
             ["rarm", "larm", "rleg", "lleg", "torso", "head"],
         ),
-        ("dm_humanoid", 21, "torso", ["torso", "rleg", "lleg", "rarm", "larm"]),
+        ("dm_humanoid", 21, "torso", ["rarm", "larm", "rleg", "lleg", "torso"]),
         (
             "dm_humanoid_cmu",
             56,
             "root",
-            ["torso", "head", "rleg", "lleg", "rarm", "larm"],
+            ["rarm", "larm", "rleg", "lleg", "torso", "head"],
         ),
     ],
 )

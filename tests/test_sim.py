@@ -18,7 +18,8 @@ import pytest
 import pik_mj
 from pik_mj import HoldCriteria, Recorder, balance
 from pik_mj.exceptions import InvalidInput, SimulationUnstable, UnknownName
-from pik_mj.ik import fullbody_inverse_kinematics, sole_polygons
+from pik_mj.ground import sole_polygons
+from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.record import PATHS, read_recording
 from pik_mj.robot import Robot
 from pik_mj.sim import ContactParams, Scene, add_wall, floor_environment, validate_pose
@@ -587,9 +588,16 @@ def test_unnamed_joints_get_servos_and_keep_their_addresses():
         </worldbody></mujoco>"""
     )
     robot = Robot.from_model(spec)
-    assert robot.joint_names == ["", ""]  # unnamed: harmless, nothing maps by name
+    # named after their bodies (unnamed too: body index in the MJCF) and their rank there
+    assert robot.joint_names == ["body2_joint0", "body3_joint0"]
+    assert [robot.model.geom(g).name for g in range(robot.model.ngeom)] == [
+        "base_geom0",
+        "body2_geom0",
+        "body3_geom0",
+    ]
+    assert robot.limbs["arm"].joints == ("body2_joint0", "body3_joint0")  # a fixed-base chain
     scene = Scene.from_robot(robot)
-    assert scene.servo_joints == ["pik_mj_joint_0", "pik_mj_joint_1"]
+    assert scene.servo_joints == ["body2_joint0", "body3_joint0"]
     q = np.array([0.3, -0.4])
     scene.set_pose(q)
     robot.configuration.update(q)

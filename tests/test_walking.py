@@ -190,12 +190,12 @@ def test_playback_walks_to_the_goal(walk, tmp_path):
     assert PATHS.walk_series("margin", "zmp_force_sensors") in entities
 
 
-def test_playback_without_feedforward_at_default_gains_fails(walk):
+def test_playback_without_feedforward_at_kp_3000_fails(walk):
     """The feed-forward torques are what makes kp = 3000 enough (the check can fail)."""
     robot, pattern = walk
     report = play_walk_pattern(
         pattern,
-        Scene.from_robot(robot, contact=WALK_CONTACT),
+        Scene.from_robot(robot, contact=WALK_CONTACT, kp=3000.0, kv=60.0),
         torque_feedforward=False,
         velocity_feedforward=False,
         settle_time=0.0,

@@ -42,6 +42,7 @@ __all__ = [
     "attach_environment",
     "floor_environment",
     "has_plane",
+    "name_unnamed",
     "place_root",
     "placement",
 ]
@@ -188,6 +189,43 @@ def add_wall(
 
 
 # ----------------------------------------------------------------------------
+# Names for what an MJCF leaves unnamed
+
+
+def name_unnamed(spec: mujoco.MjSpec) -> None:
+    """Name every unnamed body, joint and geom of ``spec`` (in place).
+
+    Menagerie robots ship tens of unnamed geoms (meshes, foot spheres) and often
+    an unnamed free joint; contacts, allowed contacts and limbs are named. The
+    ``k``-th joint or geom of body ``B`` (counting all of that body's joints, or
+    geoms, from 0 in MJCF order) becomes ``B_joint{k}`` / ``B_geom{k}``; an
+    unnamed body ``body{i}`` (``i`` its index). A name already taken gets
+    ``_`` appended until it is free. Named elements are never renamed, and the
+    same spec always gives the same names.
+    """
+    taken = {b.name for b in spec.bodies}
+    for i, body in enumerate(spec.bodies):
+        if not body.name:
+            body.name = _free_name(f"body{i}", taken)
+    for kind, elements in (("joint", spec.joints), ("geom", spec.geoms)):
+        taken = {e.name for e in elements}
+        count: dict[str, int] = {}
+        for element in elements:
+            body = element.parent.name
+            k = count.get(body, 0)
+            count[body] = k + 1
+            if not element.name:
+                element.name = _free_name(f"{body}_{kind}{k}", taken)
+
+
+def _free_name(name: str, taken: set[str]) -> str:
+    while name in taken:
+        name += "_"
+    taken.add(name)
+    return name
+
+
+# ----------------------------------------------------------------------------
 # Attaching an environment into a robot's spec
 # ----------------------------------------------------------------------------
 
@@ -264,7 +302,8 @@ def attach_environment(host: mujoco.MjSpec, environment: EnvironmentLike) -> muj
     dm_control's humanoids ship a floor) are left out. Environment assets whose
     names the host uses are renamed ``<environment model name>_<name>``. The
     host's ``<option>`` and ``<compiler>`` win. Keyframes of the host get the
-    environment's ``qpos0`` for its joints.
+    environment's ``qpos0`` for its joints. Unnamed elements get names
+    (:func:`name_unnamed`).
 
     Args:
         host: The robot's spec (not modified).
@@ -290,6 +329,7 @@ def attach_environment(host: mujoco.MjSpec, environment: EnvironmentLike) -> muj
         try:
             out.attach(env, frame=out.worldbody.add_frame(), prefix="")
             out = out.copy()
+            name_unnamed(out)
             out.compile()
         except ValueError as err:
             raise InvalidInput(

@@ -64,8 +64,8 @@ class HoldCriteria:
         allowed: Robot geoms allowed to touch the environment (default: the
             scene's ``allowed_contacts``, its soles); repeated names count once.
         feet: Geoms whose slip is the verdict's foot slip (default: the allowed
-            geoms named ``*sole*`` or ``*foot*``, else all allowed geoms). A hand
-            on a wall or a handle still appears in ``slip_per_geom``.
+            geoms among the scene's ``foot_geoms``, else all allowed geoms). A
+            hand on a wall or a handle still appears in ``slip_per_geom``.
         allow_self_contact: Do not count robot self-contacts as unexpected.
         stop_on_fall: End the simulation as soon as the robot fell.
         max_ground_slope: Largest angle [rad] between a contact normal and up for
@@ -283,10 +283,11 @@ def holding_torques(
 
     .. math::
 
-        \tau = g(q) - \sum_i J_{p}(p_i)^T f_i - \sum_e J_e^T w_e
+        \tau = g(q) - \tau_{passive}(q) - \sum_i J_{p}(p_i)^T f_i - \sum_e J_e^T w_e
            - \sum_o J_{p,F_o}(c_o)^T m_o g
 
-    ``g`` comes from ``qfrc_bias`` at zero velocity; ``f_i`` are the
+    ``g`` comes from ``qfrc_bias`` at zero velocity, ``τ_passive`` from
+    ``qfrc_passive`` (joint springs: dm_control's humanoid has them); ``f_i`` are the
     least-norm forces inside the friction pyramids that balance the robot at
     the actual contacts ``p_i`` (:func:`pik_mj.dynamics.contact_wrenches`; the
     equilibrium LP's own forces are any feasible point, often on a cone's
@@ -315,7 +316,7 @@ def holding_torques(
     if solved is None:
         return None
     scene.set_pose(q)
-    tau = d.qfrc_bias.copy()
+    tau = d.qfrc_bias - d.qfrc_passive  # gravity, less the joints' springs
     jacp = np.zeros((3, m.nv))
     for c, f in zip(env, solved[:, :3], strict=True):
         mujoco.mj_jac(
@@ -397,8 +398,9 @@ class HeldPose:
         m, d = scene.model, scene.data
         mujoco.mj_resetData(m, d)
         scene.set_pose(self.q)
-        if self.tau is not None:
-            d.qfrc_applied[scene._servo_dofs] = self.tau[scene._servo_dofs]
+        if self.tau is not None:  # less what the actuators exert at rest (0 for servos and motors)
+            dofs = scene._servo_dofs
+            d.qfrc_applied[dofs] = self.tau[dofs] - d.qfrc_actuator[dofs]
         self.data.qpos[:] = d.qpos
         mujoco.mj_kinematics(m, self.data)
 
@@ -472,7 +474,7 @@ def foot_geoms(scene: Scene, allowed: Sequence[str], criteria: HoldCriteria) -> 
     """The geoms whose slip is the verdict's (:attr:`HoldCriteria.feet`)."""
     feet = criteria.feet
     if feet is None:
-        feet = [n for n in allowed if "sole" in n or "foot" in n] or list(allowed)
+        feet = [n for n in allowed if n in scene.foot_geoms] or list(allowed)
     return set(scene._allowed(feet))
 
 
@@ -541,7 +543,7 @@ def track(
     unexpected: dict[tuple[str, str], float] = {}
     fell = False
     P_h = np.eye(3) - np.outer(up, up)
-    qadr = scene._servo_qadr
+    qadr = np.array([m.joint(j).qposadr[0] for j in scene.servo_joints], dtype=int)
     tracking, tracking_at = 0.0, -1
     frame_errors = {f.name: 0.0 for f in frames}
     series: dict[str, list[float]] = {

@@ -130,6 +130,7 @@ foot slip below 2 mm, no fall, no unexpected contact."""
 _PEAK_RATE = 15.0 / 8.0  # max of d/dτ (10τ³ - 15τ⁴ + 6τ⁵)
 _KNOT_SPACING = 0.05  # [s] of nominal time between knots of the torque feed-forward
 
+_DRIVEN = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 _JOINT_TYPES = {
     int(mujoco.mjtJoint.mjJNT_FREE): "free",
     int(mujoco.mjtJoint.mjJNT_BALL): "ball",
@@ -297,6 +298,43 @@ def velocity_limits(
 # the reference
 
 
+class _ServoLaw:
+    r"""The controls of the scene's position actuators (its servos and the
+    robot's own, joint transmissions) for a reference ``(q_ref, q̇_ref)``: an
+    actuator's force ``g_0 u + b_0 + b_1 L + b_2 L̇`` with ``L = γ q`` becomes
+    ``-b_1 γ (q_ref - q) - b_2 γ (q̇_ref - q̇)`` at
+
+    .. math::
+
+        u = -(b_0 + b_1 γ q_{ref} + b_2 γ \dot q_{ref}) / g_0
+
+    (for a scene servo ``g_0 = k_p = -b_1``, ``b_2 = -k_v``, ``γ = 1``:
+    ``u = q_ref + (k_v / k_p) q̇_ref``)."""
+
+    def __init__(self, scene: Scene):
+        m = scene.model
+        nq, nv = scene.robot_nq, scene.robot.model.nv
+        ids = [
+            int(a)
+            for a in scene._position_actuators
+            if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)
+            and int(m.jnt_type[m.actuator_trnid[a, 0]]) in _DRIVEN
+            and m.jnt_qposadr[m.actuator_trnid[a, 0]] < nq
+            and m.jnt_dofadr[m.actuator_trnid[a, 0]] < nv
+        ]
+        self.ids = np.array(ids, dtype=int)
+        joints = m.actuator_trnid[self.ids, 0]
+        self.qadr, self.dof = m.jnt_qposadr[joints], m.jnt_dofadr[joints]
+        self.gear = m.actuator_gear[self.ids, 0]
+        self.g0 = m.actuator_gainprm[self.ids, 0]
+        self.b = m.actuator_biasprm[self.ids, :3]
+
+    def write(self, d: mujoco.MjData, q: np.ndarray, qd: np.ndarray) -> None:
+        b0, b1, b2 = self.b.T
+        L, Ld = self.gear * q[self.qadr], self.gear * qd[self.dof]
+        d.ctrl[self.ids] = -(b0 + b1 * L + b2 * Ld) / self.g0
+
+
 @dataclass(frozen=True)
 class PhysicsState:
     """The physics state a motion ended in (what a following one starts from).
@@ -398,8 +436,7 @@ class MotionReference:
         self._start = start
         self.data = mujoco.MjData(scene.model)  # the environment at qpos0
         self.waypoint = 0
-        kv_kp = np.array([kv / kp for kp, kv in (scene.servo_gains[j] for j in scene.servo_joints)])
-        self._kv_kp = kv_kp
+        self._servos = _ServoLaw(scene)
         self._knots, self._tau = self._torques(external) if feedforward else (None, None)
         self._q_ref = self.q[0].copy()
         self._qd_ref = np.zeros(rm.nv)
@@ -488,9 +525,7 @@ class MotionReference:
             self.data.qpos[: len(q)] = q
         mujoco.mj_kinematics(scene.model, self.data)
         d = scene.data
-        d.ctrl[scene._servo_ids] = (
-            q[scene._servo_qadr] + self._kv_kp * self._qd_ref[scene._servo_dofs]
-        )
+        self._servos.write(d, q, self._qd_ref)
         if self._knots is not None:  # linear in σ between knots, constant outside
             knots = self._knots
             j = int(np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 1))

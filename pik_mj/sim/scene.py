@@ -1,4 +1,4 @@
-"""The physics scene of a robot's world: :class:`Scene` (DESIGN.md §5).
+r"""The physics scene of a robot's world: :class:`Scene` (DESIGN.md §5).
 
 A :class:`Scene` is made from a :class:`pik_mj.Robot` (:meth:`Scene.from_robot`):
 its spec is a copy of the robot's world (``robot.spec``) plus a floor plane when
@@ -11,11 +11,18 @@ world frame (targets read from the scene are IK targets).
 
 Modelling choices (documented here once):
 
-* **Servos**: MuJoCo position actuators ``τ = kp (q_ref - q) - kv q̇`` on every
-  robot hinge/slide joint; :meth:`Scene.hold` adds the static feed-forward of
+* **Servos** (:mod:`pik_mj.sim.servos`): a position servo
+  ``τ = kp (q_ref - q) - kv q̇`` on every robot hinge/slide joint: the robot's
+  own position actuator where it has one (its gains, its control set to the
+  target), else a MuJoCo position actuator the scene adds, with gains from the
+  robot's joint-space inertia (``kp = ω² M_jj``, ``kv = 2 ζ ω M_jj``). The
+  robot's other actuators (motors) stay at zero control, which exerts nothing.
+  :meth:`Scene.hold` adds the static feed-forward of
   :func:`pik_mj.sim.hold.holding_torques`, so the pose starts in equilibrium
-  instead of sagging by ``τ_gravity / kp``. The robot's own actuators are kept
-  with zero control. The integrator is ``implicitfast``, which treats ``kv`` implicitly.
+  instead of sagging by ``τ_gravity / kp``. The integrator is ``implicitfast``,
+  which treats ``kv`` implicitly.
+* **Contact pairs**: the robot's explicit ``<contact><pair>``\ s are kept (they
+  come with its spec), with the scene's contact parameters.
 * **Friction**: elliptic cones with ``impratio = 10`` (MuJoCo's advice against
   the slow creep of soft contacts under a sustained tangential load). The
   equilibrium LP uses an inscribed pyramid, so it is the more conservative of
@@ -58,11 +65,19 @@ from numpy.typing import ArrayLike
 from pik_mj import balance, inputs
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.frames import Frame
-from pik_mj.robot import sole_geoms
+from pik_mj.ground import foot_geoms
 from pik_mj.spatial import matrix_to_quat, quat_to_matrix
 
 from .environment import EnvironmentLike, add_floor, attach_environment, has_plane
 from .guard import StateGuard
+from .servos import (
+    DEFAULT_BANDWIDTH,
+    DEFAULT_DAMPING_RATIO,
+    position_actuators,
+    position_feedback,
+    rest_controls,
+    servo_gains,
+)
 from .static import ContactInfo, StaticChecks, StaticReport
 from .static import static_check as _static_check
 
@@ -197,9 +212,16 @@ class Scene:
         root_body: Name of the robot's top-level body.
         mass: Robot mass [kg].
         servo_joints: Joints with a position servo (the robot's hinge/slide joints).
-        servo_gains: ``{joint: (kp, kv)}`` of the servos.
+        servo_gains: ``{joint: (kp, kv)}`` of the servos, in joint space
+            [N·m/rad, N·m·s/rad] (or [N/m, N·s/m] for slide joints).
+        servo_actuators: ``{joint: actuator id}`` of the servos in :attr:`model`.
+        robot_servos: The joints whose servo is the robot's own position actuator
+            (:func:`pik_mj.sim.servos.position_actuators`); the others have one
+            the scene added (``<joint>_servo``).
         allowed_contacts: Robot geoms allowed to touch the environment in a hold
             by default.
+        foot_geoms: The robot's foot geoms (:func:`pik_mj.ground.foot_geoms`): a
+            hold's foot slip is theirs.
         contact_tolerance: Distance [m] within which :meth:`static_check` counts
             two geoms as touching.
         grasps: The :class:`Grasp` list.
@@ -212,10 +234,10 @@ class Scene:
         *,
         environment: EnvironmentLike | None = None,
         timestep: float = 0.002,
-        kp: float | Mapping[str, float] = 3000.0,
-        kv: float | Mapping[str, float] = 60.0,
-        default_kp: float = 3000.0,
-        default_kv: float = 60.0,
+        kp: float | Mapping[str, float] | None = None,
+        kv: float | Mapping[str, float] | None = None,
+        bandwidth: float = DEFAULT_BANDWIDTH,
+        damping_ratio: float = DEFAULT_DAMPING_RATIO,
         contact: ContactParams | None = DEFAULT_CONTACT,
         contact_tolerance: float = 2e-3,
         allowed_contacts: Sequence[str] | None = None,
@@ -232,19 +254,23 @@ class Scene:
                 world, for a robot placed in none (``Robot.from_model(...,
                 environment=...)`` places it in one).
             timestep: Physics time step [s].
-            kp: Servo stiffness [N·m/rad] (or [N/m] for slide joints); a float, or
-                a mapping joint name -> kp (missing joints get ``default_kp``).
-            kv: Servo damping [N·m·s/rad]; float or mapping as ``kp``.
-            default_kp: kp for joints missing from a ``kp`` mapping.
-            default_kv: kv for joints missing from a ``kv`` mapping.
+            kp: Stiffness [N·m/rad] (or [N/m] for slide joints) of the servos the
+                scene adds: a float, or a mapping joint name -> kp; None (and
+                joints missing from a mapping): ``ω² M_jj``
+                (:func:`pik_mj.sim.servos.servo_gains`). A joint driven by the
+                robot's own position actuator keeps that actuator's gains.
+            kv: Damping [N·m·s/rad] of the servos the scene adds, as ``kp``;
+                None: ``2 ζ ω M_jj``.
+            bandwidth: ``ω`` [rad/s] of the derived gains.
+            damping_ratio: ``ζ`` [-] of the derived gains.
             contact: Contact parameters for the robot and the static environment,
                 or None to keep the models' own. A positive ``solref`` time constant
                 must be at least two time steps (MuJoCo's stability floor).
             contact_tolerance: Distance [m] within which :meth:`static_check`
                 counts two geoms as touching.
             allowed_contacts: Robot geoms allowed to touch the environment in
-                :meth:`hold`; default: the robot's soles
-                (:func:`pik_mj.robot.sole_geoms`).
+                :meth:`hold`; default: the robot's feet
+                (:func:`pik_mj.ground.foot_geoms`).
             impratio: Ratio of frictional to normal constraint impedance (MuJoCo
                 ``impratio``). With the default elliptic friction cones, 10 keeps
                 the soft-contact creep of a loaded foot below ~0.2 mm/s (1: ~3 mm/s).
@@ -291,6 +317,8 @@ class Scene:
                 f"or lower the time step"
             )
         noslip_iterations = inputs.integer(noslip_iterations, "noslip_iterations", low=0)
+        bandwidth = inputs.real(bandwidth, "bandwidth", unit="rad/s", low=0, low_open=True)
+        damping_ratio = inputs.real(damping_ratio, "damping_ratio", low=0)
         self.robot = robot
         rm = robot.model
         spec = robot.spec.copy()
@@ -310,20 +338,35 @@ class Scene:
         spec.option.noslip_iterations = noslip_iterations
         self.contact_tolerance = float(contact_tolerance)
 
-        # Servos on the robot's hinge/slide joints (ids shared with the robot's
-        # model: its joints come first). An unnamed joint gets a name here.
+        # A servo on every robot hinge/slide joint (ids shared with the robot's
+        # model: its joints and actuators come first): the robot's own position
+        # actuator where it has one, else one the scene adds.
         servo_ids = [int(j) for j in robot._angle_joint_ids]
-        for j in servo_ids:
-            if not spec.joints[j].name:
-                spec.joints[j].name = f"pik_mj_joint_{j}"
-        self.servo_joints = [spec.joints[j].name for j in servo_ids]
+        self.servo_joints = [rm.joint(j).name for j in servo_ids]
+        own = position_actuators(rm, servo_ids)
+        self.robot_servos = [rm.joint(j).name for j in servo_ids if j in own]
+        added = [j for j in servo_ids if j not in own]
         n_old_actuators = len(spec.actuators)
-        self.servo_gains = self._gains(kp, kv, default_kp, default_kv)
-        for joint in self.servo_joints:
+        self.servo_gains = {rm.joint(j).name: (kp_j, kv_j) for j, (_, kp_j, kv_j) in own.items()}
+        self.servo_gains.update(
+            self._gains(
+                added,
+                kp,
+                kv,
+                servo_gains(rm, robot.start_q(), added, bandwidth, damping_ratio),
+            )
+        )
+        for j in added:
+            joint = rm.joint(j).name
             act = spec.add_actuator(
                 name=f"{joint}_servo", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT
             )
             act.set_to_position(kp=self.servo_gains[joint][0], kv=self.servo_gains[joint][1])
+        self.servo_actuators = {rm.joint(j).name: a for j, (a, _, _) in own.items()}
+        self.servo_actuators.update(
+            {rm.joint(j).name: n_old_actuators + i for i, j in enumerate(added)}
+        )
+        self.servo_actuators = {j: self.servo_actuators[j] for j in self.servo_joints}
         self._extend_keyframe_ctrl(spec, n_old_actuators)
         model = _compile(spec)
         self._check_prefix(model)
@@ -356,16 +399,19 @@ class Scene:
             self._system_body |= np.asarray(model.body_rootid) == b
         self._robot_geom = self._system_body[model.geom_bodyid]
         self._kin_data = mujoco.MjData(model)
-        self._servo_ids = np.arange(n_old_actuators, model.nu)
-        self._servo_qadr = np.array(rm.jnt_qposadr[servo_ids], dtype=int)
+        self._position_actuators = np.flatnonzero(position_feedback(model))
         self._servo_dofs = np.array(rm.jnt_dofadr[servo_ids], dtype=int)
         # Collision-only copy whose robot geoms carry the contact tolerance.
         self._probe_model = copy.copy(model)
         self._probe_model.geom_margin[self._robot_geom] = self.contact_tolerance
+        robot_pairs = self._robot_geom[model.pair_geom1] | self._robot_geom[model.pair_geom2]
+        self._probe_model.pair_margin[robot_pairs] = self.contact_tolerance
         self._probe_data = mujoco.MjData(self._probe_model)
         self._geom_names = _names(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom)
         self._body_names = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
         self._geom_id = {n: g for g, n in enumerate(self._geom_names) if n}
+        rm = robot.model
+        self.foot_geoms = [rm.geom(g).name for g in foot_geoms(robot)]
         self.allowed_contacts = self._allowed(allowed_contacts)
 
     @classmethod
@@ -398,20 +444,28 @@ class Scene:
 
     def _gains(
         self,
-        kp: float | Mapping[str, float],
-        kv: float | Mapping[str, float],
-        default_kp: float,
-        default_kv: float,
+        joints: Sequence[int],
+        kp: float | Mapping[str, float] | None,
+        kv: float | Mapping[str, float] | None,
+        derived: tuple[np.ndarray, np.ndarray],
     ) -> dict[str, tuple[float, float]]:
-        out = {}
+        """``{joint: (kp, kv)}`` of the servos the scene adds on ``joints``: the
+        given gains, else the ``derived`` ones."""
+        names = [self.robot.model.joint(j).name for j in joints]
         for value in (kp, kv):
             if isinstance(value, Mapping):
-                unknown = set(value) - set(self.servo_joints)
-                if unknown:
-                    raise UnknownName("joint", sorted(unknown)[0], self.servo_joints)
-        for joint in self.servo_joints:
-            p = kp.get(joint, default_kp) if isinstance(kp, Mapping) else kp
-            v = kv.get(joint, default_kv) if isinstance(kv, Mapping) else kv
+                for joint in value:
+                    if joint in self.robot_servos:
+                        raise InvalidInput(
+                            f"joint {joint!r} is driven by the robot's own position actuator: "
+                            "its gains are the actuator's (set them in the MJCF)"
+                        )
+                    if joint not in names:
+                        raise UnknownName("joint", joint, names)
+        out = {}
+        for joint, p0, v0 in zip(names, *derived, strict=True):
+            p = kp.get(joint, p0) if isinstance(kp, Mapping) else (p0 if kp is None else kp)
+            v = kv.get(joint, v0) if isinstance(kv, Mapping) else (v0 if kv is None else kv)
             out[joint] = (
                 inputs.real(p, f"kp of joint {joint!r}", unit="N·m/rad", low=0, low_open=True),
                 inputs.real(v, f"kv of joint {joint!r}", unit="N·m·s/rad", low=0),
@@ -428,7 +482,8 @@ class Scene:
             if len(key.ctrl) == 0:
                 continue
             qpos = model.key_qpos[k]
-            targets = [qpos[model.jnt_qposadr[model.joint(j).id]] for j in self.servo_joints]
+            added = [j for j in self.servo_joints if j not in self.robot_servos]
+            targets = [qpos[model.jnt_qposadr[model.joint(j).id]] for j in added]
             key.ctrl = list(key.ctrl)[:n_old] + [float(t) for t in targets]
 
     def _apply_contact(
@@ -443,6 +498,16 @@ class Scene:
             geom.condim = contact.condim
             geom.solref = list(contact.solref)
             geom.solimp = list(contact.solimp)
+        # Explicit <contact><pair>s carry their own parameters, which override
+        # the geoms' (MuJoCo): those with a robot geom get the same ones.
+        names = {model.geom(g).name for g in np.flatnonzero(targets)}
+        for pair in spec.pairs:
+            if pair.geomname1 in names or pair.geomname2 in names:
+                mu = [contact.friction, contact.friction, contact.torsional]
+                pair.friction = [*mu, contact.rolling, contact.rolling]
+                pair.condim = contact.condim
+                pair.solref = list(contact.solref)
+                pair.solimp = list(contact.solimp)
 
     def _parse_grasps(self, model: mujoco.MjModel, grasps: Sequence[GraspLike]) -> list[Grasp]:
         """:class:`Grasp`\\ s; for ``(frame, body)`` pairs X_FO is read in this model
@@ -539,7 +604,7 @@ class Scene:
     def _allowed(self, allowed: Sequence[str] | None) -> list[str]:
         robot_geoms = [n for g, n in enumerate(self._geom_names) if self._robot_geom[g] and n]
         if allowed is None:
-            return [self._geom_names[g] for g in sole_geoms(self.model, self._robot_body)]
+            return list(self.foot_geoms)
         allowed = inputs.names(allowed, "allowed contacts (robot geoms)")
         for name in allowed:
             if name not in robot_geoms:
@@ -572,13 +637,22 @@ class Scene:
 
     def set_pose(self, q: ArrayLike) -> None:
         """Write the robot configuration ``q`` into the physics state: zero
-        velocity, servo targets at the pose, ``mj_forward``. The other joints
-        keep their state (grasped objects follow their frames)."""
-        self.data.qpos[:] = self._qpos(q, base=self.data.qpos)
-        self.data.qvel[:] = 0.0
-        self.data.ctrl[:] = 0.0
-        self.data.ctrl[self._servo_ids] = self.data.qpos[self._servo_qadr]
-        mujoco.mj_forward(self.model, self.data)
+        velocity, ``mj_forward``, and every actuator's control at rest there: the
+        servos' (the scene's and the robot's own position actuators') targets at
+        the pose (:func:`pik_mj.sim.servos.rest_controls`; their activations
+        too), zero for the others (motors). The other joints keep their state
+        (grasped objects follow their frames)."""
+        m, d = self.model, self.data
+        d.qpos[:] = self._qpos(q, base=d.qpos)
+        d.qvel[:] = 0.0
+        d.ctrl[:] = 0.0
+        d.act[:] = 0.0
+        mujoco.mj_fwdPosition(m, d)
+        servos = self._position_actuators
+        d.ctrl[servos] = rest_controls(m, d, servos)
+        for a in servos[m.actuator_actnum[servos] > 0]:
+            d.act[m.actuator_actadr[a]] = d.ctrl[a]
+        mujoco.mj_forward(m, d)
 
     def com(self, data: mujoco.MjData | None = None) -> np.ndarray:
         r"""Centre of mass ``p_WG`` (3,) [m] of the robot and its grasped objects

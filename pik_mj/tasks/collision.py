@@ -232,29 +232,39 @@ def pair_distance(
     is zero. At exact contact (``p_a = p_b``) the normal falls back to the
     direction between the geom centres.
     """
-    fromto = np.zeros(6)
+    fromto = np.empty(6)
     d = float(mujoco.mj_geomDistance(model, data, pair.geom1, pair.geom2, distmax, fromto))
     if d >= distmax:
         return PairDistance(d, fromto[:3], fromto[3:], np.zeros(3))
-    p_a, p_b = fromto[:3].copy(), fromto[3:].copy()
-    delta = p_a - p_b
-    norm = float(np.linalg.norm(delta))
-    if norm < 1e-9:
-        delta = data.geom_xpos[pair.geom1] - data.geom_xpos[pair.geom2]
-        norm = float(np.linalg.norm(delta))
-        sign = 1.0
-    else:
-        sign = 1.0 if d >= 0 else -1.0  # penetrating: fromto runs the other way
-    normal = sign * delta / norm if norm > 0 else np.zeros(3)
-    return PairDistance(d, p_a, p_b, normal)
+    centres = data.geom_xpos[pair.geom1] - data.geom_xpos[pair.geom2]
+    normal = _normals(np.array([d]), fromto[None], centres[None])[0]
+    return PairDistance(d, fromto[:3], fromto[3:], normal)
 
 
-def _point_jacobian(
-    model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray, body: int
-) -> np.ndarray:
-    jacp = np.zeros((3, model.nv))
-    mujoco.mj_jac(model, data, jacp, None, point, body)
-    return jacp
+def _normals(distance: np.ndarray, fromto: np.ndarray, centres: np.ndarray) -> np.ndarray:
+    """Unit normals (k, 3) from b to a of pairs at ``distance`` (k,) with
+    ``mj_geomDistance``'s witness segments ``fromto`` (k, 6): along ``p_a − p_b``,
+    reversed for a penetrating pair (``fromto`` runs the other way); along the
+    geom centres' difference ``centres`` (k, 3) at exact contact; zero when that
+    is zero too."""
+    delta = fromto[:, :3] - fromto[:, 3:]
+    norm = np.linalg.norm(delta, axis=1)
+    sign = np.where(distance >= 0, 1.0, -1.0)
+    touching = norm < 1e-9
+    if touching.any():
+        delta[touching], sign[touching] = centres[touching], 1.0
+        norm = np.linalg.norm(delta, axis=1)
+    scale = np.divide(sign, norm, out=np.zeros_like(norm), where=norm > 0)
+    return scale[:, None] * delta
+
+
+class _Measured(NamedTuple):
+    """The pairs nearer than the distance asked for: indices (k,), distances (k,)
+    [m] and ``mj_geomDistance`` witness segments (k, 6) [m]."""
+
+    index: np.ndarray
+    distance: np.ndarray
+    fromto: np.ndarray
 
 
 class CollisionAvoidanceTask(Task):
@@ -317,6 +327,7 @@ class CollisionAvoidanceTask(Task):
         self.name = name
         self._g1 = np.array([p.geom1 for p in self.pairs], dtype=int)
         self._g2 = np.array([p.geom2 for p in self.pairs], dtype=int)
+        self._g1_list, self._g2_list = self._g1.tolist(), self._g2.tolist()
         self.keep_start_distances(configuration)
 
     def keep_start_distances(self, configuration: mink.Configuration) -> None:
@@ -376,23 +387,24 @@ class CollisionAvoidanceTask(Task):
 
     def _measure(
         self, configuration: mink.Configuration, distmax: float
-    ) -> tuple[np.ndarray, dict[int, PairDistance]]:
+    ) -> tuple[np.ndarray, _Measured]:
         """Distance of every pair capped at ``distmax`` [m], and the measured pairs."""
         m, data = configuration.model, configuration.data
         d = np.full(len(self.pairs), float(distmax))
-        measured = {}
-        for i in self.near_pairs(data, distmax):
-            pd = pair_distance(m, data, self.pairs[i], distmax)
-            d[i] = pd.distance
-            if pd.distance < distmax:
-                measured[int(i)] = pd
-        return d, measured
+        near = self.near_pairs(data, distmax)
+        fromto = np.empty((len(near), 6))
+        g1, g2, distance = self._g1_list, self._g2_list, mujoco.mj_geomDistance
+        for k, i in enumerate(near.tolist()):
+            d[i] = distance(m, data, g1[i], g2[i], distmax, fromto[k])
+        inside = d[near] < distmax
+        index = near[inside]
+        return d, _Measured(index, d[index], fromto[inside])
 
     def distances(self, configuration: mink.Configuration, distmax: float = 10.0) -> np.ndarray:
         """Signed distance of every pair [m] (capped at ``distmax``)."""
         return self._measure(configuration, distmax)[0]
 
-    def _rows(self, configuration: mink.Configuration, measured: dict[int, PairDistance]):
+    def _rows(self, configuration: mink.Configuration, measured: _Measured) -> TaskRows:
         """One row per pair that has been inside the yellow zone since the start
         (:attr:`row_pairs`, in pair order); a row is inactive (``0 x >= -d_y``)
         while its pair is outside the zone.
@@ -403,18 +415,23 @@ class CollisionAvoidanceTask(Task):
         when a new pair comes near (each change costs the QP solver a new setup).
         """
         m, data = configuration.model, configuration.data
-        self.row_pairs = np.union1d(self.row_pairs, np.fromiter(measured, int, len(measured)))
+        index = measured.index
+        self.row_pairs = np.union1d(self.row_pairs, index)
         C = np.zeros((len(self.row_pairs), m.nv))
         lower = np.full(len(self.row_pairs), -self.yellow)
-        for r, i in enumerate(self.row_pairs):
-            if i not in measured:
-                continue
-            pd, pair = measured[i], self.pairs[i]
-            J_a = _point_jacobian(m, data, pd.p_a, int(m.geom_bodyid[pair.geom1]))
-            J_b = _point_jacobian(m, data, pd.p_b, int(m.geom_bodyid[pair.geom2]))
-            C[r] = pd.normal @ (J_a - J_b)
-            lower[r] = -self.gain * (pd.distance - self.bounds[i])
-        return TaskRows.inequality(C.reshape(-1, m.nv), lower, np.inf, self.weight)
+        if len(index):
+            g1, g2 = self._g1[index], self._g2[index]
+            b1, b2 = m.geom_bodyid[g1], m.geom_bodyid[g2]
+            centres = data.geom_xpos[g1] - data.geom_xpos[g2]
+            normal = _normals(measured.distance, measured.fromto, centres)
+            J = np.empty((len(index), 2, 3, m.nv))
+            for k in range(len(index)):
+                mujoco.mj_jac(m, data, J[k, 0], None, measured.fromto[k, :3], b1[k])
+                mujoco.mj_jac(m, data, J[k, 1], None, measured.fromto[k, 3:], b2[k])
+            rows = np.searchsorted(self.row_pairs, index)
+            C[rows] = np.einsum("ki,kiv->kv", normal, J[:, 0] - J[:, 1])
+            lower[rows] = -self.gain * (measured.distance - self.bounds[index])
+        return TaskRows.inequality(C, lower, np.inf, self.weight)
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         return self._rows(configuration, self._measure(configuration, self.yellow)[1])

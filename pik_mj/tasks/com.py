@@ -30,8 +30,7 @@ import mujoco
 import numpy as np
 
 from ..exceptions import InvalidInput
-from ..frames import Frame
-from ..robot import robot_root_body
+from ..frames import Frame, robot_root_body
 from .frame import AxisSpec, constrained_axes, rotation_matrix, skew
 from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 

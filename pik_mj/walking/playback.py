@@ -289,7 +289,7 @@ def play_walk_pattern(
     rm = scene.robot.model  # its joints are the scene's first ones
     q_adr = np.array([rm.jnt_qposadr[rm.joint(j).id] for j in joints])
     dofs = np.array([rm.jnt_dofadr[rm.joint(j).id] for j in joints])
-    act_ids = np.array([model.actuator(f"{j}_servo").id for j in joints])
+    act_ids = np.array([scene.servo_actuators[j] for j in joints])
     gains = np.array([scene.servo_gains[j] for j in joints])
     q_ref = pattern.q[:, q_adr]
     qd_ref = np.gradient(q_ref, pattern.dt, axis=0)
