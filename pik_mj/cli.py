@@ -9,6 +9,9 @@
                [--save FILE.rrd]
     pik-mj screenshot FILE.rrd --out FILE.png [--timeline NAME] [--time T|last]
                [--view NAME] [--tab NAME] [--size WxH] [--panels]
+    pik-mj sweep OUT [--grid NAME=A:B:N ... | --random N --range NAME=LO:HI ...]
+               [--robot NAME] [--stack NAME] [--workers N] [--address HOST:PORT]
+               [--resume] ...
 
 ``run`` runs the ``main`` of scenario ``NAME`` (default ``fullbody_reach``;
 ``pik_mj.scenarios.<name>``) with the remaining options, saving its rerun
@@ -24,6 +27,10 @@ entry) or a JSON ``{"model": NAME, "q": [...]}`` (optional ``environment``,
 the pose's joint limits and static equilibrium and holds it in physics
 (:func:`pik_mj.sim.validate_pose`); a joint outside its range fails the verdict,
 named with its excess.
+
+``sweep`` solves, checks and holds many hand targets on Ray into a Parquet
+dataset (:mod:`pik_mj.sweep.cli`; ``pik-mj sweep --help``); it exits 0 when
+every case ran, whatever its verdict, and 1 when a case raised.
 
 Exit status: 0 when every check holds (for ``run``: the scenario's checks and the
 hold; for ``validate``: the verdict), 1 when one fails or the scenario raised
@@ -322,6 +329,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("name", nargs="?", help="scenario name")
     sub.add_parser("validate", help="static check and physics hold of a pose", add_help=False)
     sub.add_parser("screenshot", help="PNG of a recording (rerun's viewer)", add_help=False)
+    sub.add_parser(
+        "sweep", help="solve, check and hold many hand targets on Ray (reach map)", add_help=False
+    )
     return parser
 
 
@@ -349,6 +359,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             shot = argparse.ArgumentParser(prog="pik-mj screenshot")
             screenshot.add_arguments(shot)
             return screenshot.run(shot.parse_args(rest))
+        if command == "sweep":
+            from .sweep import cli as sweep_cli
+
+            return sweep_cli.main(rest)
         name = rest[0] if rest and not rest[0].startswith("-") else None
         return _run(name, rest[1:] if name is not None else rest)
     except SystemExit as exc:  # argparse: --help (0) or a usage error (2), printed

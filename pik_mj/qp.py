@@ -171,6 +171,28 @@ class _Pattern:
 
 _OSQP_INFTY = 1e30
 _OSQP = osqp.SolverStatus
+
+
+def _interrupt_flag() -> Callable[[], int]:
+    """OSQP's own Ctrl-C flag, read after a solve returns.
+
+    OSQP swaps in its SIGINT handler for the length of ``solve()`` and checks
+    the flag once per ADMM iteration; a Ctrl-C landing after the last check
+    (the last iteration, the termination test, writing the solution) sets the
+    flag and is never reported, and Python's handler never sees it. The flag
+    is reset only when the next solve starts, so reading it right after the
+    call catches those too. ``osqp_is_interrupted`` is exported by the
+    ``builtin`` algebra's extension, the one this module uses.
+    """
+    from osqp import ext_builtin
+
+    flag = ctypes.CDLL(ext_builtin.__file__).osqp_is_interrupted
+    flag.restype = ctypes.c_int
+    flag.argtypes = []
+    return flag
+
+
+_osqp_interrupted = _interrupt_flag()
 _SOLVED = (_OSQP.OSQP_SOLVED, _OSQP.OSQP_SOLVED_INACCURATE)
 _INFEASIBLE = (_OSQP.OSQP_PRIMAL_INFEASIBLE, _OSQP.OSQP_PRIMAL_INFEASIBLE_INACCURATE)
 _OSQP_ERRORS = {
@@ -309,7 +331,7 @@ class OSQPBackend:
         ext.solve()
         info = ext.info
         status = info.status_val
-        if status == _OSQP.OSQP_SIGINT:
+        if status == _OSQP.OSQP_SIGINT or _osqp_interrupted():
             # OSQP caught Ctrl-C and returned; the user asked to stop.
             raise KeyboardInterrupt("interrupted during an OSQP solve")
         if status in _SOLVED:

@@ -1,0 +1,181 @@
+"""How fast does a sweep run on 1 and 2 Ray workers, and where does a case spend its time?
+
+The same sweep (default: the ``pik-mj sweep`` default, 100 random right-hand
+targets of the sample humanoid in the box x ∈ [0.2, 0.7], y ∈ [-0.5, 0.2],
+z ∈ [0.2, 1.3] m × the stacks ``balanced`` and ``unbalanced`` = 200 cases, 3 s
+holds) is run with each ``--workers`` count on one local Ray instance of
+``--num-cpus`` CPUs, each run into a fresh dataset; ``--rounds`` repeats the
+runs, alternating their order, so that a change of the machine's load hits both
+counts alike. Ray's workers run at niceness 0 here (Ray's default, 15, makes
+them yield to every other process of a shared machine).
+
+Per run: wall time of the cases (Ray start-up and actor creation apart), cases
+per second, speedup over the 1-worker run of the same round, the CPU share each
+worker had (its processes' CPU time over the wall time, ``s = Σ t_cpu / (k
+T_wall)``: 1 on an idle machine), the share of the wall time the workers spent
+in cases (``busy``; the rest is dispatch, Parquet writes and Ray) and the load
+average before and after. On a shared machine the speedup cannot exceed
+``2 s_2 / s_1``; on Linux with ``sched_autogroup_enabled`` (printed) the kernel
+shares the CPU between sessions, not processes, so the sweep's workers, all in
+the caller's session, share one session's part of a busy machine however many
+they are. The speedup "with a free core per worker" is ``k`` times the run's
+cases per CPU-second over the 1-worker run's (a projection from the measured
+CPU times, not a measurement). Per case, from the rows: the mean wall time of
+the solve, the static check and the hold, their shares, the mean CPU time, and
+the Ray overhead per case,
+
+.. math::
+
+    t_{overhead} = \\frac{k \\, T_{wall} - \\sum_i (t_{solve,i} + t_{static,i} + t_{hold,i})}{n}
+
+for ``k`` workers and ``n`` cases. The runs' rows must be equal but for the
+times and the worker names (checked).
+
+Run: ``python benchmarks/bench_sweep.py [--n 100] [--workers 1 2] [--rounds 1] [--hold 3]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import ray
+
+from pik_mj.sweep import Sweep, Uniform, run_sweep
+from pik_mj.sweep.cli import DEFAULT_BOX
+from pik_mj.sweep.dataset import comparable
+from pik_mj.sweep.views import summary_table
+
+PARTS = ("solve_time", "static_time", "hold_time")
+
+
+def run(sweep: Sweep, workers: int, out: Path) -> dict:
+    """One sweep on ``workers`` workers; its figures."""
+    load_before = os.getloadavg()
+    report = run_sweep(sweep, out, workers=workers, progress=False)
+    load_after = os.getloadavg()
+    rows = report.table.to_pylist()
+    busy = {k: np.array([r[k] for r in rows if r[k] is not None]) for k in PARTS}
+    total = sum(v.sum() for v in busy.values())
+    cpu = sum(r["cpu_time"] for r in rows if r["cpu_time"] is not None)
+    return {
+        "workers": workers,
+        "cases": report.ran,
+        "wall_s": report.wall_time,
+        "startup_s": report.startup_time,
+        "cases_per_s": report.ran / report.wall_time,
+        "cpu_share": cpu / (workers * report.wall_time),
+        "cases_per_cpu_s": report.ran / cpu,
+        "mean_s": {k: float(v.mean()) for k, v in busy.items()},
+        "mean_cpu_s": cpu / report.ran,
+        "share": {k: float(v.sum() / total) for k, v in busy.items()},
+        "overhead_s": (workers * report.wall_time - total) / report.ran,
+        "busy": total / (workers * report.wall_time),
+        "errors": report.errors,
+        "load": (load_before[0], load_after[0]),
+        "rows": rows,
+        "table": report.table,
+    }
+
+
+def _autogroup() -> str:
+    """Whether Linux shares the CPU between sessions (autogroup) rather than processes."""
+    try:
+        on = Path("/proc/sys/kernel/sched_autogroup_enabled").read_text().strip() == "1"
+    except OSError:
+        return "scheduler autogroup: unknown"
+    return f"scheduler autogroup: {'on' if on else 'off'}"
+
+
+def main(argv=None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=100, help="random targets (x 2 stacks)")
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--rounds", type=int, default=1, help="repetitions, order alternating")
+    parser.add_argument("--num-cpus", type=int, default=2, help="CPUs of the Ray instance")
+    parser.add_argument("--hold", type=float, default=3.0, help="hold duration [s]")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", help="directory for the datasets (default: a temporary one)")
+    args = parser.parse_args(argv)
+    sweep = Sweep(Uniform(DEFAULT_BOX, args.n), hold=args.hold, seed=args.seed)
+    base = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_sweep_"))
+
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    t0 = time.perf_counter()
+    ray.init(
+        address="local",
+        num_cpus=args.num_cpus,
+        include_dashboard=False,
+        log_to_driver=False,
+        logging_level=logging.ERROR,
+        _system_config={"worker_niceness": 0},
+    )
+    ray_start = time.perf_counter() - t0
+    runs = []
+    try:
+        for r in range(args.rounds):
+            order = args.workers if r % 2 == 0 else args.workers[::-1]
+            for k in order:
+                runs.append({"round": r, **run(sweep, k, base / f"round{r}_workers{k}")})
+    finally:
+        ray.shutdown()
+    same = all(comparable(r["rows"]) == comparable(runs[0]["rows"]) for r in runs)
+    first = {(r["round"], r["workers"]): r for r in runs}
+    for r in runs:
+        r["speedup"] = r["cases_per_s"] / first[(r["round"], args.workers[0])]["cases_per_s"]
+
+    print(
+        f"sweep: {len(sweep)} cases ({args.n} random right-hand targets x {sweep.stacks}), "
+        f"hold {args.hold:g} s, sample_humanoid; Ray {ray.__version__}, local instance of "
+        f"{args.num_cpus} CPUs (ray.init {ray_start:.1f} s); machine: {os.cpu_count()} cores"
+    )
+    print(f"datasets under {base}; {_autogroup()}")
+    print(
+        f"{'round':>5} {'workers':>7} {'wall [s]':>9} {'cases/s':>8} {'speedup':>8} "
+        f"{'CPU share':>10} {'busy':>5} {'actors up [s]':>14} {'overhead/case [ms]':>19} "
+        f"{'load avg (1 min) before -> after':>33}"
+    )
+    for r in runs:
+        load = f"{r['load'][0]:.2f} -> {r['load'][1]:.2f}"
+        print(
+            f"{r['round']:>5} {r['workers']:>7} {r['wall_s']:>9.1f} {r['cases_per_s']:>8.2f} "
+            f"{r['speedup']:>7.2f}x {r['cpu_share']:>10.0%} {r['busy']:>5.0%} "
+            f"{r['startup_s']:>14.1f} {1e3 * r['overhead_s']:>19.1f} {load:>33}"
+        )
+    for k in args.workers[1:]:
+        ups = [r["speedup"] for r in runs if r["workers"] == k]
+        print(f"speedup of {k} workers: median {np.median(ups):.2f}x over {len(ups)} rounds")
+        free = [
+            k * r["cases_per_cpu_s"] / first[(r["round"], args.workers[0])]["cases_per_cpu_s"]
+            for r in runs
+            if r["workers"] == k
+        ]
+        print(
+            f"  with a free core per worker (k x cases per CPU-second over the "
+            f"{args.workers[0]}-worker run's): median {np.median(free):.2f}x"
+        )
+    print("\ncost of a case (mean wall time [s], share of the case's wall time; CPU time [s]):")
+    print(
+        f"{'round':>5} {'workers':>7} "
+        + " ".join(f"{k.removesuffix('_time'):>16}" for k in PARTS)
+        + f" {'CPU':>8}"
+    )
+    for r in runs:
+        cells = [f"{r['mean_s'][k]:>8.3f} ({r['share'][k]:>4.0%})" for k in PARTS]
+        print(
+            f"{r['round']:>5} {r['workers']:>7} "
+            + " ".join(f"{c:>16}" for c in cells)
+            + f" {r['mean_cpu_s']:>8.3f}"
+        )
+    print(f"\nrows equal across runs (times and workers aside): {same}")
+    print(summary_table(runs[-1]["table"]))
+    return {"runs": runs, "same_rows": same, "ray_init_s": ray_start}
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,7 @@
+"""``python -m pik_mj.sweep``: the ``pik-mj sweep`` command."""
+
+import sys
+
+from ..cli import main
+
+raise SystemExit(main(["sweep", *sys.argv[1:]]))
