@@ -5,7 +5,9 @@ What a script needs is here::
     robot = Robot.from_model("sample_humanoid")           # owns its world
     scene = Scene.from_robot(robot)                       # floor, servos, contacts
     checks = scene.static_checker()
-    result = fullbody_inverse_kinematics(robot, targets, callback=[checks, Progress("reach")])
+    path = Waypoints(robot)                               # the start pose, then the iterates
+    result = fullbody_inverse_kinematics(robot, targets, callback=[checks, path, Progress("reach")])
+    motion = scene.play(path)                             # the iterates in physics
     hold = scene.hold(robot.configuration.q, criteria=HoldCriteria())
 
 Internals (the cascade's QP problems and backends, the virtual root) are one
@@ -30,9 +32,11 @@ from .sim import (
     HoldCriteria,
     HoldReport,
     HoldSample,
+    MotionReport,
     Scene,
     StaticChecks,
     StaticReport,
+    Waypoints,
     add_box,
     add_wall,
     floor_environment,
@@ -77,6 +81,7 @@ __all__ = [
     "LookAtTask",
     "MinkLimit",
     "MinkTask",
+    "MotionReport",
     "PikError",
     "Progress",
     "QPFailure",
@@ -94,6 +99,7 @@ __all__ = [
     "TaskReport",
     "TaskRows",
     "UnknownName",
+    "Waypoints",
     "add_box",
     "add_wall",
     "floor_environment",

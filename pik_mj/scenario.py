@@ -3,12 +3,13 @@ the command line of their ``main``.
 
 A scenario (``scenarios/<name>.py``, installed as ``pik_mj.scenarios.<name>``)
 reads top to bottom: build the robot and its scene, the tasks, solve with
-``callback=[checks, recorder.solve_logger(...), Progress(...)]``, hold the final
-pose in physics (``scene.hold(...)``), then put the figures and checks into a
+``callback=[checks, recorder.solve_logger(...), Progress(...), path]``, play the
+iterates in physics (``scene.play(path)``), hold the final pose in physics
+(``scene.hold(...)``), then put the figures and checks into a
 :class:`ScenarioResult`. A failed check makes the scenario fail; it does not
 raise. Its ``main(argv)`` parses :func:`parser`'s options (rerun's
 ``--save/--connect/--serve/--stdout/--headless``, ``--json``, ``--hold``,
-``--quiet``, ``--model``), records into :func:`open_recorder`'s stream and ends
+``--speed``, ``--quiet``, ``--model``), records into :func:`open_recorder`'s stream and ends
 with :func:`report`.
 
 The user's options are checked here, once for every scenario, before any work
@@ -39,12 +40,22 @@ from .exceptions import InvalidInput, PikError
 from .ground import sole_polygons
 from .record import Recorder
 from .robot import Robot
-from .sim import HoldCriteria, HoldReport, Scene, StaticChecks, StaticReport, balance_report
+from .sim import (
+    HoldCriteria,
+    HoldReport,
+    MotionReport,
+    Scene,
+    StaticChecks,
+    StaticReport,
+    balance_report,
+)
+from .sim.motion import DEFAULT_SPEED
 from .sim.validate import describe_violation
 from .solve import SolveResult
 
 __all__ = [
     "DEFAULT_HOLD",
+    "DEFAULT_SPEED",
     "OptionError",
     "ScenarioParser",
     "ScenarioResult",
@@ -121,6 +132,9 @@ class ScenarioResult:
         static_reports: Per solve label, the :class:`pik_mj.sim.StaticReport` of
             every IK iteration's configuration.
         static_check_times: Wall time of each per-iteration static check [s].
+        motions: The solves' iterates played in physics
+            (:class:`pik_mj.sim.MotionReport`), by label, in order (a motion in
+            parts, e.g. before and after a grasp, has one per part).
         robot_state: The final pose and what rebuilds its scene (the robot's
             source, ``q``, ``allowed_contacts``, ``grasps``, ``external``), what
             ``pik-mj validate`` reads back; None without a scene.
@@ -137,6 +151,7 @@ class ScenarioResult:
     balance: dict[str, Any] | None = None
     static_reports: dict[str, list[StaticReport]] = field(default_factory=dict)
     static_check_times: list[float] = field(default_factory=list)
+    motions: dict[str, MotionReport] = field(default_factory=dict)
     robot_state: dict[str, Any] | None = None
     robot: Robot | None = field(default=None, repr=False, compare=False)
 
@@ -181,6 +196,54 @@ class ScenarioResult:
             self.static_reports[label] = list(checks.reports)
             self.static_check_times += checks.times
         return result
+
+    def add_motion(
+        self, label: str, motion: MotionReport, *, finish: Sequence[Any] = ()
+    ) -> MotionReport:
+        """Keep the motion ``label`` (a check on its verdict); hand it to the
+        ``finish`` method of each of ``finish`` (its recorder's motion logger)."""
+        for callback in finish:
+            callback.finish(motion)
+        self.motions[label] = motion
+        self.check(
+            f"motion {label!r}: the iterates played in physics (no fall, no foot slip, "
+            "no unexpected contact)",
+            motion.passed,
+            motion.summary().removeprefix("motion: "),
+        )
+        return motion
+
+    def motion(self) -> dict[str, Any] | None:
+        """The ``motion`` section of :meth:`to_dict`, or None when nothing was
+        played: over all parts ``passed``, ``duration`` [s], ``max_tracking_error``
+        (``joints_rad``, ``frames_m``), ``min_com_margin`` [m] (None: contact
+        lost), ``max_slip`` [m], ``max_drift`` [m], ``contacts`` (``planned``,
+        ``unexpected``), ``fell``, and each part's
+        :meth:`~pik_mj.sim.MotionReport.to_dict` under ``parts``."""
+        if not self.motions:
+            return None
+        parts = list(self.motions.values())
+        margin = min(m.min_margin for m in parts)
+        return {
+            "passed": all(m.passed for m in parts),
+            "duration": sum(m.duration + m.settle for m in parts),
+            "max_tracking_error": {
+                "joints_rad": max(m.tracking_error for m in parts),
+                "frames_m": max(m.max_frame_error for m in parts),
+            },
+            "min_com_margin": margin if math.isfinite(margin) else None,
+            "max_slip": max(m.slip for m in parts),
+            "max_drift": max(m.drift for m in parts),
+            "contacts": {
+                "planned": list(dict.fromkeys(g for m in parts for g in m.planned_contacts)),
+                "planned_pairs": [
+                    list(p) for p in dict.fromkeys(p for m in parts for p in m.planned_pairs)
+                ],
+                "unexpected": [list(c) for m in parts for c in m.unexpected_contacts],
+            },
+            "fell": any(m.fell for m in parts),
+            "parts": {label: m.to_dict() for label, m in self.motions.items()},
+        }
 
     def add_balance(
         self,
@@ -259,7 +322,8 @@ class ScenarioResult:
         """JSON-ready summary: ``converged``, ``iterations``, ``tasks`` (name, level,
         error, satisfied, checked), ``timing`` of the main solve at the top level,
         every solve under ``solves``, ``figures``, ``messages``, ``simulation``
-        (:meth:`simulation`), ``balance``, ``robot`` (:attr:`robot_state`)."""
+        (:meth:`simulation`), ``motion`` (:meth:`motion`), ``balance``, ``robot``
+        (:attr:`robot_state`)."""
         main = self.main_solve()
         main_dict = main.to_dict() if main is not None else {}
         all_ms = [1e3 * t for s in self.solves.values() for t in s.iteration_times]
@@ -280,6 +344,7 @@ class ScenarioResult:
             "messages": self.messages,
             "recording": self.recording,
             "simulation": self.simulation(),
+            "motion": self.motion(),
             "balance": self.balance,
             "robot": self.robot_state,
         }
@@ -316,6 +381,8 @@ class ScenarioResult:
                 f"{sim['iterations_checked']} iterations in static equilibrium, min CoM "
                 f"margin {_mm(sim['min_margin_m'])}, {sim['median_check_ms']:.2f} ms per check"
             )
+        for label, m in self.motions.items():
+            lines.append(f"{m.summary()} [{label}]")
         if self.balance is not None:
             lines.append(balance_summary(self.balance))
         lines += self.messages
@@ -445,7 +512,8 @@ def parser(
     ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
     :func:`rerun.script_add_args`), ``--json FILE``, ``--quiet`` (no progress) and,
     with ``hold``, ``--hold SECONDS`` (physics hold of the final pose, default 3;
-    0: none).
+    0: none) and ``--speed FRACTION`` (the iterates played in physics at this
+    fraction of the joint velocity limits, default 0.2; 0: not played).
 
     Args:
         doc: The scenario's docstring (its first line describes it).
@@ -469,6 +537,13 @@ def parser(
             type=duration,
             default=DEFAULT_HOLD,
             help=f"physics hold of the final pose [s] (default {DEFAULT_HOLD:g}; 0: none)",
+        )
+        p.add_argument(
+            "--speed",
+            type=fraction,
+            default=DEFAULT_SPEED,
+            help="the iterates played in physics at this fraction of the joint velocity "
+            f"limits (default {DEFAULT_SPEED:g}; 0: not played)",
         )
     if model is not None:
         p.robot_option = _RobotOption(model, tuple(limbs), floating_base)
@@ -535,6 +610,12 @@ def count(text: str) -> int:
     except ValueError:
         value = text
     return inputs.integer(value, "a count", low=1)
+
+
+@_argument_type
+def fraction(text: str) -> float:
+    """An argparse type: a fraction in [0, 1]."""
+    return inputs.real(_number(text), "a fraction", low=0, high=1)
 
 
 def open_recorder(args: argparse.Namespace, name: str) -> Recorder:

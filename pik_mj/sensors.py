@@ -53,6 +53,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -75,6 +76,7 @@ __all__ = [
     "ImuReading",
     "RobotSensors",
     "SensorChannel",
+    "SensorTrace",
     "SensorZmp",
     "add_sensors",
     "zmp_from_force_sensors",
@@ -446,6 +448,39 @@ class RobotSensors:
         """Every channel's values by MJCF sensor name (see each channel's
         ``unit`` and ``frame``)."""
         return {c.name: c.read(data) for c in self.channels}
+
+
+class SensorTrace:
+    """The bumpers' readings along a hold or a motion: a callback of
+    :meth:`pik_mj.sim.Scene.hold` / :meth:`~pik_mj.sim.Scene.play`, called with
+    each :class:`~pik_mj.sim.HoldSample` (its ``data`` holds ``sensordata``).
+
+    Args:
+        sensors: The robot's sensors (:meth:`RobotSensors.from_model`).
+
+    Attributes:
+        time: Sample times (the physics clock) [s].
+        force: Each bumper's touch force per sample [N], by site name.
+        on: Each bumper's on/off reading per sample, by site name.
+    """
+
+    def __init__(self, sensors: RobotSensors):
+        self.sensors = sensors
+        self.time: list[float] = []
+        self.force: dict[str, list[float]] = {b.name: [] for b in sensors.bumpers}
+        self.on: dict[str, list[bool]] = {b.name: [] for b in sensors.bumpers}
+
+    def __call__(self, sample: Any) -> None:
+        self.time.append(float(sample.time))
+        for b in self.sensors.bumpers:
+            f = b.force(sample.data)
+            self.force[b.name].append(f)
+            self.on[b.name].append(f >= b.threshold)
+
+    def first_on(self, bumper: str) -> float | None:
+        """Time [s] of the first sample where ``bumper`` reads on, or None."""
+        _by_name("bumper", self.sensors.bumpers, bumper)  # an unknown name lists the bumpers
+        return next((t for t, on in zip(self.time, self.on[bumper], strict=True) if on), None)
 
 
 def _by_name(kind: str, items: Sequence, name: str):

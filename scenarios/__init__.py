@@ -14,6 +14,7 @@ SCENARIOS: list[str] = [
     "fullbody_external_force",
     "kettle",
     "wall_contact",
+    "obstacle_reach",
     "walk_forward",
     "walk_go_pos",
 ]

@@ -11,7 +11,8 @@ Any other robot (``--model unitree_g1``, an MJCF path; ``--description FILE``
 when its limbs are not found from its tree) reaches with its left hand
 (0.6, 0.2, 0.4) L from where the hand is at the start, L the arm's length
 (shoulder to hand). Every iteration is checked statically in the robot's scene;
-the final pose is held in physics.
+the iterates are played in physics as a motion, and the final pose is held in
+physics.
 """
 
 from __future__ import annotations
@@ -26,9 +27,18 @@ from pik_mj import (
     Recorder,
     Robot,
     Scene,
+    Waypoints,
     fullbody_inverse_kinematics,
 )
-from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, com_margin, open_recorder, parser, report
+from pik_mj.scenario import (
+    DEFAULT_HOLD,
+    DEFAULT_SPEED,
+    ScenarioResult,
+    com_margin,
+    open_recorder,
+    parser,
+    report,
+)
 
 NAME = "fullbody_reach"
 HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
@@ -51,6 +61,7 @@ def run(
     model: str | None = "sample_humanoid",
     description: str | None = None,
     hold: float = DEFAULT_HOLD,
+    speed: float = DEFAULT_SPEED,
     quiet: bool = True,
 ) -> ScenarioResult:
     result = ScenarioResult(NAME)
@@ -73,6 +84,7 @@ def run(
     checks = scene.static_checker()
     log = recorder.solve_logger("reach", checks=checks, start=robot)
     progress = Progress("reach", total=100, stream=None if quiet else sys.stderr)
+    path = Waypoints(robot)
     res = fullbody_inverse_kinematics(
         robot,
         [(target, np.array([1.0, 0.0, 0.0, 0.0]))],
@@ -81,9 +93,14 @@ def run(
         target_centroid_pos=p_mid,
         centroid_axes="z",
         stop=100,
-        callback=[checks, log, progress],
+        callback=[checks, log, progress, path.segment("reach")],
     )
-    result.add_solve("reach", res, checks, finish=[log, progress])
+    result.add_solve("reach", res, checks, finish=[log, progress, path])
+
+    # The iterates as a motion in physics.
+    if speed:
+        log = recorder.motion_logger()
+        result.add_motion("reach", scene.play(path, speed=speed, callback=log), finish=[log])
 
     # The final pose in physics; the contacts the solve made are intended.
     q = robot.configuration.q.copy()
@@ -143,6 +160,7 @@ def main(argv: list[str] | None = None) -> int:
             model=args.model,
             description=args.description,
             hold=args.hold,
+            speed=args.speed,
             quiet=args.quiet,
         )
     return report(result, args)

@@ -1,7 +1,9 @@
 """The kettle in the room: look at it, grasp the handle, lift it 0.1 m (seed 001, room73b2).
 
 The robot stands at ``spot_counter_front`` (no walking: it is placed there), looks
-at the kettle (``:head :look-at``), reaches the handle with the right hand
+at the kettle's handle (``:head :look-at``; checked in the head camera's image:
+the handle projects near the image centre, not occluded by MuJoCo's ray cast),
+keeps the kettle in view while it reaches the handle with the right hand
 (``:inverse-kinematics`` of the handle coordinates with the chain from the root,
 rotation about the handle bar free — the seed's ``:rotation-axis :z`` is the
 bar's axis, here the hand's x), and lifts it 0.1 m in the world
@@ -18,14 +20,17 @@ from __future__ import annotations
 
 import sys
 
+import mujoco
 import numpy as np
 
 from pik_mj import HoldCriteria, Progress, Recorder, Robot, Scene, inverse_kinematics
+from pik_mj.camera import Camera
 from pik_mj.ik import gaze_angle
 from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, com_margin, open_recorder, parser, report
 
 NAME = "kettle"
 LIFT = 0.1  # [m]
+CENTRED = 0.05  # the handle within this fraction of the image width of its centre
 
 
 def grasp_rotation(R_W_handle: np.ndarray) -> np.ndarray:
@@ -57,10 +62,16 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         Progress("look", stream=err),
     )
     look = inverse_kinematics(
-        robot, [], look_at=p_kettle, joints="chain", callback=[checks, log, progress]
+        robot, [], look_at=p_handle, joints="chain", callback=[checks, log, progress]
     )
     result.add_solve("look", look, checks, finish=[log, progress])
-    gaze_look = gaze_angle(robot, p_kettle)
+    gaze_look = gaze_angle(robot, p_handle)
+    # The handle in the head camera's image (camera poses: mj_camlight).
+    camera = Camera(robot.model, "head_camera")
+    mujoco.mj_camlight(robot.model, robot.data)
+    pixel, depth = camera.project(robot.data, p_handle)
+    centre = 0.5 * np.array([camera.intrinsics.width, camera.intrinsics.height])  # [px]
+    seen = camera.visibility(robot.data, "kettle_handle")
 
     checks = scene.static_checker()
     log, progress = (
@@ -132,6 +143,11 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         "gaze_angle_after_look_deg": np.rad2deg(gaze_look),
         "gaze_angle_after_grasp_deg": np.rad2deg(gaze_grasp),
         "gaze_angle_after_lift_deg": np.rad2deg(gaze_angle(robot, kettle_now(robot))),
+        "handle_pixel_after_look_px": pixel,
+        "handle_offset_from_image_centre_px": float(np.linalg.norm(pixel - centre)),
+        "image_width_px": camera.intrinsics.width,
+        "handle_depth_m": depth,
+        "handle_visible_after_look": seen.visible,
         "feet_moved_m": max(
             float(np.linalg.norm(a - b)) for a, b in zip(feet0, feet1, strict=True)
         ),
@@ -160,7 +176,7 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         float(np.arccos(np.clip(bar_W[0] @ bar_W[1], -1, 1))) <= np.deg2rad(1.0),
     )
     result.check(
-        "looking at the kettle (2°) after look, grasp and lift",
+        "looking at the handle (2°) after look, at the kettle after grasp and lift",
         max(
             f["gaze_angle_after_look_deg"],
             f["gaze_angle_after_grasp_deg"],
@@ -182,6 +198,14 @@ def run(recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True) -
         f"{k}",
     )
     result.check("CoM over the feet", f["com_margin_m"] > 0, f"margin {f['com_margin_m']:.3f} m")
+    offset = f["handle_offset_from_image_centre_px"] / f["image_width_px"]
+    result.check(
+        f"head camera after the look: the handle within {CENTRED:.0%} of the image width "
+        "of its centre, not occluded",
+        offset <= CENTRED and seen.visible,
+        f"{offset:.1%} of the width; "
+        + ("visible" if seen.visible else f"occluded by {seen.occluder}"),
+    )
     return result
 
 

@@ -22,7 +22,7 @@ from pik_mj.sim import validate_pose
 
 def test_registry_is_the_package():
     names = pik_mj.scenarios.SCENARIOS
-    assert pik_mj.scenarios.DEFAULT in names and len(set(names)) == len(names) == 8
+    assert pik_mj.scenarios.DEFAULT in names and len(set(names)) == len(names) == 9
     for name in names:
         module = load_scenario(name)
         assert module.__name__ == f"pik_mj.scenarios.{name}" and module.NAME == name

@@ -172,6 +172,22 @@ def test_playback_walks_to_the_goal(walk, tmp_path):
     assert "pelvis" in entities[PATHS.bodies()].static["Ellipsoids3D:labels"]
     times, _ = entities[PATHS.bodies()].series("Ellipsoids3D:centers", "sim_time")
     assert times[-1] >= pattern.duration
+    # The ZMP from the feet's force/torque sensors (seed :calc-zmp-from-forces-moments)
+    # at every tick: the ZMP of MuJoCo's contact forces within 2 mm RMS (an
+    # independent computation), inside the soles carrying it, within 5 cm RMS of
+    # the planned ZMP; plotted in the recording.
+    K = len(pattern.t)
+    assert figures["sim_zmp_force_sensors_ticks"] == K
+    assert figures["sim_zmp_force_sensors_vs_contacts_rms_m"] < 2e-3
+    assert figures["sim_zmp_force_sensors_margin_min_m"] > 0.0
+    assert figures["sim_zmp_force_sensors_vs_ref_rms_m"] < 0.05
+    assert report.zmp_force_sensors.shape == report.zmp.shape
+    t, x = entities[PATHS.walk_series("x", "zmp_force_sensors")].series(
+        "Scalars:scalars", "sim_time"
+    )
+    np.testing.assert_allclose(t, report.t, atol=1e-9)
+    np.testing.assert_allclose([v[0] for v in x], report.zmp_force_sensors[:, 0])
+    assert PATHS.walk_series("margin", "zmp_force_sensors") in entities
 
 
 def test_playback_without_feedforward_at_kp_3000_fails(walk):

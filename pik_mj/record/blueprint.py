@@ -8,6 +8,13 @@ each opening on what matters:
   ``log10`` of each task's error (a log scale: convergence to 1e-8 shows), the
   static check's CoM margin [m] and its counts apart, and the text log of
   events and failures;
+* **motion** (timeline ``sim_time``): the 3D view of the physical robot and
+  its IK reference beside it, the joint tracking error [rad], the drift from
+  the reference, foot slip, CoM margin and task-frame errors [m], the index of
+  the waypoint (IK iterate) the reference passed, and each camera's view;
+* **sensors** (timeline ``sim_time``), when a motion logged them: contact
+  forces at the force sensors and bumpers [N], the bumpers' state, the IMUs'
+  acceleration [m/s²] and angular velocity [rad/s];
 * **physics hold** (timeline ``sim_time``): the 3D view, drift / slip / CoM
   margin [m], and the vertical contact force [N];
 * **walking** (timeline ``sim_time``): the 3D view over the walk, the ZMP
@@ -200,6 +207,57 @@ def blueprint_for(
         view = _view3d(paths, framing.get("iteration"), "solve: robot, targets, balance")
         tabs.append(_tab(view, plots, "solve (timeline: iteration)", first_events()))
         timelines.append("iteration")
+    motion = _under(logged, paths.motion, "sim_time")
+    if motion:
+        metres = [
+            p
+            for p in motion
+            if p.rsplit("/", 1)[1] in _HOLD_METRES or p.startswith(f"{paths.motion}/frame_error/")
+        ]
+        plots = [
+            _plot(title, paths.motion, series)
+            for title, series in (
+                ("motion: joint tracking error [rad]", [paths.motion_metric("tracking_error")]),
+                (
+                    "motion: root drift from the reference, foot slip, CoM margin, "
+                    "task-frame errors [m]",
+                    metres,
+                ),
+                (
+                    "motion: waypoint (IK iterate) the reference passed [index]",
+                    [paths.motion_metric("waypoint")],
+                ),
+            )
+            if set(series) & set(motion)
+        ]
+        images = [p for p in _under(logged, paths.cameras, "sim_time") if p.endswith("/image")]
+        view = _view3d(
+            paths, framing.get("sim_time"), "motion: physical robot, IK reference (translucent)"
+        )
+        if images:
+            cams = [rrb.Spatial2DView(origin=p, name=f"camera {p.split('/')[-2]}") for p in images]
+            view = rrb.Vertical(view, rrb.Horizontal(*cams), row_shares=[3, 1])
+        tabs.append(_tab(view, plots, "motion (timeline: sim_time)", first_events()))
+        timelines.append("sim_time")
+    sensors = _under(logged, paths.sensors, "sim_time")
+    if sensors:
+        plots = [
+            _plot(
+                title,
+                f"{paths.sensors}/{groups[0]}",
+                [p for g in groups for p in _under(logged, f"{paths.sensors}/{g}", "sim_time")],
+            )
+            for groups, title in (
+                (("force", "touch"), "sensors: contact force at force sensors and bumpers [N]"),
+                (("bumper",), "sensors: bumpers (1 = on)"),
+                (("imu_acceleration",), "sensors: IMU acceleration a - g, sensor frame [m/s²]"),
+                (("imu_angular_velocity",), "sensors: IMU angular velocity, sensor frame [rad/s]"),
+            )
+            if any(_under(logged, f"{paths.sensors}/{g}", "sim_time") for g in groups)
+        ]
+        view = _view3d(paths, framing.get("sim_time"), "sensors: the physical robot")
+        tabs.append(_tab(view, plots, "sensors (timeline: sim_time)", first_events()))
+        timelines.append("sim_time")
     hold = _under(logged, paths.hold, "sim_time")
     if hold:
         metres = [p for p in hold if p.rsplit("/", 1)[1] in _HOLD_METRES]

@@ -264,7 +264,9 @@ def _mesh_shape(model: mujoco.MjModel, g: int, color: np.ndarray) -> Any:
     )
 
 
-def _shape(archetype: Any, instances: Sequence[_Instance], names: list[str]) -> Any:
+def _shape(
+    archetype: Any, instances: Sequence[_Instance], names: list[str], fill_mode: str = "solid"
+) -> Any:
     """The static archetype of a primitive group: stacked sizes, colours, labels."""
     fields: dict[str, Any] = {
         key: np.array([i.fields[key] for i in instances], dtype=float)
@@ -275,7 +277,7 @@ def _shape(archetype: Any, instances: Sequence[_Instance], names: list[str]) -> 
         colors=np.array([i.color for i in instances], dtype=np.uint8),
         labels=names,
         show_labels=False,
-        fill_mode="solid",
+        fill_mode=fill_mode,
     )
 
 
@@ -288,6 +290,7 @@ def geom_groups(
     groups: set[int],
     plane_half_size: float,
     entity_path: Any,
+    color: Sequence[int] | None = None,
 ) -> tuple[list[GeomGroup], list[str]]:
     """Group the visible geoms of ``model`` by owner, motion and primitive kind.
 
@@ -299,6 +302,9 @@ def geom_groups(
         groups: MuJoCo geom groups to draw.
         plane_half_size: Half extent [m] drawn for infinite planes.
         entity_path: ``(kind, robot, moving) -> path`` (:meth:`EntityPaths.geoms`).
+        color: One RGBA for every geom, drawn translucent with its primitives'
+            major wireframe (a second robot: a motion's reference pose), or None
+            (each geom's own colour, solid).
 
     Returns:
         The groups, and the names of geoms of unsupported types.
@@ -314,10 +320,11 @@ def geom_groups(
             continue
         kind, archetype, fields, offset = prim
         b = int(model.geom_bodyid[g])
-        color = tuple(int(c) for c in rgba8(geom_rgba(model, g)))
+        own = rgba8(geom_rgba(model, g)) if color is None else color
+        rgba = tuple(int(c) for c in own)
         # a mesh's colour is the entity's (albedo), not per instance
-        key = (kind, bool(robot[b]), bool(moving[b]), color if archetype is rr.Mesh3D else ())
-        members.setdefault(key, (archetype, []))[1].append(_Instance(g, fields, offset, color))
+        key = (kind, bool(robot[b]), bool(moving[b]), rgba if archetype is rr.Mesh3D else ())
+        members.setdefault(key, (archetype, []))[1].append(_Instance(g, fields, offset, rgba))
     out: list[GeomGroup] = []
     taken: dict[str, int] = {}
     for (kind, is_robot, is_moving, _), (archetype, instances) in members.items():
@@ -329,7 +336,8 @@ def geom_groups(
         if archetype is rr.Mesh3D:
             shape = _mesh_shape(model, instances[0].g, np.array(instances[0].color, np.uint8))
         else:
-            shape = _shape(archetype, instances, names)
+            fill = "solid" if color is None else "TransparentFillMajorWireframe"
+            shape = _shape(archetype, instances, names, fill)
         out.append(
             GeomGroup(
                 path=path,

@@ -39,7 +39,15 @@ if TYPE_CHECKING:
     from ..solve import IterationInfo, SolveResult
     from .recorder import Recorder
 
-__all__ = ["HoldLogger", "HoldSample", "SolveLogger", "log_walk", "margin_outline"]
+__all__ = [
+    "HoldLogger",
+    "HoldSample",
+    "MotionLogger",
+    "SolveLogger",
+    "log_sensors",
+    "log_walk",
+    "margin_outline",
+]
 
 
 class HoldSample(Protocol):
@@ -355,10 +363,8 @@ class HoldLogger:
         self._skipped: Any = None
 
     def __call__(self, sample: HoldSample) -> None:
-        rec = self.recorder
-        if self.calls == 0:
-            rec._begin_hold(sample.model, sample.data, float(sample.time))
-            rec.log_text("physics hold starts")
+        if self._starts(sample):
+            self._begin(sample)
         n, self.calls = self.calls, self.calls + 1
         if n % self.every:
             self._skipped = sample
@@ -366,20 +372,30 @@ class HoldLogger:
         self._skipped = None
         self._log(sample)
 
+    def _starts(self, sample: HoldSample) -> bool:
+        """The first sample starts the hold."""
+        return self.calls == 0
+
+    def _begin(self, sample: HoldSample) -> None:
+        self.recorder._begin_sim(sample.model, sample.data, float(sample.time))
+        self.recorder.log_text("physics hold starts")
+
+    def _metric(self, name: str) -> str:
+        return self.recorder.paths.hold_metric(name)
+
     def _log(self, sample: HoldSample) -> None:
         rec = self.recorder
-        rec.log_body_poses(sample.data, timeline="sim_time", time=float(sample.time))
+        rec.log_body_poses(sample.data, timeline="sim_time", time=rec.sim_clock(sample.time))
         rec.log_com(sample.com)
         if len(sample.support_polygon) >= 3:
             rec.log_polygon(sample.support_polygon)
         forces = np.asarray(sample.contact_forces, dtype=float).reshape(-1, 3)
         rec.log_contacts(sample.contact_points, forces)
-        paths = rec.paths
-        rec.log_scalar(paths.hold_metric("drift"), sample.drift)
-        rec.log_scalar(paths.hold_metric("slip"), sample.slip)
+        rec.log_scalar(self._metric("drift"), sample.drift)
+        rec.log_scalar(self._metric("slip"), sample.slip)
         if math.isfinite(sample.margin):
-            rec.log_scalar(paths.hold_metric("margin"), sample.margin)
-        rec.log_scalar(paths.hold_metric("contact_force_z"), float(forces[:, 2].sum()))
+            rec.log_scalar(self._metric("margin"), sample.margin)
+        rec.log_scalar(self._metric("contact_force_z"), float(forces[:, 2].sum()))
 
     def finish(self, report: Any = None) -> Any:
         """Log the last sample if it was skipped and, given the hold's report
@@ -398,6 +414,188 @@ class HoldLogger:
         return report
 
 
+def log_sensors(recorder: Recorder, sensors: Any, model: Any, data: Any) -> None:
+    """Log the readings of :class:`pik_mj.sensors.RobotSensors` in ``data`` at
+    the current time (MuJoCo's ``sensordata``: computed in the last
+    ``mj_step``/``mj_forward``):
+
+    * each force sensor's contact force ``|f|`` [N] (the wrench the environment
+      applies behind it, its distal part's weight compensated:
+      :meth:`~pik_mj.sensors.ForceSensor.contact_wrench`) at
+      ``sensors/force/<site>``;
+    * each bumper's touch force [N] at ``sensors/touch/<site>`` and its state
+      (1 = on, the seed's reading) at ``sensors/bumper/<site>``;
+    * each IMU's ``a − g`` [m/s²] and angular velocity [rad/s] in its frame at
+      ``sensors/imu_acceleration/<site>_x|y|z`` and
+      ``sensors/imu_angular_velocity/<site>_x|y|z``.
+    """
+    paths = recorder.paths
+    for s in sensors.force_sensors:
+        if s.force is not None:
+            f = s.contact_wrench(model, data).force
+            recorder.log_scalar(paths.sensor_series("force", s.name), float(np.linalg.norm(f)))
+    for b in sensors.bumpers:
+        recorder.log_scalar(paths.sensor_series("touch", b.name), b.force(data))
+        recorder.log_scalar(paths.sensor_series("bumper", b.name), float(b.is_on(data)))
+    for imu in sensors.imu_sensors:
+        reading = imu.read(data)
+        for group, value in (
+            ("imu_acceleration", reading.acceleration),
+            ("imu_angular_velocity", reading.angular_velocity),
+        ):
+            if value is not None:
+                for axis, v in zip("xyz", value, strict=True):
+                    recorder.log_scalar(paths.sensor_series(group, f"{imu.name}_{axis}"), v)
+
+
+class MotionLogger(HoldLogger):
+    """Logs a motion played in physics on ``sim_time`` (a ``scene.play`` callback).
+
+    Made by :meth:`Recorder.motion_logger`. Every ``every``-th call logs what
+    a :class:`HoldLogger` logs (body poses, CoM, support polygon, contacts),
+    and:
+
+    * the reference pose (the IK's iterates, interpolated) as a second,
+      translucent robot at ``world/reference`` (``reference``);
+    * ``motion/tracking_error`` [rad], ``motion/drift`` (root from its
+      reference), ``motion/slip``, ``motion/margin`` and
+      ``motion/frame_error/<frame>`` [m];
+    * with ``sensors``, the robot's sensors (:func:`log_sensors`);
+    * each of ``cameras`` (:class:`pik_mj.camera.Camera` of the robot) as a
+      pinhole at its pose, and every ``image_every`` seconds its image rendered
+      by MuJoCo; where rendering is unavailable a text line says why, once.
+
+    A sample from another model than the last one (the part of a motion after
+    a grasp, played in the scene with the grasp) logs that scene's geometry.
+    :meth:`finish` logs the last sample if it was skipped, each waypoint's
+    index at its time (``motion/waypoint``: the iterates on ``sim_time``), the
+    start of each segment (solve) and the verdict.
+    """
+
+    def __init__(
+        self,
+        recorder: Recorder,
+        every: int = 10,
+        *,
+        reference: bool = True,
+        sensors: bool = True,
+        cameras: Sequence[Any] = (),
+        image_every: float | None = 0.5,
+    ) -> None:
+        super().__init__(recorder, every)
+        if image_every is not None and not (math.isfinite(image_every) and image_every > 0):
+            raise InvalidInput(f"image_every must be > 0 [s] or None, got {image_every}")
+        self.reference = bool(reference)
+        self.sensors = bool(sensors)
+        self.cameras = list(cameras)
+        self.image_every = image_every
+        self.images = 0
+        self._model: Any = None
+        self._sensors: Any = None
+        self._renderer: Any = None
+        self._no_rendering: str | None = None
+        self._next_image = -math.inf
+
+    def _starts(self, sample: HoldSample) -> bool:
+        """A sample of another model than the last starts a run (a new scene)."""
+        return sample.model is not self._model
+
+    def _begin(self, sample: HoldSample) -> None:
+        from ..sensors import RobotSensors
+
+        rec = self.recorder
+        rec._begin_sim(sample.model, sample.data, float(sample.time))
+        model = sample.model
+        if self.reference:
+            rec.log_reference_geometry(model)
+        root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, rec.robot_root_body or "")
+        bodies = [
+            model.body(b).name
+            for b in range(1, model.nbody)
+            if root < 0 or model.body_rootid[b] == root
+        ]
+        self._sensors = RobotSensors.from_model(model, bodies=bodies) if self.sensors else None
+        self._close_renderer()
+        rec.log_text("motion starts" if self._model is None else "motion goes on in a new scene")
+        self._model = model
+
+    def _metric(self, name: str) -> str:
+        return self.recorder.paths.motion_metric(name)
+
+    def _log(self, sample: HoldSample) -> None:
+        super()._log(sample)
+        rec = self.recorder
+        rec.log_scalar(self._metric("tracking_error"), sample.tracking_error)
+        for frame, error in sample.frame_errors.items():
+            rec.log_scalar(rec.paths.frame_error(frame), error)
+        if self.reference and sample.reference is not None:
+            rec.log_reference_poses(sample.reference)
+        if self._sensors is not None:
+            log_sensors(rec, self._sensors, sample.model, sample.data)
+        if self.cameras:
+            self._log_cameras(sample)
+
+    def _log_cameras(self, sample: HoldSample) -> None:
+        rec = self.recorder
+        render = self.image_every is not None and sample.time >= self._next_image
+        if render:
+            self._next_image = sample.time + float(self.image_every)
+        for camera in self.cameras:
+            image = self._render(sample, camera) if render else None
+            rec.log_camera(camera, sample.data, image)
+
+    def _render(self, sample: HoldSample, camera: Any) -> np.ndarray | None:
+        from ..camera import CameraRenderer, RenderingUnavailable
+
+        if self._no_rendering is not None:
+            return None
+        k = camera.intrinsics
+        try:
+            if self._renderer is None:
+                self._renderer = CameraRenderer(sample.model, k.width, k.height)
+        except (RenderingUnavailable, InvalidInput) as err:
+            self._no_rendering = str(err)
+            self.recorder.log_text(
+                f"camera images unavailable (the pinholes are logged): {err}", level="WARN"
+            )
+            return None
+        self.images += 1
+        return self._renderer.render(sample.data, camera)
+
+    def _close_renderer(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def finish(self, report: Any = None) -> Any:
+        """Log the last sample if it was skipped and, given the motion's report
+        (:class:`pik_mj.sim.MotionReport`), each waypoint's index at its time,
+        the start of each segment and the verdict; returns ``report``."""
+        rec = self.recorder
+        if self._skipped is not None:
+            self._log(self._skipped)
+            self._skipped = None
+        self._close_renderer()
+        if report is None:
+            return report
+        path = self._metric("waypoint")
+        last = None
+        for i, (t, label) in enumerate(zip(report.waypoint_times, report.segments, strict=True)):
+            rec.set_time("sim_time", rec.sim_clock(t))
+            rec.log_scalar(path, float(i))
+            if label != last:
+                rec.log_text(f"motion: waypoint {i} starts segment {label!r}")
+                last = label
+        rec.set_time("sim_time", rec.sim_clock(report.final_state.time))
+        rec.log_text(
+            "motion: "
+            + ("passed" if report.passed else "FAILED")
+            + (f" ({'; '.join(report.failures)})" if report.failures else ""),
+            level="INFO" if report.passed else "ERROR",
+        )
+        return report
+
+
 #: The walking series: (plot group, name, colour, legend), the colours those of
 #: the 3D overlays.
 _WALK_SERIES = [
@@ -407,11 +605,18 @@ _WALK_SERIES = [
         ("zmp_reference", style.ZMP_REFERENCE, "ZMP reference"),
         ("zmp_inverse_dynamics", style.ZMP_INVERSE_DYNAMICS, "ZMP of the inverse dynamics"),
         ("zmp_measured", style.ZMP, "ZMP measured in physics"),
+        ("zmp_force_sensors", style.ZMP_FORCE_SENSORS, "ZMP from the feet's force sensors"),
         ("com", style.COM, "CoM"),
     )
 ] + [
     ("margin", "zmp_inverse_dynamics", style.ZMP_INVERSE_DYNAMICS, "ZMP of the inverse dynamics"),
     ("margin", "zmp_measured", style.ZMP, "ZMP measured in physics"),
+    (
+        "margin",
+        "zmp_force_sensors",
+        style.ZMP_FORCE_SENSORS,
+        "ZMP from the force sensors, to the feet carrying it",
+    ),
 ]
 
 
@@ -468,6 +673,7 @@ def log_walk(recorder: Recorder, pattern: Any, report: Any) -> None:
         during = np.vstack([during, np.zeros((K - len(during), 2))])
     margin_measured = support_margin(plan, during, pattern.sole_size)
     margin_id = support_margin(plan, pattern.zmp_computed, pattern.sole_size)
+    sensed = np.asarray(getattr(report, "zmp_force_sensors", np.zeros((0, 2))), dtype=float)
     rec.disable_timeline("iteration")
     last_polygon: Any = None
     for k in range(N):
@@ -510,6 +716,20 @@ def log_walk(recorder: Recorder, pattern: Any, report: Any) -> None:
             rec.log_point(paths.zmp, [p[0], p[1], z], radius=style.ZMP_RADIUS, color=style.ZMP)
             for axis, v in zip("xy", p, strict=True):
                 rec.log_scalar(paths.walk_series(axis, "zmp_measured"), v)
+        if k < len(sensed) and np.all(np.isfinite(sensed[k])):
+            p = sensed[k]
+            rec.log_point(
+                f"{paths.zmp}/force_sensors",
+                [p[0], p[1], z],
+                radius=style.ZMP_RADIUS * 0.6,
+                color=style.ZMP_FORCE_SENSORS,
+            )
+            for axis, v in zip("xy", p, strict=True):
+                rec.log_scalar(paths.walk_series(axis, "zmp_force_sensors"), v)
+            rec.log_scalar(
+                paths.walk_series("margin", "zmp_force_sensors"),
+                float(report.zmp_force_sensors_margin[k]),
+            )
     rec.log_text(
         f"walk: {len(plan.footsteps)} footsteps over {pattern.duration:.2f} s; ZMP of the "
         f"inverse dynamics at least {margin_id.min() * 1e3:.1f} mm inside the support polygon; "

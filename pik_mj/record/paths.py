@@ -57,6 +57,15 @@ class EntityPaths:
             check: ``balance/<metric>`` (e.g. ``balance/margin``).
         walk: Parent of walking series: ``walk/<group>/<series>`` (e.g.
             ``walk/zmp_x/reference``, ``walk/margin/inverse_dynamics``).
+        motion: Parent of the series of a motion played in physics:
+            ``motion/<metric>`` (e.g. ``motion/tracking_error``,
+            ``motion/frame_error/<frame>``, ``motion/waypoint``).
+        reference: The reference pose of a motion, drawn as a second robot:
+            ``world/reference/<kind>`` geoms, ``world/reference/bodies`` frames.
+        sensors: Parent of sensor readings: ``sensors/<group>/<sensor>`` (e.g.
+            ``sensors/force/rleg_end``, ``sensors/imu_acceleration/imu_x``).
+        cameras: Parent of the robot's cameras: ``world/cameras/<camera>`` (its
+            pose) and ``world/cameras/<camera>/image`` (pinhole, image).
     """
 
     world: str = "world"
@@ -77,6 +86,10 @@ class EntityPaths:
     hold: str = "hold"
     balance: str = "balance"
     walk: str = "walk"
+    motion: str = "motion"
+    reference: str = "world/reference"
+    sensors: str = "sensors"
+    cameras: str = "world/cameras"
 
     def geoms(self, kind: str, *, robot: bool = True, moving: bool = True) -> str:
         """Path of the geoms of one primitive ``kind`` (``boxes``, ``capsules``,
@@ -116,6 +129,23 @@ class EntityPaths:
     def balance_metric(self, name: str) -> str:
         """Path of a per-iteration balance metric series, e.g. ``balance/margin``."""
         return f"{self.balance}/{path_part(name)}"
+
+    def motion_metric(self, name: str) -> str:
+        """Path of a motion series, e.g. ``motion/tracking_error``."""
+        return f"{self.motion}/{path_part(name)}"
+
+    def frame_error(self, frame: str) -> str:
+        """Path of a task frame's tracking error in a motion [m]."""
+        return f"{self.motion}/frame_error/{path_part(frame)}"
+
+    def sensor_series(self, group: str, name: str) -> str:
+        """Path of a sensor's series, e.g. ``sensors/force/rleg_end``: one plot
+        per ``group``."""
+        return f"{self.sensors}/{path_part(group)}/{path_part(name)}"
+
+    def camera(self, name: str) -> str:
+        """Path of a camera's pose; its pinhole and image are at ``<path>/image``."""
+        return f"{self.cameras}/{path_part(name)}"
 
     def walk_series(self, group: str, name: str) -> str:
         """Path of a walking series, e.g. ``walk/zmp_x/reference``: one plot per

@@ -66,7 +66,7 @@ from .columns import (
     pose_batches_of,
 )
 from .geometry import BodyFrames, InstancePoses
-from .loggers import HoldLogger, SolveLogger, log_walk
+from .loggers import HoldLogger, MotionLogger, SolveLogger, log_walk
 from .paths import PATHS, TIMELINES, EntityPaths
 
 __all__ = ["Recorder"]
@@ -192,6 +192,11 @@ class Recorder:
         self._targets: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._frames: dict[tuple[str, ...], BodyFrames] = {}  # by (path,)
         self.skipped_geoms: list[str] = []
+        # Physics runs on sim_time: the latest time logged, and the offset that
+        # puts a run which restarts its clock (a hold after a motion) after it
+        self._sim_end = 0.0
+        self._sim_offset = 0.0
+        self._reference_model: mujoco.MjModel | None = None
 
     @classmethod
     def to_file(
@@ -243,6 +248,31 @@ class Recorder:
         :class:`~pik_mj.record.loggers.HoldLogger`."""
         return HoldLogger(self, every)
 
+    def motion_logger(
+        self,
+        every: int = 10,
+        *,
+        reference: bool = True,
+        sensors: bool = True,
+        cameras: Sequence[Any] = (),
+        image_every: float | None = 0.5,
+    ) -> MotionLogger:
+        """A callback for ``scene.play(..., callback=...)`` that logs every
+        ``every``-th sample on ``sim_time``: the physical robot, the IK
+        reference beside it (``reference``), the tracking series, the sensors
+        (``sensors``), the ``cameras`` (:class:`pik_mj.camera.Camera`) as
+        pinholes with an image every ``image_every`` seconds where MuJoCo can
+        render; its ``finish(report)`` logs the waypoints' times. See
+        :class:`~pik_mj.record.loggers.MotionLogger`."""
+        return MotionLogger(
+            self,
+            every,
+            reference=reference,
+            sensors=sensors,
+            cameras=cameras,
+            image_every=image_every,
+        )
+
     def _begin_solve(self) -> int:
         """Start a solve at the current tick of ``iteration`` (a hold's
         ``sim_time`` no longer stamps rows); returns the tick."""
@@ -255,14 +285,18 @@ class Recorder:
         self._tick += 1
         return self._tick
 
-    def _begin_hold(self, model: mujoco.MjModel, data: mujoco.MjData, time: float) -> None:
-        """Start a hold at ``sim_time`` = ``time``: rows are on ``sim_time``
-        only; the geometry of the scene's ``model`` is logged when it is not the
-        model logged; the last targets of the solves are shown again."""
+    def _begin_sim(self, model: mujoco.MjModel, data: mujoco.MjData, time: float) -> None:
+        """Start a physics run (a hold, a motion) whose physics clock reads
+        ``time``: rows are on ``sim_time`` only, a run that restarts its clock
+        is placed after what was logged on it (:meth:`sim_clock`); the geometry
+        of the scene's ``model`` is logged when it is not the model logged; the
+        last targets of the solves are shown again."""
         self.disable_timeline("iteration")
+        if self._sim_offset + time < self._sim_end - 1e-9:
+            self._sim_offset = self._sim_end - time
         if model is not self._model:
             self.log_model_geometry(model, data, robot_root_body=self.robot_root_body)
-        self.set_time("sim_time", time)
+        self.set_time("sim_time", self.sim_clock(time))
         # the solves' current task frames do not follow the physics
         self.hide_frames(
             [
@@ -276,6 +310,72 @@ class Recorder:
         com_target = self._logged_targets.get(self.paths.com_target)
         if isinstance(com_target, np.ndarray):
             self.log_com_target(com_target)
+
+    def sim_clock(self, time: float) -> float:
+        """The ``sim_time`` [s] at which a physics run logs its clock's ``time``:
+        ``time`` plus the offset that puts a run which restarted its clock
+        after the runs logged before it (a hold after a motion)."""
+        t = self._sim_offset + float(time)
+        self._sim_end = max(self._sim_end, t)
+        return t
+
+    def log_reference_geometry(self, model: mujoco.MjModel) -> None:
+        """Log the robot's geoms of ``model`` a second time, static, at
+        :attr:`EntityPaths.reference`, translucent (:data:`style.REFERENCE`):
+        the reference pose of a motion, posed by :meth:`log_reference_poses`.
+        Call it after the model's own geometry (:meth:`log_model_geometry`)."""
+        self._check_open()
+        if self._model is None or self.robot_root_body is None:
+            raise PikError("log the model's geometry (with its robot_root_body) first")
+        root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, self.robot_root_body)
+        robot = geometry.subtree(model, root)
+        base = self.paths.reference
+        names = geometry.unique_names("geom", [model.geom(g).name for g in range(model.ngeom)])
+        groups, _ = geometry.geom_groups(
+            model,
+            names,
+            robot=robot,
+            moving=robot,
+            groups={0, 1, 2},
+            plane_half_size=1.0,
+            entity_path=lambda kind, robot, moving: f"{base}/{kind}",
+            color=style.REFERENCE,
+        )
+        groups = [g for g in groups if g.robot]
+        ids = np.flatnonzero(robot)
+        path = f"{base}/bodies"
+        for group in groups:
+            self._log_static(group.path, group.shape)
+        self._frames[(path,)] = BodyFrames(path, ids, groups, InstancePoses(model, groups, ids))
+        self._reference_model = model
+
+    def log_reference_poses(self, data: mujoco.MjData) -> None:
+        """Log the body poses of the reference robot (``data``: its kinematics)
+        at the current time; its geoms follow (:meth:`log_reference_geometry`)."""
+        frames = self._frames.get((f"{self.paths.reference}/bodies",))
+        if frames is None:
+            raise PikError("call log_reference_geometry(model) before log_reference_poses")
+        poses = np.empty((len(frames.ids), 7))
+        poses[:, :3] = data.xpos[frames.ids]
+        poses[:, 3:] = data.xquat[frames.ids]
+        self._append((frames.path,), poses, BODY_FRAME)
+        if self.flush_every == 1:
+            for group, instances in frames.geometry(poses[None]):
+                self._append((group.path,), instances[0], INSTANCE_POSES[group.archetype])
+
+    def log_camera(self, camera: Any, data: mujoco.MjData, image: np.ndarray | None = None) -> str:
+        """Log ``camera`` (:class:`pik_mj.camera.Camera`) as a pinhole at its pose
+        in ``data`` (kinematics and ``mj_camlight`` current) at the current
+        time, with ``image`` (RGB uint8) if given (:func:`pik_mj.camera.log_camera`).
+        Returns the pinhole's path."""
+        from ..camera import log_camera
+
+        self._check_open()
+        self._sync_stream_time()
+        path = self.paths.camera(camera.name)
+        for p in (path, f"{path}/image"):
+            self._logged.setdefault(p, set()).update(self._time)
+        return log_camera(self.stream, camera, data, path=path, image=image)
 
     def hide_frames(self, paths: Iterable[str]) -> None:
         """Draw no axes for the frames ``paths`` from the current time on (a

@@ -30,6 +30,8 @@ FOOTSTEP = (170, 170, 255)
 ZMP = (255, 0, 255)
 ZMP_REFERENCE = (255, 235, 0)
 ZMP_INVERSE_DYNAMICS = (255, 130, 0)
+#: The ZMP from the feet's force sensors (what the robot measures).
+ZMP_FORCE_SENSORS = (0, 200, 255)
 ZMP_RADIUS = 0.035
 
 TARGET = (60, 255, 140)
@@ -45,3 +47,7 @@ CONTACT_RADIUS = 0.012
 FORCE_PER_WEIGHT = 0.6
 #: Contact force scale [m/N] when the robot's weight is unknown.
 DEFAULT_FORCE_SCALE = 1e-3
+
+#: The reference pose of a motion, drawn as a second robot: translucent, with
+#: its primitives' major wireframe (RGBA).
+REFERENCE = (80, 160, 255, 90)

@@ -5,7 +5,10 @@ the static check, the physics hold, and the guard around MuJoCo's steps.
   into a robot's spec, placing the robot;
 * :mod:`.scene` — :class:`Scene`: the robot's world with servos and contacts;
 * :mod:`.static` — :class:`StaticReport`, :class:`StaticChecks` (per iteration);
-* :mod:`.hold` — :class:`HoldCriteria`, :class:`HoldSample`, :class:`HoldReport`;
+* :mod:`.hold` — :class:`HoldCriteria`, :class:`HoldSample`, :class:`HoldReport`,
+  and the stepping loop a hold shares with a motion;
+* :mod:`.motion` — :class:`Waypoints`, :class:`MotionReport`: a solve's iterates
+  played in physics (:meth:`Scene.play`);
 * :mod:`.guard` — MuJoCo's warnings routed to Python, the invalid-state check;
 * :mod:`.validate` — :func:`validate_pose` (``pik-mj validate``).
 """
@@ -13,6 +16,7 @@ the static check, the physics hold, and the guard around MuJoCo's steps.
 from .environment import add_box, add_wall, floor_environment
 from .guard import StateGuard, mujoco_warnings
 from .hold import HoldCriteria, HoldReport, HoldSample
+from .motion import MotionReport, Waypoints
 from .scene import DEFAULT_CONTACT, ContactParams, Grasp, Scene
 from .static import ContactInfo, StaticChecks, StaticReport
 from .validate import balance_report, validate_pose
@@ -25,10 +29,12 @@ __all__ = [
     "HoldCriteria",
     "HoldReport",
     "HoldSample",
+    "MotionReport",
     "Scene",
     "StateGuard",
     "StaticChecks",
     "StaticReport",
+    "Waypoints",
     "add_box",
     "add_wall",
     "balance_report",

@@ -1,5 +1,12 @@
-"""The physics hold of a pose (DESIGN.md §5): servos hold it for a few seconds;
-base drift, foot slip, CoM margin, unexpected contacts and falling give a verdict.
+"""The physics hold of a pose (DESIGN.md §5), and the stepping loop it shares
+with a motion (:mod:`pik_mj.sim.motion`).
+
+:func:`track` is the one loop that steps a scene's physics while its servos
+track a reference, measuring against that reference: root drift, foot slip,
+CoM margin to the support polygon of the actual contacts, unexpected contacts,
+falling, joint and task-frame tracking errors. A hold is the constant
+reference (:class:`HeldPose`); a motion is a reference that moves along the
+iterates of a solve (:class:`pik_mj.sim.motion.MotionReference`).
 
 :meth:`pik_mj.sim.Scene.hold` runs :func:`hold`. Its pass/fail thresholds are one
 :class:`HoldCriteria`; every ``every`` steps each callback gets a
@@ -15,7 +22,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import mujoco
 import numpy as np
@@ -32,7 +39,17 @@ from .static import finite_or_none, point_contacts
 if TYPE_CHECKING:
     from .scene import External, Scene
 
-__all__ = ["HoldCriteria", "HoldReport", "HoldSample", "hold", "holding_torques"]
+__all__ = [
+    "HeldPose",
+    "HoldCriteria",
+    "HoldReport",
+    "HoldSample",
+    "Reference",
+    "Tracked",
+    "hold",
+    "holding_torques",
+    "track",
+]
 
 
 @dataclass(frozen=True)
@@ -101,6 +118,13 @@ class HoldSample:
         margin: CoM margin to it [m] (``-inf`` without ground contact).
         contact_points: Active contact points with the environment (n, 3) [m].
         contact_forces: MuJoCo's contact forces on the robot there (n, 3) [N].
+        reference: Kinematics of the reference pose now (a motion's; None in a
+            hold, whose reference is its start).
+        waypoint: Index of the last waypoint the reference passed (a motion's),
+            or None.
+        tracking_error: Largest servo joint error ``|q - q_ref|`` now [rad or m].
+        frame_errors: Distance [m] of each tracked task frame to its reference
+            position, by frame name (computed on first access; empty in a hold).
     """
 
     time: float
@@ -111,6 +135,10 @@ class HoldSample:
     drift: float
     slip: float
     _scene: Scene = field(repr=False)
+    reference: mujoco.MjData | None = field(default=None, repr=False)
+    waypoint: int | None = None
+    tracking_error: float = 0.0
+    _frames: Sequence[Frame] = field(default=(), repr=False)
     _max_slope: float = field(default=math.pi / 4, repr=False)
     _support: tuple[np.ndarray, float] | None = field(default=None, repr=False)
 
@@ -141,6 +169,15 @@ class HoldSample:
     @property
     def contact_forces(self) -> np.ndarray:
         return self._contact_forces[1]
+
+    @functools.cached_property
+    def frame_errors(self) -> dict[str, float]:
+        if self.reference is None:
+            return {}
+        return {
+            f.name: float(np.linalg.norm(f.position(self.data) - f.position(self.reference)))
+            for f in self._frames
+        }
 
 
 @dataclass
@@ -222,18 +259,18 @@ class HoldReport:
 
 
 def _external_wrench(scene: Scene, frame: str, force: ArrayLike, moment: ArrayLike):
-    """A function writing ``(force at the frame origin, moment)`` to
-    ``xfrc_applied`` of the frame's body: torque about the body CoM
-    ``n + (p_WF - p_WCoM) × f``."""
+    """A function ``apply(data, scale)`` writing ``scale (force at the frame
+    origin, moment)`` to ``xfrc_applied`` of the frame's body: torque about the
+    body CoM ``n + (p_WF - p_WCoM) × f``."""
     f = np.asarray(force, dtype=float)  # checked by inputs.wrenches
     n = np.asarray(moment, dtype=float)
     target = Frame.find(scene.model, frame)
     body = target.body_id
 
-    def apply(d: mujoco.MjData) -> None:
+    def apply(d: mujoco.MjData, scale: float = 1.0) -> None:
         lever = target.position(d) - d.xipos[body]
-        d.xfrc_applied[body, :3] = f
-        d.xfrc_applied[body, 3:] = n + np.cross(lever, f)
+        d.xfrc_applied[body, :3] = scale * f
+        d.xfrc_applied[body, 3:] = scale * (n + np.cross(lever, f))
 
     return apply
 
@@ -305,6 +342,327 @@ def holding_torques(
     return tau - qfrc
 
 
+# ---------------------------------------------------------------------------
+# The stepping loop of a hold and a motion
+
+
+class Reference(Protocol):
+    """What :func:`track` steps the physics along.
+
+    Attributes:
+        moving: False for a constant reference (nothing to update per step).
+        data: Kinematics of the reference pose now (an ``MjData`` of the scene's
+            model: body, site and geom poses).
+        waypoint: Index of the last waypoint passed, or None.
+        load: Scale of the external wrenches now [-] (1: as given).
+    """
+
+    moving: bool
+    data: mujoco.MjData
+    waypoint: int | None
+    load: float
+
+    def begin(self) -> None:
+        """Put the physics at the reference's start and write its controls."""
+
+    def update(self, t: float) -> None:
+        """Move the reference to time ``t`` [s] from its start: its kinematics
+        (:attr:`data`) and the controls it writes into the physics state."""
+
+
+class HeldPose:
+    """The constant reference of a hold: the pose ``q`` at rest, the servo
+    targets at it, and the static torques ``tau`` on the servo joints.
+
+    Args:
+        scene: The scene.
+        q: Robot configuration.
+        tau: Generalized forces (:func:`holding_torques`) written to
+            ``qfrc_applied`` of the servo joints, or None.
+    """
+
+    moving = False
+    waypoint: int | None = None
+    load = 1.0
+
+    def __init__(self, scene: Scene, q: ArrayLike, tau: np.ndarray | None):
+        self.scene = scene
+        self.q = np.asarray(q, dtype=float)
+        self.tau = tau
+        self.data = mujoco.MjData(scene.model)
+
+    def begin(self) -> None:
+        """Reset the state (environment at ``qpos0``), write the pose with zero
+        velocity, the servo targets at it and the static torques."""
+        scene = self.scene
+        m, d = scene.model, scene.data
+        mujoco.mj_resetData(m, d)
+        scene.set_pose(self.q)
+        if self.tau is not None:  # less what the actuators exert at rest (0 for servos and motors)
+            dofs = scene._servo_dofs
+            d.qfrc_applied[dofs] = self.tau[dofs] - d.qfrc_actuator[dofs]
+        self.data.qpos[:] = d.qpos
+        mujoco.mj_kinematics(m, self.data)
+
+    def update(self, t: float) -> None:
+        """Nothing moves."""
+
+
+@dataclass
+class Tracked:
+    """What :func:`track` measured (see :class:`HoldReport` for the metrics).
+
+    Attributes:
+        drift: Largest root-body distance to its reference position [m].
+        drift_horizontal: Its largest horizontal part [m].
+        drift_vertical: Its largest vertical part [m].
+        final_displacement: Root body minus its reference position at the end (3,) [m].
+        slip_per_geom: Largest slip of each allowed geom that touched [m].
+        foot_slip: Largest slip of a foot geom [m].
+        min_margin: Smallest CoM margin to the support polygon [m].
+        fell: The root dropped below ``fall_ratio`` of its reference height.
+        unexpected: ``(robot geom, other geom) -> first time [s]``.
+        steps: Physics steps taken.
+        simulated: Simulated time [s].
+        end_time: Physics time at the end [s].
+        root_height: Root height at the start and at the end [m].
+        tracking_error: Largest servo joint error ``|q - q_ref|`` [rad or m].
+        tracking_joint: The joint where it was reached (None without servos).
+        frame_errors: Largest distance of each tracked frame to its reference [m].
+        series: ``time`` [s], ``margin`` [m], ``tracking_error`` and ``waypoint``
+            every ``margin_every`` steps.
+        wall_time: Wall-clock time [s].
+    """
+
+    drift: float
+    drift_horizontal: float
+    drift_vertical: float
+    final_displacement: np.ndarray
+    slip_per_geom: dict[str, float]
+    foot_slip: float
+    min_margin: float
+    fell: bool
+    unexpected: dict[tuple[str, str], float]
+    steps: int
+    simulated: float
+    end_time: float
+    root_height: tuple[float, float]
+    tracking_error: float
+    tracking_joint: str | None
+    frame_errors: dict[str, float]
+    series: dict[str, np.ndarray]
+    wall_time: float
+
+    def failures(self, criteria: HoldCriteria, drift: str = "base drift") -> list[str]:
+        """One line per failed criterion of ``criteria``; ``drift`` names the drift."""
+        out = []
+        if self.drift >= criteria.max_drift:
+            out.append(f"{drift} {self.drift * 1e3:.1f} mm >= {criteria.max_drift * 1e3:.1f} mm")
+        if self.foot_slip >= criteria.max_slip:
+            out.append(
+                f"foot slip {self.foot_slip * 1e3:.2f} mm >= {criteria.max_slip * 1e3:.2f} mm"
+            )
+        if self.fell:
+            out.append(f"fell: root height below {criteria.fall_ratio:.0%} of its reference")
+        if self.unexpected:
+            pairs = ", ".join(f"{a}-{b}" for a, b in self.unexpected)
+            out.append(f"unexpected contacts: {pairs}")
+        return out
+
+
+def foot_geoms(scene: Scene, allowed: Sequence[str], criteria: HoldCriteria) -> set[str]:
+    """The geoms whose slip is the verdict's (:attr:`HoldCriteria.feet`)."""
+    feet = criteria.feet
+    if feet is None:
+        feet = [n for n in allowed if n in scene.foot_geoms] or list(allowed)
+    return set(scene._allowed(feet))
+
+
+def track(
+    scene: Scene,
+    reference: Reference,
+    duration: float,
+    *,
+    criteria: HoldCriteria,
+    allowed: Sequence[str],
+    planned_pairs: set[frozenset[str]] | frozenset[frozenset[str]] = frozenset(),
+    external: Sequence[External] = (),
+    callbacks: Sequence[Callback] = (),
+    every: int = 1,
+    margin_every: int = 5,
+    frames: Sequence[Frame] = (),
+) -> Tracked:
+    """Step the physics for ``duration`` [s] while the servos track ``reference``.
+
+    ``reference.begin()`` sets the start state; before each step the external
+    wrenches are written (scaled by ``reference.load``), after it a moving
+    reference is updated to the new time (its kinematics, and the controls of
+    the next step). With ``p_B`` the
+    root body position, ``p_g`` each allowed geom's centre and ``ref`` the
+    reference's value at the same time:
+
+    .. math::
+
+        \\text{drift} = \\max_t \\|p_B(t) - p_B^{ref}(t)\\|, \\qquad
+        \\text{slip} = \\max_{g,t} \\|(\\Delta_g(t) - \\Delta_g(t_g))_{xy}\\|,
+        \\quad \\Delta_g = p_g - p_g^{ref}
+
+    where ``t_g`` is when geom ``g`` last came into contact (for a hold the
+    reference is constant: the displacement since the start, and since touch-down).
+    A contact is unexpected unless its robot geom is in ``allowed`` (touching
+    the environment anywhere), or the pair ``{robot geom, other geom}`` is in
+    ``planned_pairs`` (environment or self contact), or it is a self-contact
+    and ``criteria.allow_self_contact``; the robot fell when its root height drops below
+    ``fall_ratio`` times the reference's. The CoM margin (a convex hull, ~0.5
+    ms) and the frames' errors are evaluated every ``margin_every`` steps,
+    callbacks get a :class:`HoldSample` every ``every`` steps.
+
+    Raises:
+        SimulationUnstable: MuJoCo reported an invalid state.
+    """
+    allowed_ids = {scene.model.geom(n).id for n in allowed}
+    foot_names = foot_geoms(scene, allowed, criteria)
+    wrenches = [_external_wrench(scene, *w) for w in external]
+
+    def apply_wrenches(d: mujoco.MjData) -> None:
+        for apply in wrenches:
+            apply(d, reference.load)
+
+    m, d = scene.model, scene.data
+    root = scene.robot.root_body_id
+    reference.begin()
+    t_start = float(d.time)
+    t_wall = time.perf_counter()
+    n_steps = max(1, round(duration / m.opt.timestep))
+    up = scene.up()
+    h0 = float(d.xpos[root] @ up)
+    drift = drift_h = drift_v = 0.0
+    min_margin = math.inf
+    slip: dict[str, float] = {}
+    anchor: dict[int, np.ndarray] = {}  # geom id -> horizontal offset at touch-down
+    unexpected: dict[tuple[str, str], float] = {}
+    fell = False
+    P_h = np.eye(3) - np.outer(up, up)
+    qadr = np.array([m.joint(j).qposadr[0] for j in scene.servo_joints], dtype=int)
+    tracking, tracking_at = 0.0, -1
+    frame_errors = {f.name: 0.0 for f in frames}
+    series: dict[str, list[float]] = {
+        "time": [],
+        "margin": [],
+        "tracking_error": [],
+        "waypoint": [],
+    }
+    steps = 0
+    for k in range(n_steps + 1):
+        if k > 0:
+            scene._guard.step(1, before_step=apply_wrenches if wrenches else None)
+            steps += 1
+            if reference.moving:
+                reference.update(float(d.time) - t_start)
+        ref = reference.data
+        touching = set()
+        for c in scene._contacts(m, d, 0.0):
+            pair = frozenset((c.robot_geom, c.other_geom))
+            if c.self_contact:
+                if not criteria.allow_self_contact and pair not in planned_pairs:
+                    unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))
+                continue
+            g = scene._geom_id[c.robot_geom]
+            if g in allowed_ids or pair in planned_pairs:
+                touching.add(g)
+            else:
+                unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))
+        for g in list(anchor):
+            if g not in touching:
+                del anchor[g]
+        for g in touching:
+            p = P_h @ (d.geom_xpos[g] - ref.geom_xpos[g])
+            a = anchor.setdefault(g, p)
+            name = scene._geom_names[g]
+            slip[name] = max(slip.get(name, 0.0), float(np.linalg.norm(p - a)))
+        dp = d.xpos[root] - ref.xpos[root]
+        drift = max(drift, float(np.linalg.norm(dp)))
+        drift_h = max(drift_h, float(np.linalg.norm(P_h @ dp)))
+        drift_v = max(drift_v, abs(float(dp @ up)))
+        if len(qadr):
+            errors = np.abs(d.qpos[qadr] - ref.qpos[qadr])
+            worst = int(np.argmax(errors))
+            error = float(errors[worst])
+            if error > tracking:
+                tracking, tracking_at = error, worst
+        else:
+            error = 0.0
+        com = scene.com()
+        support = None
+        if k % margin_every == 0:
+            region, margin = scene.support(scene.touching(d.qpos), com, criteria.max_ground_slope)
+            support = (np.zeros((0, 3)) if region is None else region.vertices_3d, margin)
+            min_margin = min(min_margin, margin)
+            for f in frames:
+                e = float(np.linalg.norm(f.position(d) - f.position(ref)))
+                frame_errors[f.name] = max(frame_errors[f.name], e)
+            series["time"].append(float(d.time))
+            series["margin"].append(margin)
+            series["tracking_error"].append(error)
+            series["waypoint"].append(-1 if reference.waypoint is None else reference.waypoint)
+        if callbacks and k % every == 0:
+            sample = HoldSample(
+                time=float(d.time),
+                step=steps,
+                model=m,
+                data=d,
+                com=com,
+                drift=drift,
+                slip=max(slip.values(), default=0.0),
+                _scene=scene,
+                reference=ref if reference.moving else None,
+                waypoint=reference.waypoint,
+                tracking_error=error,
+                _frames=frames,
+                _max_slope=criteria.max_ground_slope,
+                _support=support,
+            )
+            for call in callbacks:
+                call(sample)
+        if float(d.xpos[root] @ up) < criteria.fall_ratio * float(ref.xpos[root] @ up):
+            fell = True
+            if criteria.stop_on_fall:
+                break
+    final = d.xpos[root] - reference.data.xpos[root]
+    return Tracked(
+        drift=drift,
+        drift_horizontal=drift_h,
+        drift_vertical=drift_v,
+        final_displacement=final.copy(),
+        slip_per_geom=slip,
+        foot_slip=max((v for n, v in slip.items() if n in foot_names), default=0.0),
+        min_margin=min_margin,
+        fell=fell,
+        unexpected=unexpected,
+        steps=steps,
+        simulated=float(d.time) - t_start,
+        end_time=float(d.time),
+        root_height=(h0, float(d.xpos[root] @ up)),
+        tracking_error=tracking,
+        tracking_joint=scene.servo_joints[tracking_at] if tracking_at >= 0 else None,
+        frame_errors=frame_errors,
+        series={k: np.asarray(v) for k, v in series.items()},
+        wall_time=time.perf_counter() - t_wall,
+    )
+
+
+def check_options(criteria: HoldCriteria | None, duration: float, **counts: int) -> HoldCriteria:
+    """``criteria`` (default :class:`HoldCriteria`) after checking it, a duration
+    > 0 [s] and positive integer ``counts`` (``every=...``)."""
+    criteria = HoldCriteria() if criteria is None else criteria
+    if not isinstance(criteria, HoldCriteria):
+        raise InvalidInput(f"criteria must be a HoldCriteria, got {type(criteria).__name__}")
+    inputs.real(duration, "duration", unit="s", low=0, low_open=True)
+    for label, v in counts.items():
+        inputs.integer(v, label, low=1)
+    return criteria
+
+
 def hold(
     scene: Scene,
     q: ArrayLike,
@@ -320,19 +678,13 @@ def hold(
     """Hold ``q`` with the scene's servos and step the physics for ``duration``.
 
     The state is reset (environment at ``qpos0``), the pose written with zero
-    velocity and the servo targets set to it. Per step, with ``p_B`` the root
-    body position and ``p_g`` each allowed geom's centre:
-
-    .. math::
-
-        \\text{drift} = \\max_t \\|p_B(t) - p_B(0)\\|, \\qquad
-        \\text{slip} = \\max_{g,t} \\|(p_g(t) - p_g(t_g))_{xy}\\|
-
-    where ``t_g`` is when geom ``g`` last came into contact. Verdict
-    (:class:`HoldCriteria`): drift < ``max_drift``, foot slip < ``max_slip``, no
-    fall (root height >= ``fall_ratio`` of its start), no contact of a robot geom
-    outside ``allowed`` with the environment and (unless ``allow_self_contact``)
-    no self-contact.
+    velocity and the servo targets set to it (:class:`HeldPose`); :func:`track`
+    steps the physics. With the reference constant, the drift is the root
+    body's displacement from its start, the slip each foot geom's horizontal
+    displacement since it touched down. Verdict (:class:`HoldCriteria`): drift
+    < ``max_drift``, foot slip < ``max_slip``, no fall (root height >=
+    ``fall_ratio`` of its start), no contact of a robot geom outside ``allowed``
+    with the environment and (unless ``allow_self_contact``) no self-contact.
 
     Args:
         scene: The scene.
@@ -360,134 +712,44 @@ def hold(
     Raises:
         SimulationUnstable: MuJoCo reported an invalid state.
     """
-    criteria = HoldCriteria() if criteria is None else criteria
-    if not isinstance(criteria, HoldCriteria):
-        raise InvalidInput(f"criteria must be a HoldCriteria, got {type(criteria).__name__}")
-    duration = inputs.real(duration, "duration", unit="s", low=0, low_open=True)
-    every = inputs.integer(every, "every", low=1)
-    margin_every = inputs.integer(margin_every, "margin_every", low=1)
+    criteria = check_options(criteria, duration, every=every, margin_every=margin_every)
     external = inputs.wrenches(external, "external")
     q = scene._qpos(q)[: scene.robot_nq]
     callbacks = as_callbacks(callback)
-    allowed_names = (
+    allowed = (
         scene.allowed_contacts if criteria.allowed is None else scene._allowed(criteria.allowed)
     )
-    allowed_ids = {scene.model.geom(n).id for n in allowed_names}
-    feet = criteria.feet
-    if feet is None:
-        feet = [n for n in allowed_names if n in scene.foot_geoms] or list(allowed_names)
-    foot_names = set(scene._allowed(feet))
-    wrenches = [_external_wrench(scene, *w) for w in external]
-
-    def apply_wrenches(d: mujoco.MjData) -> None:
-        for apply in wrenches:
-            apply(d)
-
-    m, d = scene.model, scene.data
-    root = scene.robot.root_body_id
     tau = holding_torques(scene, q, external) if feedforward else None
-    mujoco.mj_resetData(m, d)
-    scene.set_pose(q)
-    if tau is not None:  # less what the actuators exert at rest (0 for servos and motors)
-        dofs = scene._servo_dofs
-        d.qfrc_applied[dofs] = tau[dofs] - d.qfrc_actuator[dofs]
-    t_wall = time.perf_counter()
-    n_steps = max(1, round(duration / m.opt.timestep))
-    up = scene.up()
-    p0 = d.xpos[root].copy()
-    h0 = float(p0 @ up)
-    drift = drift_h = drift_v = 0.0
-    min_margin = math.inf
-    slip: dict[str, float] = {}
-    anchor: dict[int, np.ndarray] = {}  # geom id -> horizontal position at touch-down
-    unexpected: dict[tuple[str, str], float] = {}
-    fell = False
-    P_h = np.eye(3) - np.outer(up, up)
-    steps = 0
-    for k in range(n_steps + 1):
-        if k > 0:
-            scene._guard.step(1, before_step=apply_wrenches if wrenches else None)
-            steps += 1
-        touching = set()
-        for c in scene._contacts(m, d, 0.0):
-            if c.self_contact:
-                if not criteria.allow_self_contact:
-                    unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))
-                continue
-            g = scene._geom_id[c.robot_geom]
-            if g in allowed_ids:
-                touching.add(g)
-            else:
-                unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))
-        for g in list(anchor):
-            if g not in touching:
-                del anchor[g]
-        for g in touching:
-            p = P_h @ d.geom_xpos[g]
-            a = anchor.setdefault(g, p)
-            name = scene._geom_names[g]
-            slip[name] = max(slip.get(name, 0.0), float(np.linalg.norm(p - a)))
-        dp = d.xpos[root] - p0
-        drift = max(drift, float(np.linalg.norm(dp)))
-        drift_h = max(drift_h, float(np.linalg.norm(P_h @ dp)))
-        drift_v = max(drift_v, abs(float(dp @ up)))
-        com = scene.com()
-        support = None
-        if k % margin_every == 0:
-            region, margin = scene.support(scene.touching(d.qpos), com, criteria.max_ground_slope)
-            support = (np.zeros((0, 3)) if region is None else region.vertices_3d, margin)
-            min_margin = min(min_margin, margin)
-        if callbacks and k % every == 0:
-            sample = HoldSample(
-                time=float(d.time),
-                step=steps,
-                model=m,
-                data=d,
-                com=com,
-                drift=drift,
-                slip=max(slip.values(), default=0.0),
-                _scene=scene,
-                _max_slope=criteria.max_ground_slope,
-                _support=support,
-            )
-            for call in callbacks:
-                call(sample)
-        if float(d.xpos[root] @ up) < criteria.fall_ratio * h0:
-            fell = True
-            if criteria.stop_on_fall:
-                break
-    final = d.xpos[root] - p0
-    max_slip_seen = max((v for n, v in slip.items() if n in foot_names), default=0.0)
-    failures = []
-    if drift >= criteria.max_drift:
-        failures.append(f"base drift {drift * 1e3:.1f} mm >= {criteria.max_drift * 1e3:.1f} mm")
-    if max_slip_seen >= criteria.max_slip:
-        failures.append(
-            f"foot slip {max_slip_seen * 1e3:.2f} mm >= {criteria.max_slip * 1e3:.2f} mm"
-        )
-    if fell:
-        failures.append(f"fell: root height below {criteria.fall_ratio:.0%} of its start")
-    if unexpected:
-        pairs = ", ".join(f"{a}-{b}" for a, b in unexpected)
-        failures.append(f"unexpected contacts: {pairs}")
+    run = track(
+        scene,
+        HeldPose(scene, q, tau),
+        duration,
+        criteria=criteria,
+        allowed=allowed,
+        external=external,
+        callbacks=callbacks,
+        every=every,
+        margin_every=margin_every,
+    )
+    failures = run.failures(criteria)
     return HoldReport(
         passed=not failures,
         failures=failures,
-        drift=drift,
-        drift_horizontal=drift_h,
-        drift_vertical=drift_v,
-        final_displacement=final.copy(),
-        slip=max_slip_seen,
-        slip_per_geom=slip,
-        min_margin=min_margin,
-        fell=fell,
-        unexpected_contacts=[(a, b, t) for (a, b), t in unexpected.items()],
-        allowed=list(allowed_names),
+        drift=run.drift,
+        drift_horizontal=run.drift_horizontal,
+        drift_vertical=run.drift_vertical,
+        final_displacement=run.final_displacement,
+        slip=run.foot_slip,
+        slip_per_geom=run.slip_per_geom,
+        min_margin=run.min_margin,
+        fell=run.fell,
+        unexpected_contacts=[(a, b, t) for (a, b), t in run.unexpected.items()],
+        allowed=list(allowed),
         thresholds=criteria.thresholds(),
         duration=float(duration),
-        simulated=float(d.time),
-        steps=steps,
-        timestep=float(m.opt.timestep),
-        root_height=(h0, float(d.xpos[root] @ up)),
-        wall_time=time.perf_counter() - t_wall,
+        simulated=run.end_time,
+        steps=run.steps,
+        timestep=float(scene.model.opt.timestep),
+        root_height=run.root_height,
+        wall_time=run.wall_time,
     )

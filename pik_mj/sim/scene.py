@@ -85,6 +85,7 @@ if TYPE_CHECKING:
     from pik_mj.robot import Robot
 
     from .hold import HoldCriteria, HoldReport
+    from .motion import MotionReport, PhysicsState, Waypoints
 
 __all__ = ["DEFAULT_CONTACT", "ContactParams", "Grasp", "Scene"]
 
@@ -837,6 +838,25 @@ class Scene:
             every=every,
             margin_every=margin_every,
             feedforward=feedforward,
+        )
+
+    # ------------------------------------------------------------------- play
+    def play(
+        self,
+        path: Waypoints | ArrayLike,
+        *,
+        speed: float | None = None,
+        start: MotionReport | PhysicsState | None = None,
+        **options: Any,
+    ) -> MotionReport:
+        """Play ``path`` (a solve's iterates, :class:`pik_mj.sim.Waypoints`) in
+        physics, the servos tracking it (:func:`pik_mj.sim.motion.play`; options:
+        ``max_velocity``, ``settle``, ``criteria``, ``external``, ``callback``,
+        ``every``, ``margin_every``, ``feedforward``)."""
+        from .motion import DEFAULT_SPEED, play
+
+        return play(
+            self, path, speed=DEFAULT_SPEED if speed is None else speed, start=start, **options
         )
 
     def __repr__(self) -> str:

@@ -20,9 +20,12 @@ support soles, :func:`feedforward_torques`) are added as ``qfrc_applied``
 balance feedback: the pattern must carry the robot on its own. After the
 pattern the last targets (and torques) are held for ``settle_time``.
 
-Measured at each pattern tick: root height, sole positions, CoM, and the ZMP of
+Measured at each pattern tick: root height, sole positions, CoM, the ZMP of
 the floor contact forces (all contact points lie on the floor plane, so it is
-their force-weighted centre, :math:`p = \\sum_i f_{z,i} p_i / \\sum_i f_{z,i}`).
+their force-weighted centre, :math:`p = \\sum_i f_{z,i} p_i / \\sum_i f_{z,i}`),
+and the ZMP from the feet's force sensors (the robot's MJCF ``force``/``torque``
+sensors on the sole sites, seed ``:calc-zmp-from-forces-moments``:
+:func:`pik_mj.sensors.zmp_from_force_sensors`), what a robot measures.
 """
 
 from __future__ import annotations
@@ -36,21 +39,36 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_distance
 from pik_mj.dynamics import joint_torques, root_wrench
 from pik_mj.exceptions import InvalidInput
 from pik_mj.record import Recorder
+from pik_mj.sensors import RobotSensors, zmp_from_force_sensors
 from pik_mj.sim import ContactParams, Scene
 from pik_mj.spatial import yaw_of
 from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle
-from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern
+from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern, sole_corners, support_margin
 
 __all__ = [
+    "SENSOR_VS_CONTACTS_RMS",
+    "SENSOR_ZMP_RMS",
     "WALK_CONTACT",
     "PlaybackReport",
     "evaluate_walk",
     "feedforward_torques",
     "play_walk_pattern",
 ]
+
+SENSOR_ZMP_RMS = 0.05
+"""[m] RMS distance allowed between the ZMP from the feet's force sensors and the
+planned ZMP over a walk's pattern (measured on the sample humanoid's walks:
+40 mm; the servos track the pattern without balance feedback, and a foot lands
+a few ticks early or late)."""
+
+SENSOR_VS_CONTACTS_RMS = 2e-3
+"""[m] RMS distance allowed between the ZMP from the feet's force sensors and the
+ZMP of MuJoCo's contact forces (measured: 0.6 mm; the sensors leave out the
+feet's own inertia)."""
 
 WALK_CONTACT = ContactParams()
 """Sole/floor contact of the walks (``Scene.from_robot(robot, contact=WALK_CONTACT)``):
@@ -69,6 +87,11 @@ class PlaybackReport:
         com: Robot CoM (N, 3) [m].
         feet_p: Sole frame position per limb (N, 3) [m].
         zmp: ZMP of the floor contact forces (N, 2) [m] (NaN without contact).
+        zmp_force_sensors: ZMP from the feet's force sensors (N, 2) [m] (NaN
+            when no foot sensor carries 1 N; empty when the feet have none).
+        zmp_force_sensors_margin: Its signed distance [m] to the support polygon
+            of the feet carrying it (the hull of their soles at their actual
+            poses, positive inside) (N,).
         standing_height: Root height at t = 0 [m].
         root_height_min: Lowest root height [m].
         fell: The root went below ``fall_ratio * standing_height``, or a robot geom
@@ -104,6 +127,8 @@ class PlaybackReport:
     joint_error_max: float
     wall_time: float
     params: dict[str, Any] = field(default_factory=dict)
+    zmp_force_sensors: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    zmp_force_sensors_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def height_ratio_min(self) -> float:
@@ -288,6 +313,18 @@ def play_walk_pattern(
     com = np.full((N, 3), np.nan)
     feet_p = {lb: np.full((N, 3), np.nan) for lb in site_ids}
     zmp = np.full((N, 2), np.nan)
+    robot_bodies = [
+        model.body(b).name for b in range(1, model.nbody) if model.body_rootid[b] == root_id
+    ]
+    foot_sensors = [
+        f
+        for f in RobotSensors.from_model(model, bodies=robot_bodies).force_sensors
+        if f.name in feet_frames.values() and f.force is not None and f.torque is not None
+    ]
+    zmp_sensors = np.full((N if foot_sensors else 0, 2), np.nan)
+    zmp_sensors_margin = np.full(N if foot_sensors else 0, np.nan)
+    site_of = {s: lb for lb, s in feet_frames.items()}
+    ground = float(plan.ground_z)
     bad: set[str] = set()
     joint_err = 0.0
 
@@ -321,6 +358,20 @@ def play_walk_pattern(
             p_sum += fz * np.asarray(c.pos[:2])
         if fz_sum > 1e-6:
             zmp[k] = p_sum / fz_sum
+        if foot_sensors:
+            measured = zmp_from_force_sensors(model, data, foot_sensors, z=ground)
+            if measured is not None:
+                zmp_sensors[k] = measured.point[:2]
+                soles = [
+                    sole_corners(
+                        data.site_xpos[site_ids[site_of[f]]],
+                        yaw_of(data.site_xmat[site_ids[site_of[f]]].reshape(3, 3)),
+                        pattern.sole_size,
+                    )
+                    for f in measured.cops
+                ]
+                hull = halfplanes_from_polygon(convex_hull_2d(np.vstack(soles)))
+                zmp_sensors_margin[k] = signed_distance(hull, zmp_sensors[k])
         if k < K:
             joint_err = max(joint_err, float(np.max(np.abs(data.qpos[q_adr] - q_ref[k]))))
         if recorder is not None and k % record_every == 0:
@@ -366,6 +417,8 @@ def play_walk_pattern(
         com=com[sl],
         feet_p={lb: v[sl] for lb, v in feet_p.items()},
         zmp=zmp[sl],
+        zmp_force_sensors=zmp_sensors[sl],
+        zmp_force_sensors_margin=zmp_sensors_margin[sl],
         standing_height=standing,
         root_height_min=float(heights.min()),
         fell=fell,
@@ -433,6 +486,27 @@ def evaluate_walk(
         else float("nan"),
         **{f"sim_{k}": v for k, v in report.to_dict().items()},
     }
+    sensed = report.zmp_force_sensors[:K]
+    has_sensors = len(sensed) > 0 and bool(np.all(np.isfinite(sensed), axis=1).any())
+    if has_sensors:
+        ok = np.all(np.isfinite(sensed), axis=1) & ok_rows
+        e_ref = np.linalg.norm(sensed[ok] - pattern.zmp_ref[:K][ok], axis=1)
+        e_contacts = np.linalg.norm(sensed[ok] - measured[ok], axis=1)
+        planned = support_margin(
+            pattern.plan,
+            np.where(ok[:, None], sensed, pattern.zmp_ref[:K]),
+            pattern.sole_size,
+        )[ok]
+        figures |= {
+            "sim_zmp_force_sensors_ticks": int(ok.sum()),
+            "sim_zmp_force_sensors_vs_ref_rms_m": float(np.sqrt(np.mean(e_ref**2))),
+            "sim_zmp_force_sensors_vs_ref_max_m": float(e_ref.max()),
+            "sim_zmp_force_sensors_vs_contacts_rms_m": float(np.sqrt(np.mean(e_contacts**2))),
+            "sim_zmp_force_sensors_margin_min_m": float(
+                np.min(report.zmp_force_sensors_margin[:K][ok])
+            ),
+            "sim_zmp_force_sensors_planned_margin_min_m": float(planned.min()),
+        }
     checks = [
         (
             "ZMP from inverse dynamics inside the support polygon at every tick",
@@ -455,4 +529,27 @@ def evaluate_walk(
             f"mid-feet error {report.final_midfeet_error * 1e3:.1f} mm",
         ),
     ]
+    if has_sensors:
+        f = figures
+        checks += [
+            (
+                "ZMP from the feet's force sensors inside the support polygon of the feet "
+                "carrying it, at every tick",
+                f["sim_zmp_force_sensors_margin_min_m"] > 0.0,
+                f"min margin {f['sim_zmp_force_sensors_margin_min_m'] * 1e3:.1f} mm",
+            ),
+            (
+                f"ZMP from the feet's force sensors within {SENSOR_ZMP_RMS * 1e3:.0f} mm RMS "
+                "of the planned ZMP",
+                f["sim_zmp_force_sensors_vs_ref_rms_m"] <= SENSOR_ZMP_RMS,
+                f"RMS {f['sim_zmp_force_sensors_vs_ref_rms_m'] * 1e3:.1f} mm, max "
+                f"{f['sim_zmp_force_sensors_vs_ref_max_m'] * 1e3:.1f} mm",
+            ),
+            (
+                f"ZMP from the feet's force sensors equals the ZMP of MuJoCo's contact "
+                f"forces ({SENSOR_VS_CONTACTS_RMS * 1e3:.0f} mm RMS)",
+                f["sim_zmp_force_sensors_vs_contacts_rms_m"] <= SENSOR_VS_CONTACTS_RMS,
+                f"RMS {f['sim_zmp_force_sensors_vs_contacts_rms_m'] * 1e3:.2f} mm",
+            ),
+        ]
     return figures, checks

@@ -1,0 +1,204 @@
+"""Reach past an obstacle: collision avoidance (seed 001, yellow/orange zones), with and without.
+
+The right hand of the standing humanoid reaches a point in front of its chest;
+a box (``models/obstacle.xml``) hangs across the way between the hand at its
+side and the target. The
+same full-body IK (feet fixed, CoM over the feet, the hand target) is solved
+twice from the same start: with a :class:`pik_mj.CollisionAvoidanceTask` of the
+arm's links against the box in level 1 (above the target: the seed's
+``:collision-avoidance-link-pair``, yellow zone ``YELLOW``, orange ``ORANGE``),
+and without it. Both solves' iterates are played in physics. Reported for both:
+the smallest arm–box distance (MuJoCo's ``mj_geomDistance``, negative when
+penetrating) over the IK iterates, over the reference the servos track
+between them, and over the physical motion. With avoidance the iterates keep
+at least the orange distance and the physics never touches the box; without
+it the iterates pass through the box and the physical arm hits it.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import mujoco
+import numpy as np
+
+from pik_mj import (
+    CollisionAvoidanceTask,
+    HoldCriteria,
+    Progress,
+    Recorder,
+    Robot,
+    Scene,
+    Waypoints,
+    fullbody_inverse_kinematics,
+)
+from pik_mj.camera import Camera
+from pik_mj.models import MODELS_DIR
+from pik_mj.record.loggers import SolveLogger
+from pik_mj.scenario import (
+    DEFAULT_HOLD,
+    DEFAULT_SPEED,
+    ScenarioResult,
+    open_recorder,
+    parser,
+    report,
+)
+from pik_mj.sim import StaticChecks
+from pik_mj.solve import SolveResult, TrustRegion
+from pik_mj.tasks.collision import collision_pairs
+
+NAME = "obstacle_reach"
+TARGET = np.array([0.38, -0.25, 0.95])  # [m] right-hand target, world (robot at the origin)
+ARM = ("rarm_upper", "rarm_lower", "rarm_hand")
+YELLOW = 0.1  # [m] pairs nearer than this are constrained
+ORANGE = 0.02  # [m] the distance kept
+GAIN = 0.2  # velocity-damper gain: a slow approach keeps the linearized rows from overshooting
+STEPS = TrustRegion(radius=0.02, max_radius=0.04)  # short steps: a dense path to play
+
+
+class Clearance:
+    """The smallest distance [m] between ``geoms`` and ``obstacle`` along a
+    motion, in the physics (``physics``) and in the reference the servos track
+    (``reference``): a callback of :meth:`pik_mj.sim.Scene.play`."""
+
+    def __init__(self, geoms: list[int], obstacle: int):
+        self.geoms, self.obstacle = geoms, obstacle
+        self.physics = self.reference = np.inf
+
+    def __call__(self, sample) -> None:
+        d = distance(sample.model, sample.data, self.geoms, self.obstacle)
+        self.physics = min(self.physics, d)
+        if sample.reference is not None:
+            d = distance(sample.model, sample.reference, self.geoms, self.obstacle)
+            self.reference = min(self.reference, d)
+
+
+def distance(model: mujoco.MjModel, data: mujoco.MjData, geoms: list[int], obstacle: int) -> float:
+    """Smallest signed distance [m] of ``geoms`` to ``obstacle`` (MuJoCo's
+    ``mj_geomDistance``; negative: penetration depth)."""
+    return min(mujoco.mj_geomDistance(model, data, g, obstacle, 1.0, None) for g in geoms)
+
+
+def reach(
+    robot: Robot,
+    scene: Scene,
+    recorder: Recorder,
+    label: str,
+    avoid: list,
+    quiet: bool,
+) -> tuple[SolveResult, StaticChecks, SolveLogger, Progress, Waypoints]:
+    """The full-body reach from the start pose, with ``avoid`` tasks in level 1."""
+    checks = scene.static_checker()
+    log = recorder.solve_logger(label, checks=checks, start=robot)
+    progress = Progress(label, total=100, stream=None if quiet else sys.stderr)
+    path = Waypoints(robot, label)
+    res = fullbody_inverse_kinematics(
+        robot,
+        [(TARGET, np.array([1.0, 0.0, 0.0, 0.0]))],
+        limbs=["rarm"],
+        rotation_axis=[None],
+        collision_avoidance=avoid,
+        trust_region=STEPS,
+        stop=200,
+        callback=[checks, log, progress, path],
+    )
+    return res, checks, log, progress, path
+
+
+def run(
+    recorder: Recorder,
+    *,
+    hold: float = DEFAULT_HOLD,
+    speed: float = DEFAULT_SPEED,
+    quiet: bool = True,
+) -> ScenarioResult:
+    result = ScenarioResult(NAME)
+    robot = Robot.from_model("sample_humanoid", environment=MODELS_DIR / "obstacle.xml")
+    scene = Scene.from_robot(robot)
+    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
+    q0 = robot.configuration.q.copy()
+    model = scene.model
+    box = model.geom("obstacle").id
+    arm = [g for g in range(model.ngeom) if model.body(model.geom_bodyid[g]).name in ARM]
+
+    head = Camera(model, "head_camera")
+    pairs = collision_pairs(robot.model, robot.data, list(ARM), ["obstacle"])
+    avoid = CollisionAvoidanceTask(
+        robot.configuration, pairs, yellow=YELLOW, orange=ORANGE, gain=GAIN
+    )
+    figures = {}
+    for label, tasks in (("without avoidance", []), ("with avoidance", [avoid])):
+        robot.configuration.update(q0)
+        res, checks, log, progress, path = reach(robot, scene, recorder, label, tasks, quiet)
+        result.add_solve(label, res, checks, finish=[log, progress, path])
+        iterates = min(distance(model, _data(scene, w.q), arm, box) for w in path.items)
+        hand = float(np.linalg.norm(robot.frame_pose("rarm_end").translation() - TARGET))
+        key = "with" if tasks else "without"
+        figures[f"min_distance_iterates_{key}_m"] = iterates
+        figures[f"hand_error_{key}_m"] = hand
+        if speed:
+            clearance = Clearance(arm, box)
+            log = recorder.motion_logger(cameras=[head])  # the robot's view, where MuJoCo renders
+            motion = scene.play(path, speed=speed, callback=[log, clearance])
+            log.finish(motion)
+            figures[f"min_distance_reference_{key}_m"] = clearance.reference
+            figures[f"min_distance_physics_{key}_m"] = clearance.physics
+            figures[f"motion_{key}"] = motion.summary()
+            if tasks:
+                result.add_motion(label, motion)
+            else:
+                figures["unexpected_contacts_without"] = motion.unexpected_contacts
+
+    # The final pose with avoidance (the robot's now) held in physics.
+    q = robot.configuration.q.copy()
+    static = scene.static_check(q)
+    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
+    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
+    result.add_balance(scene, static, held, criteria)
+
+    result.main = "with avoidance"
+    result.figures = figures
+    f = figures
+    result.check("with avoidance: converged", result.solves["with avoidance"].converged)
+    result.check("without avoidance: converged", result.solves["without avoidance"].converged)
+    result.check(
+        f"with avoidance: the iterates keep the orange distance ({ORANGE * 1e3:g} mm) from the box",
+        f["min_distance_iterates_with_m"] >= ORANGE - 1e-4,
+        f"min {f['min_distance_iterates_with_m'] * 1e3:.1f} mm",
+    )
+    result.check(
+        "without avoidance: the iterates pass through the box (distance < 0)",
+        f["min_distance_iterates_without_m"] < 0,
+        f"min {f['min_distance_iterates_without_m'] * 1e3:.1f} mm",
+    )
+    if speed:
+        result.check(
+            "with avoidance: the physical arm never touches the box",
+            f["min_distance_physics_with_m"] > 0,
+            f"min {f['min_distance_physics_with_m'] * 1e3:.1f} mm",
+        )
+        result.check(
+            "without avoidance: the physical arm hits the box (an unexpected contact)",
+            any("obstacle" in c[1] for c in f["unexpected_contacts_without"]),
+            f"min distance {f['min_distance_physics_without_m'] * 1e3:.1f} mm",
+        )
+    return result
+
+
+def _data(scene: Scene, q: np.ndarray) -> mujoco.MjData:
+    """Kinematics of the robot configuration ``q`` in the scene's model."""
+    data = mujoco.MjData(scene.model)
+    data.qpos[:] = scene._qpos(q)
+    mujoco.mj_kinematics(scene.model, data)
+    return data
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser(__doc__).parse_args(argv)
+    with open_recorder(args, NAME) as recorder:
+        result = run(recorder, hold=args.hold, speed=args.speed, quiet=args.quiet)
+    return report(result, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

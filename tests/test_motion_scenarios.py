@@ -1,0 +1,96 @@
+"""The issue-18 scenarios' figures: motion sections, the bumper, the obstacle, the camera."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from pik_mj.scenarios import fullbody_external_force, kettle, obstacle_reach, wall_contact
+
+from pik_mj import Recorder
+from pik_mj.scenario import jsonable
+
+MOTION_KEYS = {"duration", "max_tracking_error", "min_com_margin", "max_slip", "contacts", "fell"}
+
+
+def run(module, tmp_path, **options) -> dict:
+    """The scenario's JSON summary (as ``pik-mj run NAME --json``)."""
+    with Recorder.to_file(tmp_path / f"{module.NAME}.rrd", module.NAME) as rec:
+        result = module.run(rec, hold=0.5, **options)
+    out = json.loads(json.dumps(jsonable(result.to_dict())))
+    assert out["passed"], result.summary()
+    return out
+
+
+def check_motion(out: dict) -> dict:
+    """Every full-body scenario's motion section: played, passed, no fall, the
+    feet still (slip < 2 mm), no unexpected contact."""
+    motion = out["motion"]
+    assert MOTION_KEYS <= set(motion)
+    assert motion["passed"] and not motion["fell"]
+    assert motion["duration"] > 0.5
+    assert motion["max_slip"] < 2e-3
+    assert motion["contacts"]["unexpected"] == []
+    return motion
+
+
+def test_wall_contact_bumper_off_then_on(tmp_path):
+    """The hand's touch sensor reads off in every sample where the hand is more
+    than 1 mm from the wall, and on (> 1 N) at the end with the palm on it,
+    first on within 20 ms of the palm reaching the wall."""
+    out = run(wall_contact, tmp_path)
+    motion = check_motion(out)
+    assert motion["min_com_margin"] < 0  # the lean takes the CoM past the toes
+    f = out["figures"]
+    assert f["bumper_samples_away_from_wall"] > 100
+    assert f["bumper_on_while_away_from_wall"] == 0
+    assert f["bumper_force_end_N"] > 1.0
+    assert abs(f["bumper_first_on_s"] - f["hand_reaches_wall_s"]) < 0.02
+
+
+def test_obstacle_distances_with_and_without_avoidance(tmp_path):
+    """With avoidance: the iterates, the reference between them and the physical
+    arm at least the orange distance (2 cm; 1 mm of linearization slack in
+    physics) from the box; without: the iterates 5 cm inside it, the physical
+    hand against it (an unexpected contact, distance < 0)."""
+    out = run(obstacle_reach, tmp_path)
+    check_motion(out)
+    f = out["figures"]
+    orange = obstacle_reach.ORANGE
+    assert f["min_distance_iterates_with_m"] >= orange
+    assert f["min_distance_reference_with_m"] >= orange - 1e-3
+    assert f["min_distance_physics_with_m"] >= orange - 1e-3
+    assert f["min_distance_iterates_without_m"] < -0.05
+    assert f["min_distance_physics_without_m"] < 0
+    assert [c[:2] for c in f["unexpected_contacts_without"]] == [["rarm_hand", "obstacle"]]
+    assert f["hand_error_with_m"] < 1e-3 and f["hand_error_without_m"] < 1e-3
+
+
+def test_external_force_motion_takes_up_the_load(tmp_path):
+    out = run(fullbody_external_force, tmp_path)
+    motion = check_motion(out)
+    assert motion["min_com_margin"] > 0.02
+    assert motion["max_drift"] < 0.02
+
+
+def test_kettle_handle_centred_in_the_head_camera(tmp_path):
+    """After the look-at, the handle projects within 5 % of the image width of
+    the centre of the head camera's image (its pinhole: MuJoCo's fovy, 320 x
+    240) and no geom occludes it (MuJoCo's ray cast)."""
+    with Recorder.to_file(tmp_path / "k.rrd", "kettle") as rec:
+        result = kettle.run(rec, hold=0.0)
+    f = json.loads(json.dumps(jsonable(result.to_dict())))["figures"]
+    assert result.passed
+    assert f["image_width_px"] == 320
+    assert f["handle_offset_from_image_centre_px"] <= 0.05 * 320
+    assert f["handle_visible_after_look"] is True
+    assert 0.1 < f["handle_depth_m"] < 1.0
+    u, v = f["handle_pixel_after_look_px"]
+    assert 0 <= u <= 320 and 0 <= v <= 240
+
+
+@pytest.mark.parametrize("module", [wall_contact, obstacle_reach])
+def test_motion_not_played_at_speed_zero(module, tmp_path):
+    with Recorder.to_file(tmp_path / "x.rrd", "x") as rec:
+        result = module.run(rec, hold=0.0, speed=0.0)
+    assert result.to_dict()["motion"] is None
