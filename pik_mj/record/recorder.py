@@ -52,7 +52,7 @@ import rerun.blueprint as rrb
 from .. import inputs
 from ..exceptions import InvalidInput, PikError, UnknownName
 from . import geometry, style
-from .blueprint import Framing, blueprint, blueprint_for
+from .blueprint import Framing, blueprint, blueprint_for, send_blueprint_for
 from .columns import (
     ARROW,
     BODY_FRAME,
@@ -444,7 +444,7 @@ class Recorder:
             # the stream writes the rows on its threads while the blueprint is built
             self.stream.flush(timeout_sec=0.0)
             if blueprint:
-                self.stream.send_blueprint(self.blueprint())
+                send_blueprint_for(self.stream, self._logged, self.paths, framing=self._framing())
             if not self.owns_stream:
                 self.stream.flush()
         finally:
@@ -461,13 +461,16 @@ class Recorder:
         """The blueprint of what was logged so far (what :meth:`close` sends):
         :func:`~pik_mj.record.blueprint.blueprint_for`, each 3D view framed on
         the robot's body positions seen on its timeline."""
+        return blueprint_for(self._logged, self.paths, framing=self._framing())
+
+    def _framing(self) -> dict[str, Framing]:
+        """What each timeline's 3D view frames: the robot's body positions seen on it."""
         m = self.measures
         height, ground = (1.0, None) if m is None else (m.height, m.ground_z)
-        framing = {
+        return {
             timeline: Framing(low, high, heading, height, ground)
             for timeline, (low, high, heading) in self._extent.items()
         }
-        return blueprint_for(self._logged, self.paths, framing=framing)
 
     def _send_buffers(self) -> None:
         """Send every buffered row of every entity, and pending static data, in
@@ -984,6 +987,7 @@ class Recorder:
         (:func:`~pik_mj.record.blueprint.blueprint`). :meth:`close` sends the
         blueprint of everything logged after it."""
         self._check_open()
-        self.stream.send_blueprint(
-            self.blueprint() if levels is None else blueprint(list(levels), self.paths, extra=extra)
-        )
+        if levels is None:
+            send_blueprint_for(self.stream, self._logged, self.paths, framing=self._framing())
+        else:
+            self.stream.send_blueprint(blueprint(list(levels), self.paths, extra=extra))
