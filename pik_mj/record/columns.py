@@ -448,13 +448,16 @@ class Block:
 # one chunk per entity in one call (:func:`send_blueprint_entities`): the same
 # entities, components and timelines (``blueprint`` = 0 and ``log_time``).
 
-#: One entity of a blueprint: (path, static, [(descriptor, Arrow values)]).
-BlueprintEntity = tuple[str, bool, list[tuple[Any, pa.Array]]]
+#: One entity of a blueprint: (path, static, its components as one-row columns).
+BlueprintEntity = tuple[str, bool, list["_ListColumn"]]
+
+#: int32 offsets [0, n] of a one-row list column of n values, by n
+_ONE_ROW: dict[int, pa.Array] = {}
 
 
-def components_of(*archetypes: Any) -> list[tuple[Any, pa.Array]]:
+def components_of(*archetypes: Any) -> list[_ListColumn]:
     """What ``RecordingStream.log`` sends of ``archetypes`` (or lists of
-    described component batches): (descriptor, values) of each component, the
+    described component batches), as one-row columns: each component, the
     first of a repeated one, none for a missing one."""
     out: dict[Any, pa.Array] = {}
     for archetype in archetypes:
@@ -463,7 +466,13 @@ def components_of(*archetypes: Any) -> list[tuple[Any, pa.Array]]:
             values = batch.as_arrow_array()
             if values is not None:
                 out.setdefault(batch.component_descriptor(), values)
-    return list(out.items())
+    columns = []
+    for d, values in out.items():
+        offsets = _ONE_ROW.get(len(values))
+        if offsets is None:
+            offsets = _ONE_ROW[len(values)] = pa.array(np.array([0, len(values)], np.int32))
+        columns.append(_ListColumn(d, pa.ListArray.from_arrays(offsets, values)))
+    return columns
 
 
 class _Capture:
@@ -503,13 +512,10 @@ def send_blueprint_entities(stream: rr.RecordingStream, entities: list[Blueprint
     )
     now = np.array([time.time_ns()], dtype="datetime64[ns]")
     index = [rr.TimeColumn("blueprint", sequence=[0]), rr.TimeColumn("log_time", timestamp=now)]
-    chunks = []
-    for path, static, components in entities:
-        columns = [
-            _ListColumn(d, pa.ListArray.from_arrays(pa.array([0, len(v)], pa.int32()), v))
-            for d, v in components
-        ]
-        chunks.append(Chunk.from_columns(path, [] if static else index, columns))
+    chunks = [
+        Chunk.from_columns(path, [] if static else index, columns)
+        for path, static, columns in entities
+    ]
     rr.send_chunks(chunks, recording=blueprint_stream)
     storage = blueprint_stream.memory_recording().storage
     bindings.send_blueprint(storage, True, True, recording=stream.to_native())

@@ -93,6 +93,10 @@ def _vec(
     return a
 
 
+#: The style of the CoM's point (:meth:`Recorder.log_point`).
+_COM_STYLE = (style.COM_RADIUS, style.COM, None)
+
+
 def _what(what: str, path: str | None) -> str:
     return what if path is None else f"{what} {path!r}"
 
@@ -496,6 +500,8 @@ class Recorder:
             value: Iteration number, or time in [s].
             kind: ``"sequence"`` or ``"duration"``; fixed once a timeline is used.
         """
+        if kind is None and isinstance(value, (int, float)) and self._time.get(timeline) == value:
+            return  # the current time (checked when it was set)
         known = self._kinds.get(timeline)
         if kind is None:
             if known is None:
@@ -795,7 +801,7 @@ class Recorder:
         go to the same entity (an ``Arrows3D``: one chunk for both).
         """
         p = _vec(p_WC, (3,), "CoM", self.paths.com)
-        self.log_point(self.paths.com, p, radius=style.COM_RADIUS, color=style.COM)
+        self._append((self.paths.com,), p.reshape(1, 3), POINT, _COM_STYLE)
         ground = None if self.measures is None else self.measures.ground_z
         if ground is not None:
             foot = np.array([p[0], p[1], ground + self.lift])
