@@ -329,6 +329,31 @@ def shrink(hp: HalfPlanes, margin: float) -> HalfPlanes:
     return HalfPlanes(A.copy(), b - m)
 
 
+def inset_vertices(hp: HalfPlanes, d: float) -> np.ndarray:
+    """Vertices ``(k, 2)`` [m] of the convex polygon ``hp`` (edges in
+    counter-clockwise order) with every edge moved inward by ``d`` [m]: the
+    iso-margin outline, where the margin is ``d``. ``(0, 2)`` when it vanishes
+    (shrunk past a vertex) or is near-degenerate.
+
+    Vertex ``i`` is where the moved edges ``i-1`` and ``i`` meet:
+    ``a_{i-1}^T v + b_{i-1} - d = 0 = a_i^T v + b_i - d``.
+    """
+    try:
+        A, b = shrink(hp, d)
+    except InvalidInput:  # near-degenerate hull
+        return np.zeros((0, 2))
+    out = []
+    for i in range(len(A)):
+        M = np.array([A[i - 1], A[i]])
+        if abs(np.linalg.det(M)) < 1e-12:
+            return np.zeros((0, 2))
+        out.append(np.linalg.solve(M, -np.array([b[i - 1], b[i]])))
+    uv = np.array(out)
+    if np.any(uv @ A.T + b < -1e-9):  # shrunk past a vertex: not the true offset
+        return np.zeros((0, 2))
+    return uv
+
+
 # ----------------------------------------------------------------------------
 # Support polygon
 # ----------------------------------------------------------------------------
@@ -408,23 +433,12 @@ class SupportRegion:
         by ``d`` [m] (the iso-margin outline: where the margin is ``d``); ``(0, 3)``
         when it vanishes or the region is degenerate.
 
-        Vertex ``i`` is where the moved edges ``i-1`` and ``i`` meet:
-        ``a_{i-1}^T v + b_{i-1} - d = 0 = a_i^T v + b_i - d``.
+        (:func:`inset_vertices` in the polygon's plane).
         """
         if self.halfplanes is None:
             return np.zeros((0, 3))
-        try:
-            A, b = shrink(self.halfplanes, d)
-        except InvalidInput:  # near-degenerate hull
-            return np.zeros((0, 3))
-        out = []
-        for i in range(len(A)):
-            M = np.array([A[i - 1], A[i]])
-            if abs(np.linalg.det(M)) < 1e-12:
-                return np.zeros((0, 3))
-            out.append(np.linalg.solve(M, -np.array([b[i - 1], b[i]])))
-        uv = np.array(out)
-        if np.any(uv @ A.T + b < -1e-9):  # shrunk past a vertex: not the true offset
+        uv = inset_vertices(self.halfplanes, d)
+        if len(uv) == 0:
             return np.zeros((0, 3))
         return uv @ self.R[:, :2].T + self.height * self.R[:, 2]
 

@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from ..balance import halfplanes_from_polygon, shrink
+from ..balance import halfplanes_from_polygon, inset_vertices
 from ..exceptions import InvalidInput
 from ..tasks.com import CentroidTask, robot_root_body
 from ..tasks.frame import FrameTask
@@ -80,24 +80,13 @@ class HoldSample(Protocol):
 
 def margin_outline(vertices: np.ndarray, d: float) -> np.ndarray:
     """The convex polygon ``vertices`` (m, 3) (horizontal, counter-clockwise)
-    with every edge moved inward by ``d`` [m]; (0, 3) when it vanishes.
-
-    With the CoM margin as ``d`` it is the iso-margin outline through the CoM's
-    projection. Vertex ``i`` is where the moved edges ``i-1`` and ``i`` meet:
-    ``a_{i-1}^T v + b_{i-1} - d = 0 = a_i^T v + b_i - d``.
+    with every edge moved inward by ``d`` [m] (:func:`pik_mj.balance.inset_vertices`);
+    (0, 3) when it vanishes. With the CoM margin as ``d`` it is the iso-margin
+    outline through the CoM's projection.
     """
     try:
-        A, b = shrink(halfplanes_from_polygon(vertices[:, :2]), d)
+        xy = inset_vertices(halfplanes_from_polygon(vertices[:, :2]), d)
     except InvalidInput:  # near-degenerate hull
-        return np.zeros((0, 3))
-    out = []
-    for i in range(len(A)):
-        M = np.array([A[i - 1], A[i]])
-        if abs(np.linalg.det(M)) < 1e-12:
-            return np.zeros((0, 3))
-        out.append(np.linalg.solve(M, -np.array([b[i - 1], b[i]])))
-    xy = np.array(out)
-    if np.any(xy @ A.T + b < -1e-9):  # shrunk past a vertex: not the true offset
         return np.zeros((0, 3))
     return np.column_stack([xy, np.full(len(xy), float(np.mean(vertices[:, 2])))])
 
