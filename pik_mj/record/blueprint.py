@@ -24,6 +24,12 @@ each opening on what matters:
 Each plot names its unit, each tab its timeline; the time panel opens on the
 first tab's timeline (rerun 0.41 has one timeline for all views: the other
 tabs' plots fill when it is switched to theirs).
+
+The layout is plain data first (:func:`layout_of` -> :class:`Layout`), then
+rerun's blueprint classes (:func:`blueprint_for`). :func:`send_blueprint_for`
+(what :meth:`Recorder.close <pik_mj.record.recorder.Recorder.close>` calls)
+makes what rerun logs for a layout once, and sends it again for every
+recording of that layout with that recording's cameras.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from ..exceptions import PikError
 from .columns import blueprint_entities, components_of, send_blueprint_entities
 from .paths import PATHS, EntityPaths
 
@@ -432,7 +439,8 @@ def send_blueprint_for(
         entities = list(entities)
         for i, tab in eyes:
             frame = _framing_of(tab, framing)
-            assert frame is not None  # the key says so
+            if frame is None:  # pragma: no cover - the key says which tabs are framed
+                raise PikError(f"tab {tab.name!r} has no camera framing")
             path, static, _ = entities[i]
             entities[i] = (path, static, components_of(eye(frame, tab.direction)))
     send_blueprint_entities(stream, entities)

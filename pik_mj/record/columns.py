@@ -4,11 +4,16 @@ Per-iteration rows (body poses, frames, points, scalars) are buffered densely
 in blocks (:class:`Block`), one per set of entities logged together. At a flush each
 entity's rows become one chunk (``rerun.chunk.Chunk.from_columns``) and one
 ``rr.send_chunks`` sends them all (:class:`Outbox`). A :class:`RowKind` says how
-rows of one archetype become columns: the component batches are built
-directly (the same components as ``<Archetype>.columns(...)`` at half its
-cost) and sliced per entity without copies (pyarrow). A style (a point's
-radius and colour, a frame's axis length) goes with each row, in the chunk of
-its data.
+rows of one archetype become columns: Arrow arrays of the types of rerun's
+component batches, built directly from the stacked rows (the same columns as
+``<Archetype>.columns(...)``, a fraction of its cost) and sliced per entity
+without copies (pyarrow). A style (a point's radius and colour, a frame's axis
+length) goes with each row, in the chunk of its data: its column is made once
+per style and sliced.
+
+Blueprints are sent here too: what rerun's blueprint classes log, captured
+(:func:`blueprint_entities`), then sent as one chunk per entity in one call
+(:func:`send_blueprint_entities`).
 
 Nothing else in pik_mj touches ``rerun.chunk`` or pyarrow for writing: a new
 rerun version changes this module (and :mod:`pik_mj.record.reader`).
@@ -27,6 +32,8 @@ import rerun as rr
 from rerun import bindings
 from rerun.chunk import Chunk
 from rerun.recording_stream import RecordingStream, get_application_id
+
+from ..exceptions import PikError
 
 if TYPE_CHECKING:
     from .geometry import BodyFrames, GeomGroup
@@ -258,7 +265,7 @@ def _style_columns(kind: RowKind, style: tuple[Any, ...], n: int) -> list[_ListC
         return []
     key = (id(kind), style)
     cached = _STYLES.get(key)
-    if cached is None or len(cached[0][1]) < n:
+    if cached is None or (cached and len(cached[0][1]) < n):
         if len(_STYLES) > 4096:  # styles made of data (labels): do not grow forever
             _STYLES.clear()
         rows = max(n, 64 if cached is None else 2 * len(cached[0][1]))
@@ -284,8 +291,8 @@ class Outbox:
     """Buffered rows of many entities, sent with one ``rr.send_chunks``.
 
     Rows of one kind (all poses, all scalars, ...) that share their time stamps
-    are serialized together by rerun's component batches and sliced per entity
-    (zero-copy); each entity's slices become one chunk
+    become one Arrow array per component (:meth:`RowKind.columns`), sliced per
+    entity (zero-copy); each entity's slices become one chunk
     (:meth:`rerun.chunk.Chunk.from_columns`, ~20 us an entity, about half of
     ``Chunk.from_record_batch`` on one batch of all entities and a third of one
     ``send_columns`` per entity).
@@ -501,7 +508,7 @@ def send_blueprint_entities(stream: rr.RecordingStream, entities: list[Blueprint
     ``blueprint`` = 0 and the current ``log_time``, in one ``rr.send_chunks``."""
     application_id = get_application_id(recording=stream)
     if application_id is None:
-        raise ValueError("the stream has no application id to send a blueprint for")
+        raise PikError("the recording stream has no application id to send a blueprint for")
     blueprint_stream = RecordingStream._from_native(
         bindings.new_blueprint(
             application_id=application_id,
