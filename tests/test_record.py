@@ -7,24 +7,36 @@ before MuJoCo re-centres them), by composing the recorded transforms.
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
+import uuid
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 import rerun as rr
+from rerun.chunk import RrdReader
 from scipy.spatial.transform import Rotation
 
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
-from pik_mj.record import PATHS, EntityData, Recorder, blueprint, read_recording, style
+from pik_mj.record import (
+    PATHS,
+    EntityData,
+    Recorder,
+    blueprint,
+    read_blueprint,
+    read_recording,
+    style,
+)
 from pik_mj.record.geometry import right_mul_matrix
 
 TET = np.array([[0, 0, 0], [0.2, 0, 0], [0, 0.2, 0], [0, 0, 0.2]], dtype=float)
 TET_POS = np.array([0.0, 0.0, 0.1])
 CAPSULE_FROMTO = np.array([[0.0, 0.0, 0.0], [0.3, 0.1, -0.2]])
 CYLINDER_FROMTO = np.array([[0.0, 0.1, 0.0], [0.1, 0.3, 0.2]])
+_UUID = re.compile(r"[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}")
 
 MJCF = f"""
 <mujoco>
@@ -412,6 +424,9 @@ def test_buffering_does_not_change_the_data(model, tmp_path):
         return read_recording(path)
 
     a, b = run(tmp_path / "a.rrd", 1), run(tmp_path / "b.rrd", 4)
+    # buffered columns are built as Arrow arrays by pik_mj: of the types rerun
+    # gives the same components logged one by one
+    assert _data_types(tmp_path / "a.rrd") == _data_types(tmp_path / "b.rrd")
     for entity, component in [
         (PATHS.bodies(), "Ellipsoids3D:quaternions"),
         ("world/robot/capsules", "Capsules3D:translations"),  # from the body poses
@@ -562,6 +577,83 @@ def test_blueprint_read_back_is_the_last_one_sent(tmp_path):
         if "ViewBlueprint:space_origin" in e.temporal
     }
     assert origins == {"world"} | {f"errors/level_{k}" for k in range(1, 6)}
+
+
+def _data_types(path: Path, blueprint: bool = False) -> dict[tuple[str, str], str]:
+    """(entity, component) -> Arrow type of its data columns, in the recording
+    or its blueprints (ids of views and containers left out)."""
+    reader = RrdReader(path)
+    out = {}
+    for store in reader.blueprints() if blueprint else [None]:
+        for chunk in reader.stream(store=store).to_chunks():
+            entity = _UUID.sub("<id>", chunk.entity_path)
+            for f in chunk.to_record_batch().schema:
+                if (f.metadata or {}).get(b"rerun:kind") == b"data":
+                    out[(entity, f.name)] = str(f.type)
+    return out
+
+
+def _blueprint_values(path: Path) -> dict[str, str]:
+    """The active blueprint of ``path``, every entity's components and values,
+    with the ids of views and containers named by their place in the layout."""
+    bp = read_recording(path, blueprint=True)
+
+    def last(entity: str, component: str) -> list:
+        return bp[entity].temporal[component][-1][1]
+
+    root_id = bytes(last("viewport", "ViewportBlueprint:root_container")[0])
+    root = f"container/{uuid.UUID(bytes=root_id)}"
+    order, todo = [], [root]
+    while todo:
+        key = todo.pop(0)
+        order.append(key)
+        if key.startswith("container/"):
+            todo += list(last(key, "ContainerBlueprint:contents"))
+    names = {key.split("/")[1]: f"<{i}>" for i, key in enumerate(order)}
+
+    def named(x: object) -> str:
+        text = repr(x)
+        for id_, name in names.items():
+            text = text.replace(id_, name)
+        return text
+
+    out = {}
+    for entity, data in bp.items():
+        rows = {c: [v for _, v in r] for c, r in data.temporal.items()}
+        if entity == "viewport":
+            rows["ViewportBlueprint:root_container"] = [names[root.split("/")[1]]]
+        out[named(entity)] = named((sorted(data.static.items()), sorted(rows.items())))
+    return out
+
+
+def test_blueprint_is_sent_as_rerun_sends_it(model, tmp_path):
+    # close() sends the blueprint's entities in one call, made once per layout:
+    # read back, the same entities, components, values and Arrow types as
+    # rerun's own send_blueprint of the same blueprint (the ids of views and
+    # containers aside), each recording with its own camera
+    def record(path: Path, k: int, rerun_sends: bool) -> Recorder:
+        rec = Recorder.to_file(path)
+        rec.log_model_geometry(model)
+        rec.log_body_poses(_posed_data(model, k), time=0)
+        rec.log_task_errors({(1, "task"): 0.5, (2, "other"): 0.1})
+        rec.log_text("done")
+        if rerun_sends:
+            rec.stream.send_blueprint(rec.blueprint())
+        rec.close(blueprint=not rerun_sends)
+        return rec
+
+    for k in (1, 2, 9):  # the first made anew, the others from what was made
+        ours, theirs = tmp_path / f"ours{k}.rrd", tmp_path / f"rerun{k}.rrd"
+        record(ours, k, rerun_sends=False)
+        record(theirs, k, rerun_sends=True)
+        assert _blueprint_values(ours) == _blueprint_values(theirs)
+        assert _data_types(ours, blueprint=True) == _data_types(theirs, blueprint=True)
+        eye = read_blueprint(ours).tabs[0][1][0].eye
+        if k == 1:
+            first = eye
+    assert not np.allclose(eye["position"], first["position"])  # its own camera
+    result = _verify(ours)
+    assert result.returncode == 0, result.stderr
 
 
 def test_recording_is_valid_after_an_exception(model, tmp_path):

@@ -4,11 +4,16 @@ Per-iteration rows (body poses, frames, points, scalars) are buffered densely
 in blocks (:class:`Block`), one per set of entities logged together. At a flush each
 entity's rows become one chunk (``rerun.chunk.Chunk.from_columns``) and one
 ``rr.send_chunks`` sends them all (:class:`Outbox`). A :class:`RowKind` says how
-rows of one archetype become columns: the component batches are built
-directly (the same components as ``<Archetype>.columns(...)`` at half its
-cost) and sliced per entity without copies (pyarrow). A style (a point's
-radius and colour, a frame's axis length) goes with each row, in the chunk of
-its data.
+rows of one archetype become columns: Arrow arrays of the types of rerun's
+component batches, built directly from the stacked rows (the same columns as
+``<Archetype>.columns(...)``, a fraction of its cost) and sliced per entity
+without copies (pyarrow). A style (a point's radius and colour, a frame's axis
+length) goes with each row, in the chunk of its data: its column is made once
+per style and sliced.
+
+Blueprints are sent here too: what rerun's blueprint classes log, captured
+(:func:`blueprint_entities`), then sent as one chunk per entity in one call
+(:func:`send_blueprint_entities`).
 
 Nothing else in pik_mj touches ``rerun.chunk`` or pyarrow for writing: a new
 rerun version changes this module (and :mod:`pik_mj.record.reader`).
@@ -16,6 +21,7 @@ rerun version changes this module (and :mod:`pik_mj.record.reader`).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -23,7 +29,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pyarrow as pa
 import rerun as rr
+from rerun import bindings
 from rerun.chunk import Chunk
+from rerun.recording_stream import RecordingStream, get_application_id
+
+from ..exceptions import PikError
 
 if TYPE_CHECKING:
     from .geometry import BodyFrames, GeomGroup
@@ -38,7 +48,10 @@ __all__ = [
     "Block",
     "Outbox",
     "RowKind",
+    "blueprint_entities",
+    "components_of",
     "pose_batches_of",
+    "send_blueprint_entities",
     "xyzw",
 ]
 
@@ -93,24 +106,42 @@ class RowKind:
     """
 
     width: int
-    # (instances, width) stacked, instances per row -> data columns
-    columns: Callable[[np.ndarray, np.ndarray], list[Any]]
-    style_columns: Callable[[tuple[Any, ...], int], list[Any]]  # (style, rows) -> columns
+    # (descriptor, stacked rows (instances, width) -> the component's Arrow values)
+    fields: tuple[tuple[Any, Callable[[np.ndarray], pa.Array]], ...]
+    style_batches: Callable[[tuple[Any, ...]], list[Any]]  # style -> one-value batches
     archetype: Callable[[np.ndarray, tuple[Any, ...]], Any]  # (instances, width) row -> ``log``
 
-
-def _no_style(style: tuple[Any, ...], n: int) -> list[Any]:
-    return []
-
-
-# Columns are built from the component batches directly: the same components
-# as ``<Archetype>.columns(...)``, at half its cost (which builds and checks
-# every field of the archetype per call).
+    def columns(self, v: np.ndarray, offsets: pa.Array) -> list[tuple[Any, pa.Array]]:
+        """(descriptor, list column) of each component of the stacked rows ``v``
+        (instances, width), row ``i`` holding instances ``offsets[i]:offsets[i+1]``."""
+        return [(d, pa.ListArray.from_arrays(offsets, values(v))) for d, values in self.fields]
 
 
-def _one_per_row(batch: Any, descriptor: Any, n: int) -> Any:
-    """Column of ``n`` rows holding one value of ``batch`` each."""
-    return batch.described(descriptor).partition([1] * n)
+# Columns are built as Arrow arrays directly, of the Arrow types of rerun's
+# component batches (the same columns as ``<Archetype>.columns(...)``, a
+# fraction of its cost: it builds and checks every field of the archetype per
+# call).
+
+
+def _arrow_type(batch: Any, zero: np.ndarray) -> pa.DataType:
+    """The Arrow type of rerun's component batch class ``batch``."""
+    return batch(zero).as_arrow_array().type
+
+
+_VEC3 = _arrow_type(rr.components.Position3DBatch, np.zeros((1, 3)))
+_QUAT = _arrow_type(rr.components.RotationQuatBatch, np.zeros((1, 4)))
+_SCALAR = _arrow_type(rr.components.ScalarBatch, np.zeros(1))
+if {
+    _arrow_type(rr.components.Translation3DBatch, np.zeros((1, 3))),
+    _arrow_type(rr.components.Vector3DBatch, np.zeros((1, 3))),
+} != {_VEC3}:  # pragma: no cover - a rerun version that types them apart
+    raise ImportError("pik_mj.record.columns: rerun's 3D vector components differ in type")
+
+
+def _f32(v: np.ndarray, type_: pa.DataType) -> pa.Array:
+    """Rows ``v`` (n, k) as a fixed-size list array of float32 of ``type_``."""
+    flat = np.ascontiguousarray(v, dtype=np.float32).reshape(-1)
+    return pa.FixedSizeListArray.from_arrays(pa.array(flat), type=type_)
 
 
 def _pose_batches(v: np.ndarray, translation: Any, quaternion: Any) -> list[Any]:
@@ -126,48 +157,55 @@ def _pose_kind(translation: Any, quaternion: Any, *, axes: bool = False) -> RowK
     """Rows of poses [p, q_wxyz] sent as the components ``translation`` and
     ``quaternion`` (a Transform3D, or the per-instance poses of a primitive);
     with ``axes``, a style ``(axis_length,)`` draws the frame's axes."""
-    style_columns = _axes_style_columns if axes else _no_style
+    style_batches = _axes_style if axes else _no_style
     return RowKind(
         width=7,
-        columns=lambda v, lengths: [
-            b.partition(lengths) for b in _pose_batches(v, translation, quaternion)
-        ],
-        style_columns=style_columns,
-        archetype=lambda v, style: (
-            _pose_batches(v, translation, quaternion)
-            + [c.component_batch for c in style_columns(style, 1)]
+        fields=(
+            (translation, lambda v: _f32(v[:, :3], _VEC3)),
+            (quaternion, lambda v: _f32(xyzw(v[:, 3:]), _QUAT)),
         ),
+        style_batches=style_batches,
+        archetype=lambda v, style: _pose_batches(v, translation, quaternion) + style_batches(style),
     )
 
 
-def _point_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
-    """Radius [m], colour and optional label of a point, ``n`` rows."""
+def _no_style(style: tuple[Any, ...]) -> list[Any]:
+    return []
+
+
+def _point_style(style: tuple[Any, ...]) -> list[Any]:
+    """Radius [m], colour and optional label of a point."""
     radius, color, label = style
-    cols = [
-        _one_per_row(
-            rr.components.RadiusBatch(np.full(n, radius, np.float32)),
-            rr.Points3D.descriptor_radii(),
-            n,
+    batches = [
+        rr.components.RadiusBatch(np.full(1, radius, np.float32)).described(
+            rr.Points3D.descriptor_radii()
         ),
-        _one_per_row(rr.components.ColorBatch([color] * n), rr.Points3D.descriptor_colors(), n),
+        rr.components.ColorBatch([color]).described(rr.Points3D.descriptor_colors()),
     ]
     if label is not None:
-        cols.append(
-            _one_per_row(rr.components.TextBatch([label] * n), rr.Points3D.descriptor_labels(), n)
-        )
-    return cols
+        batches.append(rr.components.TextBatch([label]).described(rr.Points3D.descriptor_labels()))
+    return batches
 
 
-def _axes_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
-    """Axis length [m] of a frame, ``n`` rows (no style: a body pose, no axes)."""
+def _axes_style(style: tuple[Any, ...]) -> list[Any]:
+    """Axis length [m] of a frame (no style: a body pose, no axes)."""
     if not style:
         return []
     return [
-        _one_per_row(
-            rr.components.AxisLengthBatch(np.full(n, style[0], np.float32)),
-            rr.TransformAxes3D.descriptor_axis_length(),
-            n,
+        rr.components.AxisLengthBatch(np.full(1, style[0], np.float32)).described(
+            rr.TransformAxes3D.descriptor_axis_length()
         )
+    ]
+
+
+def _arrow_style(style: tuple[Any, ...]) -> list[Any]:
+    """Radius [m] and colour of an arrow."""
+    radius, color = style
+    return [
+        rr.components.RadiusBatch(np.full(1, radius, np.float32)).described(
+            rr.Arrows3D.descriptor_radii()
+        ),
+        rr.components.ColorBatch([color]).described(rr.Arrows3D.descriptor_colors()),
     ]
 
 
@@ -183,51 +221,24 @@ def _point_archetype(v: np.ndarray, style: tuple[Any, ...]) -> Any:
 
 SCALAR = RowKind(
     width=1,
-    columns=lambda v, lengths: [
-        rr.components.ScalarBatch(v[:, 0])
-        .described(rr.Scalars.descriptor_scalars())
-        .partition(lengths)
-    ],
-    style_columns=_no_style,
+    fields=((rr.Scalars.descriptor_scalars(), lambda v: pa.array(v[:, 0], type=_SCALAR)),),
+    style_batches=_no_style,
     archetype=lambda v, style: rr.Scalars(v[:, 0]),
 )
 POINT = RowKind(
     width=3,
-    columns=lambda v, lengths: [
-        rr.components.Position3DBatch(v)
-        .described(rr.Points3D.descriptor_positions())
-        .partition(lengths)
-    ],
-    style_columns=_point_style_columns,
+    fields=((rr.Points3D.descriptor_positions(), lambda v: _f32(v, _VEC3)),),
+    style_batches=_point_style,
     archetype=_point_archetype,
 )
-
-
-def _arrow_style_columns(style: tuple[Any, ...], n: int) -> list[Any]:
-    """Radius [m] and colour of an arrow, ``n`` rows."""
-    radius, color = style
-    return [
-        _one_per_row(
-            rr.components.RadiusBatch(np.full(n, radius, np.float32)),
-            rr.Arrows3D.descriptor_radii(),
-            n,
-        ),
-        _one_per_row(rr.components.ColorBatch([color] * n), rr.Arrows3D.descriptor_colors(), n),
-    ]
-
-
 #: An arrow: [origin, vector] [m], with its radius and colour as style.
 ARROW = RowKind(
     width=6,
-    columns=lambda v, lengths: [
-        rr.components.Position3DBatch(v[:, :3])
-        .described(rr.Arrows3D.descriptor_origins())
-        .partition(lengths),
-        rr.components.Vector3DBatch(v[:, 3:])
-        .described(rr.Arrows3D.descriptor_vectors())
-        .partition(lengths),
-    ],
-    style_columns=_arrow_style_columns,
+    fields=(
+        (rr.Arrows3D.descriptor_origins(), lambda v: _f32(v[:, :3], _VEC3)),
+        (rr.Arrows3D.descriptor_vectors(), lambda v: _f32(v[:, 3:], _VEC3)),
+    ),
+    style_batches=_arrow_style,
     archetype=lambda v, style: rr.Arrows3D(
         origins=v[:, :3], vectors=v[:, 3:], radii=[style[0]], colors=[style[1]]
     ),
@@ -241,6 +252,34 @@ INSTANCE_POSES = {a: _pose_kind(*fields) for a, fields in INSTANCE_POSE_FIELDS.i
 #: Body frames: the poses of their markers.
 BODY_FRAME = INSTANCE_POSES[rr.Ellipsoids3D]
 
+#: (id of the kind, style) -> its style's columns: (descriptor, list array of
+#: rows each holding the style's value), sliced to the rows sent
+_STYLES: dict[tuple[int, tuple[Any, ...]], list[tuple[Any, pa.Array]]] = {}
+
+
+def _style_columns(kind: RowKind, style: tuple[Any, ...], n: int) -> list[_ListColumn]:
+    """The columns of ``n`` rows each holding ``style``'s components, made once
+    per kind and style (styles are few: a handful of colours and sizes) for
+    as many rows as sent so far, and sliced (zero-copy)."""
+    if not style:
+        return []
+    key = (id(kind), style)
+    cached = _STYLES.get(key)
+    if cached is None or (cached and len(cached[0][1]) < n):
+        if len(_STYLES) > 4096:  # styles made of data (labels): do not grow forever
+            _STYLES.clear()
+        rows = max(n, 64 if cached is None else 2 * len(cached[0][1]))
+        offsets = pa.array(np.arange(rows + 1, dtype=np.int32))
+        first = pa.array(np.zeros(rows, dtype=np.int32))
+        cached = _STYLES[key] = [
+            (
+                b.component_descriptor(),
+                pa.ListArray.from_arrays(offsets, b.as_arrow_array().take(first)),
+            )
+            for b in kind.style_batches(style)
+        ]
+    return [_ListColumn(d, column.slice(0, n)) for d, column in cached]
+
 
 def pose_batches_of(group: GeomGroup, poses: np.ndarray) -> list[Any]:
     """The per-instance poses (n, 7) [p, q_wxyz] of ``group``'s primitive, as
@@ -252,8 +291,8 @@ class Outbox:
     """Buffered rows of many entities, sent with one ``rr.send_chunks``.
 
     Rows of one kind (all poses, all scalars, ...) that share their time stamps
-    are serialized together by rerun's component batches and sliced per entity
-    (zero-copy); each entity's slices become one chunk
+    become one Arrow array per component (:meth:`RowKind.columns`), sliced per
+    entity (zero-copy); each entity's slices become one chunk
     (:meth:`rerun.chunk.Chunk.from_columns`, ~20 us an entity, about half of
     ``Chunk.from_record_batch`` on one batch of all entities and a third of one
     ``send_columns`` per entity).
@@ -315,22 +354,24 @@ class Outbox:
         for (names, kinds, _), (times, by_kind) in self._groups.items():
             n = len(times)
             columns: dict[str, list[_ListColumn]] = {}
+            styles: dict[tuple[int, Any], list[_ListColumn]] = {}  # n rows of each style
             for kind, entries in by_kind.items():
                 paths = [p for entry_paths, _, _ in entries for p in entry_paths]
                 stacked = np.concatenate([r.reshape(-1, kind.width) for _, r, _ in entries])
                 lengths = np.concatenate(
                     [np.full(r.shape[0] * r.shape[1], r.shape[2]) for _, r, _ in entries]
                 )
-                for col in kind.columns(stacked, lengths):
-                    d, array = col.component_descriptor(), col.as_arrow_array()
+                offsets = pa.array(np.concatenate([[0], np.cumsum(lengths)]), pa.int32())
+                for d, array in kind.columns(stacked, offsets):
                     for i, path in enumerate(paths):
                         columns.setdefault(path, []).append(_ListColumn(d, array.slice(i * n, n)))
                 for entry_paths, _, style in entries:
                     # the same style column (n equal rows) for each entity
-                    for col in kind.style_columns(style, n):
-                        styled = _ListColumn(col.component_descriptor(), col.as_arrow_array())
-                        for path in entry_paths:
-                            columns.setdefault(path, []).append(styled)
+                    styled = styles.get((id(kind), style))
+                    if styled is None:
+                        styled = styles[(id(kind), style)] = _style_columns(kind, style, n)
+                    for path in entry_paths:
+                        columns.setdefault(path, []).extend(styled)
             index = time_columns(names, kinds, times)
             chunks += [Chunk.from_columns(path, index, cols) for path, cols in columns.items()]
         self._groups.clear()
@@ -404,3 +445,84 @@ class Block:
                 kind = INSTANCE_POSES[group.archetype]
                 outbox.add((group.path,), self.names, self.kinds, times, kind, poses[None])
         self.times.clear()
+
+
+# -- blueprints ---------------------------------------------------------------
+#
+# rerun's ``send_blueprint`` logs a blueprint entity by entity (one ``log`` call
+# each) on a new blueprint stream, and sends that stream's messages. Here what
+# those calls log is captured once (:func:`blueprint_entities`), and sent as
+# one chunk per entity in one call (:func:`send_blueprint_entities`): the same
+# entities, components and timelines (``blueprint`` = 0 and ``log_time``).
+
+#: One entity of a blueprint: (path, static, its components as one-row columns).
+BlueprintEntity = tuple[str, bool, list["_ListColumn"]]
+
+#: int32 offsets [0, n] of a one-row list column of n values, by n
+_ONE_ROW: dict[int, pa.Array] = {}
+
+
+def components_of(*archetypes: Any) -> list[_ListColumn]:
+    """What ``RecordingStream.log`` sends of ``archetypes`` (or lists of
+    described component batches), as one-row columns: each component, the
+    first of a repeated one, none for a missing one."""
+    out: dict[Any, pa.Array] = {}
+    for archetype in archetypes:
+        batches = getattr(archetype, "as_component_batches", None)
+        for batch in batches() if batches is not None else archetype:
+            values = batch.as_arrow_array()
+            if values is not None:
+                out.setdefault(batch.component_descriptor(), values)
+    columns = []
+    for d, values in out.items():
+        offsets = _ONE_ROW.get(len(values))
+        if offsets is None:
+            offsets = _ONE_ROW[len(values)] = pa.array(np.array([0, len(values)], np.int32))
+        columns.append(_ListColumn(d, pa.ListArray.from_arrays(offsets, values)))
+    return columns
+
+
+class _Capture:
+    """Stands in for the blueprint stream of ``rr.send_blueprint``: keeps what
+    rerun's blueprint classes log (they only call ``log``)."""
+
+    def __init__(self) -> None:
+        self.entities: list[BlueprintEntity] = []
+
+    def log(self, path: str, *archetypes: Any, static: bool = False, strict: Any = None) -> None:
+        self.entities.append((str(path), static, components_of(*archetypes)))
+
+
+def blueprint_entities(blueprint: Any) -> list[BlueprintEntity]:
+    """The entities rerun logs for ``blueprint`` (an ``rrb.Blueprint``, view or
+    container), in its order, by rerun's own blueprint classes."""
+    capture = _Capture()
+    blueprint.to_blueprint()._log_to_stream(capture)
+    return capture.entities
+
+
+def send_blueprint_entities(stream: rr.RecordingStream, entities: list[BlueprintEntity]) -> None:
+    """Send ``entities`` (:func:`blueprint_entities`) as a blueprint of
+    ``stream``'s application, made active and default, as
+    ``stream.send_blueprint`` does: on a new blueprint stream, at
+    ``blueprint`` = 0 and the current ``log_time``, in one ``rr.send_chunks``."""
+    application_id = get_application_id(recording=stream)
+    if application_id is None:
+        raise PikError("the recording stream has no application id to send a blueprint for")
+    blueprint_stream = RecordingStream._from_native(
+        bindings.new_blueprint(
+            application_id=application_id,
+            make_default=False,
+            make_thread_default=False,
+            default_enabled=True,
+        )
+    )
+    now = np.array([time.time_ns()], dtype="datetime64[ns]")
+    index = [rr.TimeColumn("blueprint", sequence=[0]), rr.TimeColumn("log_time", timestamp=now)]
+    chunks = [
+        Chunk.from_columns(path, [] if static else index, columns)
+        for path, static, columns in entities
+    ]
+    rr.send_chunks(chunks, recording=blueprint_stream)
+    storage = blueprint_stream.memory_recording().storage
+    bindings.send_blueprint(storage, True, True, recording=stream.to_native())

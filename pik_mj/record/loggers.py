@@ -282,11 +282,12 @@ class SolveLogger:
     def _log_frames(self, plan: _Plan, data: mujoco.MjData) -> None:
         """The current frame of each frame task, in one call (one buffer)."""
         if plan.frames:
-            self.recorder.log_frames(
-                plan.current_paths,
-                [task.move_target.position(data) for task, _, _ in plan.frames],
-                [_quat_wxyz(task.move_target.rotation(data)) for task, _, _ in plan.frames],
-            )
+            n = len(plan.frames)
+            p, q = np.empty((n, 3)), np.empty((n, 4))
+            for i, (task, _, _) in enumerate(plan.frames):
+                p[i] = task.move_target.position(data)
+                mujoco.mju_mat2Quat(q[i], task.move_target.rotation(data).reshape(9))
+            self.recorder.log_frames(plan.current_paths, p, q)
 
     def _log_pose(self, data: mujoco.MjData) -> None:
         """Body poses and the robot's CoM at the current count."""

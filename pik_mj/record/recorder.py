@@ -52,7 +52,7 @@ import rerun.blueprint as rrb
 from .. import inputs
 from ..exceptions import InvalidInput, PikError, UnknownName
 from . import geometry, style
-from .blueprint import Framing, blueprint, blueprint_for
+from .blueprint import Framing, blueprint, blueprint_for, send_blueprint_for
 from .columns import (
     ARROW,
     BODY_FRAME,
@@ -91,6 +91,10 @@ def _vec(
     if not np.isfinite(a).all():
         raise InvalidInput(f"{_what(what, path)} must be finite, got {a.tolist()}")
     return a
+
+
+#: The style of the CoM's point (:meth:`Recorder.log_point`).
+_COM_STYLE = (style.COM_RADIUS, style.COM, None)
 
 
 def _what(what: str, path: str | None) -> str:
@@ -444,7 +448,7 @@ class Recorder:
             # the stream writes the rows on its threads while the blueprint is built
             self.stream.flush(timeout_sec=0.0)
             if blueprint:
-                self.stream.send_blueprint(self.blueprint())
+                send_blueprint_for(self.stream, self._logged, self.paths, framing=self._framing())
             if not self.owns_stream:
                 self.stream.flush()
         finally:
@@ -461,13 +465,16 @@ class Recorder:
         """The blueprint of what was logged so far (what :meth:`close` sends):
         :func:`~pik_mj.record.blueprint.blueprint_for`, each 3D view framed on
         the robot's body positions seen on its timeline."""
+        return blueprint_for(self._logged, self.paths, framing=self._framing())
+
+    def _framing(self) -> dict[str, Framing]:
+        """What each timeline's 3D view frames: the robot's body positions seen on it."""
         m = self.measures
         height, ground = (1.0, None) if m is None else (m.height, m.ground_z)
-        framing = {
+        return {
             timeline: Framing(low, high, heading, height, ground)
             for timeline, (low, high, heading) in self._extent.items()
         }
-        return blueprint_for(self._logged, self.paths, framing=framing)
 
     def _send_buffers(self) -> None:
         """Send every buffered row of every entity, and pending static data, in
@@ -493,6 +500,8 @@ class Recorder:
             value: Iteration number, or time in [s].
             kind: ``"sequence"`` or ``"duration"``; fixed once a timeline is used.
         """
+        if kind is None and isinstance(value, (int, float)) and self._time.get(timeline) == value:
+            return  # the current time (checked when it was set)
         known = self._kinds.get(timeline)
         if kind is None:
             if known is None:
@@ -792,7 +801,7 @@ class Recorder:
         go to the same entity (an ``Arrows3D``: one chunk for both).
         """
         p = _vec(p_WC, (3,), "CoM", self.paths.com)
-        self.log_point(self.paths.com, p, radius=style.COM_RADIUS, color=style.COM)
+        self._append((self.paths.com,), p.reshape(1, 3), POINT, _COM_STYLE)
         ground = None if self.measures is None else self.measures.ground_z
         if ground is not None:
             foot = np.array([p[0], p[1], ground + self.lift])
@@ -984,6 +993,7 @@ class Recorder:
         (:func:`~pik_mj.record.blueprint.blueprint`). :meth:`close` sends the
         blueprint of everything logged after it."""
         self._check_open()
-        self.stream.send_blueprint(
-            self.blueprint() if levels is None else blueprint(list(levels), self.paths, extra=extra)
-        )
+        if levels is None:
+            send_blueprint_for(self.stream, self._logged, self.paths, framing=self._framing())
+        else:
+            self.stream.send_blueprint(blueprint(list(levels), self.paths, extra=extra))
