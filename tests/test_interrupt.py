@@ -145,6 +145,15 @@ PHASES = {
 }
 
 
+def _size(path: Path) -> int:
+    """Bytes in ``path``, 0 while it does not exist (the CLI's check of ``--save``
+    writes and removes a probe file at that path, so it can vanish between calls)."""
+    try:
+        return path.stat().st_size
+    except FileNotFoundError:
+        return 0
+
+
 def _interrupt_one_run(i: int, phase: str, seed: int, tmp_path: Path) -> dict:
     """``pik-mj run fullbody_reach --save`` in a subprocess, SIGINT a random delay
     after it reached ``phase`` (its recording started, then what its stderr says)."""
@@ -169,8 +178,7 @@ def _interrupt_one_run(i: int, phase: str, seed: int, tmp_path: Path) -> dict:
     try:
         deadline = time.monotonic() + 120.0
         while not (
-            rrd.is_file()
-            and rrd.stat().st_size > 0  # rerun's header: not the option check's probe
+            _size(rrd) > 0  # rerun's header: not the option check's probe
             and (mark is None or any(mark in line for line in err))
         ):
             assert proc.poll() is None, f"run {i} ended before {phase}: {''.join(err)}"
