@@ -185,7 +185,7 @@ def run(
     def kettle_now(r) -> np.ndarray:  # the kettle moves with the hand
         return p_kettle + r.frame_pose("rarm_end").translation() - X_grasp.translation()
 
-    checks = held.static_checker()
+    checks = scene.static_checker()
     log, progress = (
         recorder.solve_logger("lift", checks=checks, start=robot),
         Progress("lift", stream=err),
