@@ -50,6 +50,39 @@ def _verify(path: Path) -> subprocess.CompletedProcess:
     )
 
 
+#: The components without which rerun's viewer cannot draw an archetype (it marks
+#: the view with an error instead): rerun 0.41's required fields.
+REQUIRED = {
+    "Arrows3D": {"vectors"},
+    "Boxes3D": {"half_sizes"},
+    "Capsules3D": {"lengths", "radii"},
+    "Ellipsoids3D": {"half_sizes"},
+    "Image": {"buffer", "format"},
+    "LineStrips3D": {"strips"},
+    "Mesh3D": {"vertex_positions"},
+    "Pinhole": {"image_from_camera"},
+    "Points3D": {"positions"},
+    "Scalars": {"scalars"},
+    "TextLog": {"text"},
+}
+
+
+def _check_drawable(rec: dict[str, EntityData]) -> None:
+    """Every archetype logged on an entity (static or over time) has the
+    components the viewer needs to draw it."""
+    missing = []
+    for path, entity in rec.items():
+        logged: dict[str, set[str]] = {}
+        for component in [*entity.static, *entity.temporal]:
+            archetype, _, name = component.partition(":")
+            logged.setdefault(archetype, set()).add(name)
+        for archetype, names in logged.items():
+            lacking = REQUIRED.get(archetype, set()) - names
+            if lacking:
+                missing.append(f"{path}: {archetype} without {sorted(lacking)}")
+    assert not missing, missing
+
+
 def _at(entity: EntityData, component: str, timeline: str, t: float) -> list:
     """The batch of ``component`` the viewer shows at time ``t``: the last one
     logged at or before ``t`` (fixed targets are logged only when they change)."""
@@ -198,6 +231,7 @@ def test_every_scenario_passes_and_writes_a_valid_recording(name, tmp_path):
     verified = _verify(rrd)
     assert verified.returncode == 0, verified.stderr
     rec = read_recording(rrd)
+    _check_drawable(rec)
     d = result.to_dict()
     json.dumps(d, allow_nan=False)  # JSON-ready
     assert KEYS <= set(d)

@@ -291,6 +291,7 @@ def geom_groups(
     plane_half_size: float,
     entity_path: Any,
     color: Sequence[int] | None = None,
+    only: np.ndarray | None = None,
 ) -> tuple[list[GeomGroup], list[str]]:
     """Group the visible geoms of ``model`` by owner, motion and primitive kind.
 
@@ -305,6 +306,7 @@ def geom_groups(
         color: One RGBA for every geom, drawn translucent with its primitives'
             major wireframe (a second robot: a motion's reference pose), or None
             (each geom's own colour, solid).
+        only: Per-body mask of the bodies whose geoms are grouped (None: all).
 
     Returns:
         The groups, and the names of geoms of unsupported types.
@@ -312,14 +314,14 @@ def geom_groups(
     members: dict[tuple[str, bool, bool, tuple[int, ...]], tuple[Any, list[_Instance]]] = {}
     skipped: list[str] = []
     for g in range(model.ngeom):
-        if int(model.geom_group[g]) not in groups:
+        b = int(model.geom_bodyid[g])
+        if int(model.geom_group[g]) not in groups or (only is not None and not only[b]):
             continue
         prim = _primitive(model, g, plane_half_size)
         if prim is None:
             skipped.append(geom_names[g])
             continue
         kind, archetype, fields, offset = prim
-        b = int(model.geom_bodyid[g])
         own = rgba8(geom_rgba(model, g)) if color is None else color
         rgba = tuple(int(c) for c in own)
         # a mesh's colour is the entity's (albedo), not per instance

@@ -344,10 +344,13 @@ class Recorder:
             plane_half_size=1.0,
             entity_path=lambda kind, robot, moving: f"{base}/{kind}",
             color=style.REFERENCE,
+            only=robot,
         )
-        groups = [g for g in groups if g.robot]
         ids = np.flatnonzero(robot)
         path = f"{base}/bodies"
+        # the body frames are drawn as the robot's are (an Ellipsoids3D needs its sizes)
+        body_names = geometry.unique_names("body", [model.body(b).name for b in range(model.nbody)])
+        self._log_static(path, geometry.body_markers([body_names[b] for b in ids]))
         for group in groups:
             self._log_static(group.path, group.shape)
         self._frames[(path,)] = BodyFrames(path, ids, groups, InstancePoses(model, groups, ids))
