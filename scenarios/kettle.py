@@ -21,9 +21,10 @@ ahead of the shoulder, so the elbow folds past the abdomen: reach and approach
 carry a collision avoidance (seed ``:collision-avoidance-link-pair``, yellow
 zone ``YELLOW``, orange ``ORANGE``) of the arm, chest and pelvis against the
 counter, the kettle and each other, in a level above the hand's target
-(without it the forearm passes through the abdomen and the physical arm,
-stopped there, ends on the counter). The approach leaves out the hand's own
-pairs with the kettle: the handle ends inside the hand.
+(with the counter and the kettle alone, the forearm passed 69 mm into the
+abdomen, and the physical arm, stopped there, ended on the counter). The
+approach leaves out the hand's own pairs with the kettle: the handle ends
+inside the hand.
 
 The iterates are played in physics (``scene.play``), in three scenes, each part
 continuing from the state the one before ended in: look and pre-grasp in the
@@ -79,9 +80,7 @@ from pik_mj.tasks.collision import collision_pairs, moving_pairs
 NAME = "kettle"
 LIFT = 0.1  # [m]
 CENTRED = 0.05  # the handle within this fraction of the image width of its centre
-APPROACH = (
-    0.1  # [m] pre-grasp: the hand this far back from the handle (the box's tip 38 mm off the bar)
-)
+APPROACH = 0.1  # [m] pre-grasp: the hand this far back (the hand box's tip 38 mm off the bar)
 LINKS = ("rarm_upper", "rarm_lower", "rarm_hand", "torso_chest", "pelvis")  # avoidance links
 OBSTACLES = ("counter", "kettle")
 YELLOW = 0.1  # [m] pairs nearer than this are constrained

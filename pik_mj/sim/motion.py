@@ -60,7 +60,10 @@ obstacle between two waypoints shows up there.
 before it in the scene without the grasp, and the part after it in the scene
 with it, continuing from the first part's final state
 (``held.play(lift_path, start=reach_motion)``): the weld switches on at the
-boundary.
+boundary. A hand without fingers, whose box ends around the handle, approaches
+it in a scene with the hand's contacts with the object excluded
+(``Scene.from_robot(robot, exclude=[(hand body, object body)])``: the open
+fingers), the part before in the scene as it is (the kettle scenario).
 """
 
 from __future__ import annotations

@@ -914,5 +914,6 @@ class Scene:
             f"servos={len(self.servo_joints)}, timestep={self.model.opt.timestep}, "
             f"mass={self.mass:.2f} kg, allowed_contacts={self.allowed_contacts}"
             + (f", grasps={[(g.frame, g.body) for g in self.grasps]}" if self.grasps else "")
+            + (f", exclude={self.exclude}" if self.exclude else "")
             + ")"
         )
