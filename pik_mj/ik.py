@@ -6,8 +6,9 @@ Both functions build a stack of levels for :func:`pik_mj.solve.solve` and run it
 * :func:`inverse_kinematics` — level 0: joint limits, the MJCF couplings
   (:class:`~pik_mj.couplings.CouplingTask`, when the model has any), and every degree of freedom
   outside the used chains frozen (hard ``x_i = 0``; a floating base stays where it
-  is); level 1: one frame task per target; level 2: look-at (if any); then the
-  caller's ``extra_levels``; last: posture towards the start (not checked).
+  is); then the ``collision_avoidance`` tasks (if any, above the targets); one
+  frame task per target; look-at (if any); the caller's ``extra_levels``; last:
+  posture towards the start (not checked).
 * :func:`fullbody_inverse_kinematics` — level 0: joint limits, couplings, frozen dofs and the
   root's displacement box (irteus ``:min``/``:max`` of the root-link virtual joint);
   level 1: feet fixed where they are, the centroid over the feet on the
@@ -467,6 +468,7 @@ def inverse_kinematics(
     look_at: Any = None,
     gaze_axis: Sequence[float] = (1.0, 0.0, 0.0),
     posture_weight: float = 1e-2,
+    collision_avoidance: Task | Sequence[Task] = (),
     extra_levels: Sequence[Sequence[Any]] | None = None,
     callback: Callback | Sequence[Callback] | None = None,
     **solve_kwargs: Any,
@@ -500,6 +502,11 @@ def inverse_kinematics(
         gaze_axis: Gaze axis of the head end frame [-].
         posture_weight: Cost of moving away from the start posture, last level
             [cost/rad²].
+        collision_avoidance: Tasks of a level above the targets, e.g. a
+            :class:`pik_mj.tasks.collision.CollisionAvoidanceTask` (irteus
+            ``:collision-avoidance-link-pair``): a target that would need a
+            collision is given up, not the clearance (as in
+            :func:`fullbody_inverse_kinematics`).
         extra_levels: Levels inserted before the posture level.
         callback: A per-iteration callback or a list of them (see
             :func:`pik_mj.solve.solve`).
@@ -528,6 +535,7 @@ def inverse_kinematics(
         look_at=look_at,
         gaze_axis=gaze_axis,
         posture_weight=posture_weight,
+        collision_avoidance=collision_avoidance,
         extra_levels=extra_levels,
     )
     return solve(
@@ -554,6 +562,7 @@ def _build_ik_levels(
     look_at: Any,
     gaze_axis: Sequence[float],
     posture_weight: float,
+    collision_avoidance: Any,
     extra_levels: Any,
 ) -> list[list[Any]]:
     if not isinstance(robot, Robot):
@@ -580,6 +589,11 @@ def _build_ik_levels(
     if freeze is not None:
         level0.append(freeze)
     levels: list[list[Any]] = [level0]
+    avoid = _tasks(collision_avoidance, "collision_avoidance")
+    for i, task in enumerate(avoid):
+        _check_model(robot, task, f"collision_avoidance[{i}]")
+    if avoid:
+        levels.append(avoid)
     if frames:
         levels.append(
             list(_frame_tasks(robot, frames, poses, translation_axis, rotation_axis, thre, rthre))

@@ -8,7 +8,9 @@ evaluated every iteration: the left hand's current pose moved 0.1 m along the
 shaker axis, rotation about that axis free. The seed's shaker axis is the
 hand's z; on the sample humanoid the grasp axis (across the palm) is the
 hand's x, so x is the axis named here. Every iteration is checked statically in
-the robot's scene; the final pose is held in physics.
+the robot's scene. The iterates are a motion by nature (a time-varying target):
+they are played in physics (``scene.play``), the steps of the shake one
+segment (travelled without stopping between steps); the final pose is held.
 """
 
 from __future__ import annotations
@@ -18,16 +20,41 @@ import sys
 import mink
 import numpy as np
 
-from pik_mj import HoldCriteria, Progress, Recorder, Robot, Scene, inverse_kinematics
-from pik_mj.scenario import DEFAULT_HOLD, ScenarioResult, count, open_recorder, parser, report
+from pik_mj import (
+    CollisionAvoidanceTask,
+    HoldCriteria,
+    Progress,
+    Recorder,
+    Robot,
+    Scene,
+    Waypoints,
+    inverse_kinematics,
+)
+from pik_mj.scenario import (
+    DEFAULT_HOLD,
+    DEFAULT_SPEED,
+    ScenarioResult,
+    count,
+    open_recorder,
+    parser,
+    report,
+)
+from pik_mj.tasks.collision import collision_pairs
 
 NAME = "cocktail_shaker"
 SHAKER = 0.1  # [m] between the hands along the shaker axis
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
+YELLOW = 0.05  # [m] arm pairs nearer than this are constrained
+ORANGE = 0.01  # [m] the distance kept between the arms
 
 
 def run(
-    recorder: Recorder, *, hold: float = DEFAULT_HOLD, quiet: bool = True, steps: int = 32
+    recorder: Recorder,
+    *,
+    hold: float = DEFAULT_HOLD,
+    speed: float = DEFAULT_SPEED,
+    quiet: bool = True,
+    steps: int = 32,
 ) -> ScenarioResult:
     result = ScenarioResult(NAME)
     robot = Robot.from_model("sample_humanoid")
@@ -42,30 +69,47 @@ def run(
     def right_target() -> mink.SE3:  # seed: (send (larm end-coords copy) :translate 100 local)
         return left_hand() @ mink.SE3.from_translation(np.array([SHAKER, 0.0, 0.0]))
 
-    def solve(label: str, *targets, **options) -> None:
-        """``inverse_kinematics`` with the static checks, the logger and the progress."""
+    path = Waypoints(robot, "left hand to start")
+
+    def solve(label: str, segment: str, *targets, **options) -> None:
+        """``inverse_kinematics`` with the static checks, the logger, the progress
+        and the path (its iterates in the motion's ``segment``)."""
         checks = scene.static_checker()
         log = recorder.solve_logger(label, checks=checks, start=robot)
         progress = Progress(label, total=50, stream=err)
-        res = inverse_kinematics(robot, *targets, callback=[checks, log, progress], **options)
-        result.add_solve(label, res, checks, finish=[log, progress])
+        res = inverse_kinematics(
+            robot, *targets, callback=[checks, log, progress, path.segment(segment)], **options
+        )
+        result.add_solve(label, res, checks, finish=[log, progress, path])
 
     solve(
+        "left hand to start",
         "left hand to start",
         (waist + np.array([0.4, 0.0, 0.0]), IDENTITY),
         limbs="larm",
         rotation_axis=None,
     )
+    # The arms keep ORANGE apart (the hands, holding the shaker together, excepted):
+    # the right hand's first move to the shaker passes the left hand.
+    arms = [f"{side}arm_{link}" for side in "rl" for link in ("upper", "lower", "hand")]
+    pairs = [
+        p
+        for p in collision_pairs(robot.model, robot.data, arms)
+        if {p.name1, p.name2} != {"rarm_hand", "larm_hand"}
+    ]
+    avoid = CollisionAvoidanceTask(robot.configuration, pairs, yellow=YELLOW, orange=ORANGE)
     rel_errors, left_errors = [], []
     for k in range(steps):
         t = 0.1 * (k + 1)
         p_left = waist + np.array([0.4 + 0.1 * np.sin(t), 0.05 * np.cos(t), 0.0])
         solve(
             f"shake {k:02d}",
+            "shake",  # one segment: the shake does not stop between steps
             [(p_left, IDENTITY), right_target],
             limbs=["larm", "rarm"],
             translation_axis=["x", True],
             rotation_axis=[None, "x"],
+            collision_avoidance=avoid,
         )
         X_RL = right_target().inverse() @ robot.frame_pose("rarm_end")
         rel_rot = X_RL.rotation().as_matrix()
@@ -80,6 +124,12 @@ def run(
         left_errors.append(
             float(np.linalg.norm((R_WL.T @ (left_hand().translation() - p_left))[1:]))
         )
+
+    # The iterates as a motion in physics.
+    if speed:
+        log = recorder.motion_logger()
+        motion = scene.play(path, speed=speed, callback=[log])
+        result.add_motion("left hand to start, shake", motion, finish=[log])
 
     # The final pose in physics; the contacts the solves made are intended.
     q = robot.configuration.q.copy()
@@ -123,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--steps", type=count, default=32, help="shaking steps")
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, hold=args.hold, quiet=args.quiet, steps=args.steps)
+        result = run(recorder, hold=args.hold, speed=args.speed, quiet=args.quiet, steps=args.steps)
     return report(result, args)
 
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import sys
 
-import mujoco
 import numpy as np
 
 from pik_mj import (
@@ -44,6 +43,7 @@ from pik_mj.scenario import (
     report,
 )
 from pik_mj.sim import StaticChecks
+from pik_mj.sim.motion import Clearance, min_distance
 from pik_mj.solve import SolveResult, TrustRegion
 from pik_mj.tasks.collision import collision_pairs
 
@@ -54,29 +54,6 @@ YELLOW = 0.1  # [m] pairs nearer than this are constrained
 ORANGE = 0.02  # [m] the distance kept
 GAIN = 0.2  # velocity-damper gain: a slow approach keeps the linearized rows from overshooting
 STEPS = TrustRegion(radius=0.02, max_radius=0.04)  # short steps: a dense path to play
-
-
-class Clearance:
-    """The smallest distance [m] between ``geoms`` and ``obstacle`` along a
-    motion, in the physics (``physics``) and in the reference the servos track
-    (``reference``): a callback of :meth:`pik_mj.sim.Scene.play`."""
-
-    def __init__(self, geoms: list[int], obstacle: int):
-        self.geoms, self.obstacle = geoms, obstacle
-        self.physics = self.reference = np.inf
-
-    def __call__(self, sample) -> None:
-        d = distance(sample.model, sample.data, self.geoms, self.obstacle)
-        self.physics = min(self.physics, d)
-        if sample.reference is not None:
-            d = distance(sample.model, sample.reference, self.geoms, self.obstacle)
-            self.reference = min(self.reference, d)
-
-
-def distance(model: mujoco.MjModel, data: mujoco.MjData, geoms: list[int], obstacle: int) -> float:
-    """Smallest signed distance [m] of ``geoms`` to ``obstacle`` (MuJoCo's
-    ``mj_geomDistance``; negative: penetration depth)."""
-    return min(mujoco.mj_geomDistance(model, data, g, obstacle, 1.0, None) for g in geoms)
 
 
 def reach(
@@ -131,13 +108,13 @@ def run(
         robot.configuration.update(q0)
         res, checks, log, progress, path = reach(robot, scene, recorder, label, tasks, quiet)
         result.add_solve(label, res, checks, finish=[log, progress, path])
-        iterates = min(distance(model, _data(scene, w.q), arm, box) for w in path.items)
+        iterates = min(min_distance(model, scene.kinematics(w.q), arm, [box]) for w in path.items)
         hand = float(np.linalg.norm(robot.frame_pose("rarm_end").translation() - TARGET))
         key = "with" if tasks else "without"
         figures[f"min_distance_iterates_{key}_m"] = iterates
         figures[f"hand_error_{key}_m"] = hand
         if speed:
-            clearance = Clearance(arm, box)
+            clearance = Clearance(model, arm, [box])
             log = recorder.motion_logger(cameras=[head])  # the robot's view, where MuJoCo renders
             motion = scene.play(path, speed=speed, callback=[log, clearance])
             log.finish(motion)
@@ -183,14 +160,6 @@ def run(
             f"min distance {f['min_distance_physics_without_m'] * 1e3:.1f} mm",
         )
     return result
-
-
-def _data(scene: Scene, q: np.ndarray) -> mujoco.MjData:
-    """Kinematics of the robot configuration ``q`` in the scene's model."""
-    data = mujoco.MjData(scene.model)
-    data.qpos[:] = scene._qpos(q)
-    mujoco.mj_kinematics(scene.model, data)
-    return data
 
 
 def main(argv: list[str] | None = None) -> int:

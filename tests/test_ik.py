@@ -263,6 +263,39 @@ def test_fullbody_collision_avoidance_keeps_the_forearm_off_the_body():
     assert clearance[True] >= 0.01 - 1e-3 and not contacts[True]
 
 
+def test_inverse_kinematics_collision_avoidance_sits_above_the_target():
+    # The same reach with the arm alone (root and waist fixed): without
+    # avoidance the forearm ends 8 cm inside the pelvis; with it (the level
+    # above the hand's target) the arm keeps the 1 cm orange zone and still
+    # reaches.
+    robot = Robot.from_model("sample_humanoid")
+    arm, body = ["rarm_upper", "rarm_lower", "rarm_hand"], ["pelvis", "torso_chest"]
+    pairs = collision_pairs(robot.model, robot.data, arm + body)
+    clearance, contacts = {}, {}
+    target = np.array([0.22, 0.01, 0.88])
+    for avoid in (False, True):
+        robot.reset_pose()
+        task = CollisionAvoidanceTask(robot.configuration, pairs, yellow=0.1, orange=0.01)
+        res = inverse_kinematics(
+            robot,
+            (target, IDENTITY),
+            limbs="rarm",
+            rotation_axis=None,
+            collision_avoidance=task if avoid else (),
+            stop=100,
+        )
+        assert res.converged, res.summary()
+        assert np.linalg.norm(robot.frame_pose("rarm_end").translation() - target) <= 1e-3
+        clearance[avoid] = task.distances(robot.configuration).min()
+        contacts[avoid] = _arm_torso_contacts(robot, arm, body)
+        levels = {t.name: t.level for t in res.tasks}
+        assert ("collision" in levels) == avoid
+        if avoid:
+            assert levels["collision"] < levels["target:rarm_end"]
+    assert clearance[False] < -0.05 and contacts[False]
+    assert clearance[True] >= 0.01 - 1e-3 and not contacts[True]
+
+
 # ---------------------------------------------------------------- bad input
 def test_unknown_limb_lists_valid_limbs():
     robot = Robot.from_model("sample_humanoid")

@@ -2,10 +2,18 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 
+import numpy as np
 import pytest
-from pik_mj.scenarios import fullbody_external_force, kettle, obstacle_reach, wall_contact
+from pik_mj.scenarios import (
+    cocktail_shaker,
+    fullbody_external_force,
+    kettle,
+    obstacle_reach,
+    wall_contact,
+)
 
 from pik_mj import Recorder
 from pik_mj.scenario import jsonable
@@ -73,14 +81,17 @@ def test_external_force_motion_takes_up_the_load(tmp_path):
     assert motion["max_drift"] < 0.02
 
 
-def test_kettle_handle_centred_in_the_head_camera(tmp_path):
+@pytest.fixture(scope="module")
+def kettle_out(tmp_path_factory) -> dict:
+    """The kettle's JSON summary (a 0.5 s hold), run once for the tests below."""
+    return run(kettle, tmp_path_factory.mktemp("kettle"))
+
+
+def test_kettle_handle_centred_in_the_head_camera(kettle_out):
     """After the look-at, the handle projects within 5 % of the image width of
     the centre of the head camera's image (its pinhole: MuJoCo's fovy, 320 x
     240) and no geom occludes it (MuJoCo's ray cast)."""
-    with Recorder.to_file(tmp_path / "k.rrd", "kettle") as rec:
-        result = kettle.run(rec, hold=0.0)
-    f = json.loads(json.dumps(jsonable(result.to_dict())))["figures"]
-    assert result.passed
+    f = kettle_out["figures"]
     assert f["image_width_px"] == 320
     assert f["handle_offset_from_image_centre_px"] <= 0.05 * 320
     assert f["handle_visible_after_look"] is True
@@ -89,7 +100,45 @@ def test_kettle_handle_centred_in_the_head_camera(tmp_path):
     assert 0 <= u <= 320 and 0 <= v <= 240
 
 
-@pytest.mark.parametrize("module", [wall_contact, obstacle_reach])
+def test_kettle_reach_grasp_lift_played_in_physics(kettle_out):
+    """Look and pre-grasp in the room, the approach with the hand's contacts with
+    the kettle excluded, the lift with the kettle welded in the hand: three parts,
+    each from the state the last ended in; no unexpected contact (the counter,
+    the kettle, the robot itself), the hand and forearm at least the orange
+    distance from the counter in the reference and clear of it in physics, the
+    kettle still until the grasp and lifted 0.1 m by the physical hand."""
+    motion = check_motion(kettle_out)
+    parts = motion["parts"]
+    assert list(parts) == ["look, pre-grasp", "approach (open hand)", "lift (kettle in the hand)"]
+    assert list(parts["look, pre-grasp"]["segments"]) == ["look", "pre-grasp"]
+    spans = [span for p in parts.values() for span in p["segments"].values()]
+    assert all(a[1] < b[0] for a, b in itertools.pairwise(spans))  # one clock
+    assert all(p["passed"] and p["contacts"]["unexpected"] == [] for p in parts.values())
+    assert ["kettle_pot", "counter"] in parts["lift (kettle in the hand)"]["contacts"][
+        "planned_pairs"
+    ]
+    assert motion["max_tracking_error"]["frames_m"] < 0.03
+    assert motion["max_drift"] < 0.02 and motion["min_com_margin"] > 0.03
+    f = kettle_out["figures"]
+    assert f["min_distance_hand_forearm_counter_reference_m"] >= kettle.ORANGE - 1e-3
+    assert f["min_distance_hand_forearm_counter_physics_m"] > 0.01
+    assert f["kettle_moved_before_the_grasp_physics_m"] < 1e-3
+    lifted = np.array(f["kettle_lift_physics_m"])
+    assert abs(lifted[2] - kettle.LIFT) < 0.01 and np.linalg.norm(lifted[:2]) < 0.01
+
+
+def test_cocktail_shaker_played_without_the_arms_meeting(tmp_path):
+    """The shake is one segment (no stop between steps); the right hand's first
+    move to the shaker passes the left hand (arm avoidance: without it the
+    forearm sweeps through the left hand and knocks its wrist 0.34 rad off)."""
+    out = run(cocktail_shaker, tmp_path, steps=8)
+    motion = check_motion(out)
+    (part,) = motion["parts"].values()
+    assert list(part["segments"]) == ["left hand to start", "shake"]
+    assert motion["max_tracking_error"]["joints_rad"] < 0.05
+
+
+@pytest.mark.parametrize("module", [wall_contact, obstacle_reach, kettle, cocktail_shaker])
 def test_motion_not_played_at_speed_zero(module, tmp_path):
     with Recorder.to_file(tmp_path / "x.rrd", "x") as rec:
         result = module.run(rec, hold=0.0, speed=0.0)

@@ -115,7 +115,8 @@ def test_failed_check_fails_the_scenario():
 
 def test_kettle_is_held_in_the_hand_during_the_hold(tmp_path):
     with Recorder.to_file(tmp_path / "kettle.rrd") as recorder:
-        result = load_scenario("kettle").run(recorder, hold=1.5)
+        # the hold alone (its motion: tests/test_motion_scenarios.py)
+        result = load_scenario("kettle").run(recorder, hold=1.5, speed=0.0)
     assert result.passed, result.summary()
     hold = result.balance["hold"]
     assert hold["drift"] < 0.01 and hold["slip"] < 0.002 and hold["unexpected_contacts"] == []

@@ -23,6 +23,7 @@ from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.record import PATHS, read_recording
 from pik_mj.robot import Robot
 from pik_mj.sim import ContactParams, Scene, add_wall, floor_environment, validate_pose
+from pik_mj.sim.motion import Clearance, min_distance
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.linear import LinearTask
 from pik_mj.tasks.support_polygon import SupportPolygonTask
@@ -556,6 +557,95 @@ def test_grasp_pair_reads_the_object_pose_from_the_robot():
     expected = hand.xpos + hand.xmat.reshape(3, 3) @ g.p_FO
     np.testing.assert_allclose(scene.data.body("kettle").xpos, expected, atol=1e-12)
     assert scene.robot is robot
+
+
+def _kettle_in_the_hand() -> tuple[Robot, np.ndarray]:
+    """The robot at the counter with the kettle moved so that its handle bar
+    passes through the right hand's site (the hand box around the bar), upright."""
+    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_counter_front")
+    q = robot.configuration.q.copy()
+    k = robot.model.joint("kettle_free").qposadr[0]
+    handle_in_kettle = robot.model.site("kettle_handle").pos  # [m], kettle frame
+    q[k : k + 7] = np.r_[robot.frame_pose("rarm_end").translation() - handle_in_kettle, 1, 0, 0, 0]
+    robot.configuration.update(q)
+    return robot, q
+
+
+def _hand_kettle(contacts) -> set[str]:
+    return {c.other_geom for c in contacts if c.robot_geom == "rarm_hand"}
+
+
+def test_scene_kinematics_of_a_robot_configuration():
+    robot, q = _kettle_in_the_hand()
+    scene = Scene.from_robot(robot)
+    before = scene.data.qpos.copy()
+    d = scene.kinematics(q)
+    assert d is not scene.data and np.array_equal(scene.data.qpos, before)
+    # Independent: the robot's own model (mink's forward kinematics).
+    for name, kind in (("rarm_end", "site"), ("kettle", "body"), ("head_link", "body")):
+        X = robot.frame_pose(name, kind)
+        frame = d.site(name) if kind == "site" else d.body(name)
+        np.testing.assert_allclose(frame.xpos, X.translation(), atol=1e-12)
+        np.testing.assert_allclose(frame.xmat.reshape(3, 3), X.rotation().as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(scene.com(d), robot.com(), atol=1e-12)  # mj_comPos ran
+    again = scene.kinematics(q, d)
+    assert again is d
+    with pytest.raises(InvalidInput, match="q"):
+        scene.kinematics(q[:-1])
+    with pytest.raises(InvalidInput, match="MjData"):
+        scene.kinematics(q, mujoco.MjData(humanoid_scene().model))
+
+
+def test_excluded_body_pair_never_touches():
+    """The hand box around the kettle's handle bar touches it in the room as it
+    is, in the static check and in the physics, and never with the pair excluded;
+    every other contact is the same."""
+    robot, q = _kettle_in_the_hand()
+    room = Scene.from_robot(robot)
+    open_hand = Scene.from_robot(robot, exclude=[("rarm_hand", "kettle")])
+    assert open_hand.exclude == [("rarm_hand", "kettle")]
+    qpos = room.kinematics(q).qpos
+    seen = _hand_kettle(room.touching(qpos))
+    assert "kettle_handle" in seen and all(g.startswith("kettle") for g in seen)
+    assert _hand_kettle(open_hand.touching(qpos)) == set()
+    others = {
+        (c.robot_geom, c.other_geom) for c in room.touching(qpos) if c.robot_geom != "rarm_hand"
+    }
+    assert others == {
+        (c.robot_geom, c.other_geom)
+        for c in open_hand.touching(qpos)
+        if c.robot_geom != "rarm_hand"
+    }
+    for scene, touches in ((room, True), (open_hand, False)):
+        scene.set_pose(q)  # mj_forward: the physics' own contacts
+        contacts = scene._contacts(scene.model, scene.data, 0.0)
+        assert bool(_hand_kettle(contacts)) == touches
+    with pytest.raises(UnknownName, match="kettle"):
+        Scene.from_robot(robot, exclude=[("rarm_hand", "kettel")])
+    with pytest.raises(InvalidInput, match="pairs"):
+        Scene.from_robot(robot, exclude=[("rarm_hand",)])
+    with pytest.raises(InvalidInput, match="pairs"):
+        Scene.from_robot(robot, exclude="rarm_hand")
+
+
+def test_min_distance_and_clearance_names():
+    """The kettle raised 5 cm above the counter: its pot's bottom is 5 cm from
+    the counter's top (mj_geomDistance, cylinder against box)."""
+    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_counter_front")
+    scene = Scene.from_robot(robot)
+    q = robot.configuration.q.copy()
+    k = robot.model.joint("kettle_free").qposadr[0]
+    q[k + 2] += 0.05
+    d = scene.kinematics(q)
+    ids = [scene.model.geom(n).id for n in ("kettle_pot", "counter")]
+    assert min_distance(scene.model, d, ids[:1], ids[1:]) == pytest.approx(0.05, abs=1e-6)
+    assert min_distance(scene.model, d, ids[:1], ids[1:], distmax=0.01) == 0.01
+    clearance = Clearance(scene.model, ["kettle_pot", ids[0]], ["counter"])
+    assert clearance.geoms == [ids[0], ids[0]] and clearance.physics == np.inf
+    with pytest.raises(UnknownName, match="counter"):
+        Clearance(scene.model, ["rarm_hand"], ["countr"])
+    with pytest.raises(InvalidInput, match="geom"):
+        Clearance(scene.model, "rarm_hand", ["counter"])
 
 
 def test_scene_needs_a_robot_that_knows_its_world():

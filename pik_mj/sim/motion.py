@@ -60,7 +60,10 @@ obstacle between two waypoints shows up there.
 before it in the scene without the grasp, and the part after it in the scene
 with it, continuing from the first part's final state
 (``held.play(lift_path, start=reach_motion)``): the weld switches on at the
-boundary.
+boundary. A hand without fingers, whose box ends around the handle, approaches
+it in a scene with the hand's contacts with the object excluded
+(``Scene.from_robot(robot, exclude=[(hand body, object body)])``: the open
+fingers), the part before in the scene as it is (the kettle scenario).
 """
 
 from __future__ import annotations
@@ -78,8 +81,8 @@ from numpy.typing import ArrayLike
 
 from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
-from pik_mj.exceptions import InvalidInput
-from pik_mj.frames import Frame
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.frames import Frame, names_of
 
 from .hold import HoldCriteria, check_options, holding_torques, track
 from .static import finite_or_none
@@ -94,11 +97,13 @@ __all__ = [
     "DEFAULT_SPEED",
     "MOTION_CRITERIA",
     "SEED_MAX_VELOCITY",
+    "Clearance",
     "MotionReference",
     "MotionReport",
     "PhysicsState",
     "Waypoint",
     "Waypoints",
+    "min_distance",
     "play",
     "velocity_limits",
 ]
@@ -665,6 +670,84 @@ class MotionReport:
             f"{len(self.unexpected_contacts)} unexpected contacts"
             + (f"; {'; '.join(self.failures)}" if self.failures else "")
         )
+
+
+# ---------------------------------------------------------------------------
+# clearance along a motion
+
+
+def _geom_ids(model: mujoco.MjModel, geoms: Sequence[str | int], what: str) -> list[int]:
+    if isinstance(geoms, (str, bytes)) or not isinstance(geoms, Sequence) or not geoms:
+        raise InvalidInput(f"{what} must be a non-empty list of geom names or ids, got {geoms!r}")
+    out = []
+    for g in geoms:
+        if isinstance(g, str):
+            i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, g)
+            if i < 0:
+                raise UnknownName("geom", g, names_of(model, "geom"))
+            out.append(int(i))
+        elif isinstance(g, (int, np.integer)) and 0 <= g < model.ngeom:
+            out.append(int(g))
+        else:
+            raise InvalidInput(f"{what}: {g!r} is not a geom of the model (0..{model.ngeom - 1})")
+    return out
+
+
+def min_distance(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    geoms: Sequence[int],
+    obstacles: Sequence[int],
+    distmax: float = 1.0,
+) -> float:
+    """Smallest signed distance [m] between any of ``geoms`` and any of
+    ``obstacles`` (geom ids) in ``data``: MuJoCo's ``mj_geomDistance``, negative
+    when they penetrate (the depth), ``distmax`` when all are farther."""
+    return min(
+        mujoco.mj_geomDistance(model, data, g, o, distmax, None) for g in geoms for o in obstacles
+    )
+
+
+class Clearance:
+    """The smallest distance [m] between ``geoms`` and ``obstacles`` along a
+    motion, in the physics (``physics``) and in the reference the servos track
+    (``reference``): a callback of :meth:`pik_mj.sim.Scene.play` (one instance
+    may follow several parts of a motion, in scenes of the same world).
+
+    Args:
+        model: The scene's model (geom names are looked up in it).
+        geoms: Geom names or ids (e.g. an arm's).
+        obstacles: Geom names or ids (e.g. a box, a counter).
+        distmax: Distances beyond it read as ``distmax`` [m].
+
+    Attributes:
+        physics: Smallest distance in the physics [m] (``inf`` before a sample).
+        reference: Smallest distance in the reference [m].
+        physics_time: When the physics' smallest distance was reached [s].
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        geoms: Sequence[str | int],
+        obstacles: Sequence[str | int],
+        distmax: float = 1.0,
+    ):
+        self.geoms = _geom_ids(model, geoms, "geoms")
+        self.obstacles = _geom_ids(model, obstacles, "obstacles")
+        self.distmax = inputs.real(distmax, "distmax", unit="m", low=0, low_open=True)
+        self.physics = self.reference = math.inf
+        self.physics_time = math.nan
+
+    def __call__(self, sample: Any) -> None:
+        d = min_distance(sample.model, sample.data, self.geoms, self.obstacles, self.distmax)
+        if d < self.physics:
+            self.physics, self.physics_time = d, float(sample.time)
+        if sample.reference is not None:
+            d = min_distance(
+                sample.model, sample.reference, self.geoms, self.obstacles, self.distmax
+            )
+            self.reference = min(self.reference, d)
 
 
 # ---------------------------------------------------------------------------

@@ -225,6 +225,7 @@ class Scene:
         contact_tolerance: Distance [m] within which :meth:`static_check` counts
             two geoms as touching.
         grasps: The :class:`Grasp` list.
+        exclude: Body pairs whose contacts are excluded.
         carried_mass: Mass of the grasped objects [kg].
     """
 
@@ -244,6 +245,7 @@ class Scene:
         impratio: float = 10.0,
         noslip_iterations: int = 0,
         grasps: Sequence[GraspLike] = (),
+        exclude: Sequence[tuple[str, str]] = (),
     ):
         """The physics scene of ``robot``'s world.
 
@@ -282,13 +284,18 @@ class Scene:
                 :class:`Grasp`\\ s / ``(frame, body, p_FO, R_FO)``. Each object's
                 pose then follows the robot and a weld equality (``solref`` of
                 ``contact``, else MuJoCo's) holds it in the physics.
+            exclude: Body pairs ``(body1, body2)`` that never touch (MJCF
+                ``<contact><exclude>``), e.g. a hand without fingers and the
+                object it is about to grasp: the open fingers pass around the
+                handle, which ends inside the hand's box.
 
         Raises:
             InvalidInput: A robot without a source (``Robot(model)``), an
                 environment for a robot that has one, bad options, or a scene
                 that does not compile.
             UnknownName: Unknown joint in ``kp``/``kv``, geoms in
-                ``allowed_contacts``, frames or bodies in ``grasps``.
+                ``allowed_contacts``, frames or bodies in ``grasps``, bodies in
+                ``exclude``.
         """
 
         from pik_mj.robot import Robot
@@ -379,7 +386,8 @@ class Scene:
             self._apply_contact(spec, model, contact)
         self.grasps = self._parse_grasps(model, grasps)
         self._add_grasps(spec, model, contact)
-        if contact is not None or self.grasps:
+        self.exclude = self._add_excludes(spec, model, exclude)
+        if contact is not None or self.grasps or self.exclude:
             model = _compile(spec)
         self.spec = spec
         self.model = model
@@ -601,6 +609,25 @@ class Scene:
                 weld.solref = list(contact.solref)
             spec.add_exclude(bodyname1=model.body(body).name, bodyname2=g.body)
 
+    @staticmethod
+    def _add_excludes(
+        spec: mujoco.MjSpec, model: mujoco.MjModel, exclude: Sequence[tuple[str, str]]
+    ) -> list[tuple[str, str]]:
+        """A contact exclusion per body pair of ``exclude`` (names checked)."""
+        if isinstance(exclude, (str, bytes)) or not isinstance(exclude, Sequence):
+            raise InvalidInput(f"exclude must be a list of (body1, body2) pairs, got {exclude!r}")
+        bodies = _names(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody)
+        out = []
+        for pair in exclude:
+            if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
+                raise InvalidInput(f"exclude takes (body1, body2) pairs, got {pair!r}")
+            for name in pair:
+                if name not in bodies:
+                    raise UnknownName("body", name, [b for b in bodies if b])
+            spec.add_exclude(bodyname1=pair[0], bodyname2=pair[1])
+            out.append((str(pair[0]), str(pair[1])))
+        return out
+
     def _allowed(self, allowed: Sequence[str] | None) -> list[str]:
         robot_geoms = [n for g, n in enumerate(self._geom_names) if self._robot_geom[g] and n]
         if allowed is None:
@@ -634,6 +661,28 @@ class Scene:
                 out[adr : adr + 3] = frame.position(d) + R_WF @ g.p_FO
                 out[adr + 3 : adr + 7] = matrix_to_quat(R_WF @ g.R_FO)
         return out
+
+    def kinematics(self, q: ArrayLike, data: mujoco.MjData | None = None) -> mujoco.MjData:
+        """MuJoCo's kinematics of the scene at the robot configuration ``q``
+        (the environment at ``qpos0``, grasped objects in their frames): the
+        poses of bodies, geoms and sites (``mj_kinematics``) and the subtree
+        centres of mass (``mj_comPos``), in ``data`` (default: a new
+        ``MjData`` of :attr:`model`, the physics state untouched). For
+        distances along a path (``mj_geomDistance``), camera views, the CoM
+        (:meth:`com`).
+
+        Raises:
+            InvalidInput: ``q`` is not a finite configuration of the robot, or
+                ``data`` is not of :attr:`model`.
+        """
+        if data is None:
+            data = mujoco.MjData(self.model)
+        elif not isinstance(data, mujoco.MjData) or data.qpos.shape != (self.model.nq,):
+            raise InvalidInput("data must be an MjData of the scene's model (scene.model)")
+        data.qpos[:] = self._qpos(q)
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_comPos(self.model, data)
+        return data
 
     def set_pose(self, q: ArrayLike) -> None:
         """Write the robot configuration ``q`` into the physics state: zero
@@ -865,5 +914,6 @@ class Scene:
             f"servos={len(self.servo_joints)}, timestep={self.model.opt.timestep}, "
             f"mass={self.mass:.2f} kg, allowed_contacts={self.allowed_contacts}"
             + (f", grasps={[(g.frame, g.body) for g in self.grasps]}" if self.grasps else "")
+            + (f", exclude={self.exclude}" if self.exclude else "")
             + ")"
         )
