@@ -26,7 +26,7 @@ import pytest
 from tmp_scenarios import add_scenario
 
 from pik_mj import Recorder, Robot, cli
-from pik_mj.record import PATHS, EntityData, read_recording, style
+from pik_mj.record import PATHS, EntityData, read_blueprint, read_recording, style
 from pik_mj.scenario import ScenarioResult
 
 HOLD = 3.0  # [s], as pik-mj run
@@ -81,6 +81,28 @@ def _check_drawable(rec: dict[str, EntityData]) -> None:
             if lacking:
                 missing.append(f"{path}: {archetype} without {sorted(lacking)}")
     assert not missing, missing
+
+
+def _check_pinholes(rrd: Path, rec: dict[str, EntityData]) -> None:
+    """No 3D view shows a pinhole without a value on its tab's timeline (the
+    viewer marks the view with an error: a camera logged on ``sim_time`` only
+    is left out of the solve's view)."""
+    bad = []
+    for tab, views in read_blueprint(rrd).tabs:
+        timeline = tab.partition("(timeline: ")[2].rstrip(")")
+        for view in views:
+            if view.kind != "3D" or not timeline:
+                continue
+            for path in view.entities(rec):
+                rows = [
+                    t
+                    for c, r in rec[path].temporal.items()
+                    if c.startswith("Pinhole:")
+                    for t, _ in r
+                ]
+                if rows and not any(timeline in t for t in rows):
+                    bad.append(f"{tab}: {path}")
+    assert not bad, bad
 
 
 def _at(entity: EntityData, component: str, timeline: str, t: float) -> list:
@@ -232,6 +254,7 @@ def test_every_scenario_passes_and_writes_a_valid_recording(name, tmp_path):
     assert verified.returncode == 0, verified.stderr
     rec = read_recording(rrd)
     _check_drawable(rec)
+    _check_pinholes(rrd, rec)
     d = result.to_dict()
     json.dumps(d, allow_nan=False)  # JSON-ready
     assert KEYS <= set(d)

@@ -150,6 +150,9 @@ class Tab:
         plots: Its time-series views.
         cameras: Entity paths of camera images shown below the 3D view.
         events: Whether the text log of events is shown below the 3D view.
+        hidden: Entity paths its 3D view leaves out: cameras with no rows on
+            its timeline (rerun marks the view with an error for a pinhole
+            that has no value at the time shown).
     """
 
     name: str
@@ -159,6 +162,7 @@ class Tab:
     plots: tuple[Plot, ...] = ()
     cameras: tuple[str, ...] = ()
     events: bool = False
+    hidden: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -232,12 +236,14 @@ def layout_of(logged: Mapping[str, set[str]], paths: EntityPaths = PATHS) -> Lay
                     tuple(paths.balance_metric(p) for p in counts),
                 )
             )
+        on_iterations = set(_under(logged, paths.cameras, "iteration"))
         tabs.append(
             Tab(
                 "solve (timeline: iteration)",
                 "solve: robot, targets, balance",
                 "iteration",
                 plots=tuple(plots),
+                hidden=tuple(p for p in _under(logged, paths.cameras) if p not in on_iterations),
             )
         )
     motion = _under(logged, paths.motion, "sim_time")
@@ -358,6 +364,7 @@ def _build(
         view3d = rrb.Spatial3DView(
             origin=paths.world,
             name=tab.view,
+            contents=["$origin/**", *(f"- {p}" for p in tab.hidden)],
             eye_controls=None if frame is None else eye(frame, tab.direction),
         )
         views.append((view3d, tab))

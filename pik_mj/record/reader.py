@@ -114,7 +114,8 @@ class ViewLayout:
         kind: rerun's view class (``"3D"``, ``"TimeSeries"``, ``"TextLog"``).
         name: Display name.
         origin: Space origin (an entity path).
-        contents: Its query expressions (``"$origin/**"`` or entity paths).
+        contents: Its query expressions (``"$origin/**"`` or entity paths; an
+            exclusion starts with ``"- "``).
         timelines: Timelines of its visible time ranges.
         eye: ``{"position": (3,), "look_target": (3,)}`` of a 3D view's camera, or None.
     """
@@ -127,18 +128,23 @@ class ViewLayout:
     eye: dict[str, np.ndarray] | None
 
     def entities(self, paths: Any) -> list[str]:
-        """The entity paths among ``paths`` that the view shows (its contents'
-        ``$origin/**``, ``<path>/**`` and exact paths)."""
-        out = []
-        for path in paths:
-            for query in self.contents:
-                q = query.replace("$origin", self.origin).lstrip("+ ").strip()
-                if (q.endswith("/**") and (path == q[:-3] or path.startswith(q[:-2]))) or (
-                    path == q
-                ):
-                    out.append(path)
-                    break
-        return out
+        """The entity paths among ``paths`` that the view shows: matched by an
+        inclusion of its contents (``$origin/**``, ``<path>/**``, an exact path)
+        and by no exclusion (``- <path>``, ``- <path>/**``)."""
+        rules = [
+            (not q.startswith("-"), q.replace("$origin", self.origin).lstrip("+- ").strip())
+            for q in self.contents
+        ]
+
+        def matches(path: str, q: str) -> bool:
+            return path == q or (q.endswith("/**") and (path == q[:-3] or path.startswith(q[:-2])))
+
+        return [
+            path
+            for path in paths
+            if any(keep and matches(path, q) for keep, q in rules)
+            and not any(not keep and matches(path, q) for keep, q in rules)
+        ]
 
 
 @dataclass
