@@ -48,10 +48,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg.lapack import dposv as _dposv
-from scipy.linalg.lapack import dpotrf as _dpotrf
-from scipy.linalg.lapack import dpotrs as _dpotrs
-from scipy.linalg.lapack import dtrtrs as _dtrtrs
 
 from .exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
 from .qp import LevelProblem, OSQPBackend, QPBackend, QPSolution, QpsolversBackend
@@ -153,11 +149,14 @@ time on these sizes) decides the rank."""
 def _cholesky(G: np.ndarray) -> np.ndarray | None:
     """Lower Cholesky factor ``L`` (``G = L Lᵀ``) of a small symmetric positive
     definite ``G``, or None when a pivot is below :data:`CHOLESKY_PIVOT`
-    (``G`` singular or nearly so: then ``G⁺`` is not ``G⁻¹``)."""
+    (``G`` singular or nearly so: then ``G⁺`` is not ``G⁻¹``). numpy's own
+    LAPACK: a second BLAS (scipy's) in the loop brings a second thread pool,
+    which on a loaded machine made solves 5-8 times slower."""
     if G.shape[0] == 0:
         return None
-    L, info = _dpotrf(G, lower=1, clean=1)
-    if info != 0:
+    try:
+        L = np.linalg.cholesky(G)
+    except np.linalg.LinAlgError:
         return None
     d = L.diagonal()
     if float(d.min()) ** 2 <= CHOLESKY_PIVOT * float(G.diagonal().max()):
@@ -166,12 +165,11 @@ def _cholesky(G: np.ndarray) -> np.ndarray | None:
 
 
 def _psd_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``G⁺ r`` for a small symmetric positive semidefinite ``G``: Cholesky when
-    ``G`` is regular, else the pseudo-inverse."""
-    L = _cholesky(G)
-    if L is None:
+    """``G⁺ r`` for a small symmetric positive semidefinite ``G``: ``G⁻¹ r``
+    when ``G`` is regular, else the pseudo-inverse."""
+    if _cholesky(G) is None:
         return _pinv_psd(G) @ r
-    return _dpotrs(L, r, lower=1)[0]
+    return np.linalg.solve(G, r)
 
 
 class NullSpaceCascade:
@@ -228,7 +226,7 @@ class NullSpaceCascade:
         if L is None:
             removed = B.T @ (_pinv_psd(G) @ B)
         else:
-            Y = _dtrtrs(L, B, lower=1)[0]
+            Y = np.linalg.solve(L, B)
             removed = Y.T @ Y
         self.P = (np.eye(self.nv) if self.P is None else self.P) - removed
 
@@ -261,9 +259,8 @@ class NullSpaceCascade:
         G.flat[:: G.shape[0] + 1] += lam
         if r.size == 0:
             u = np.zeros(self.nv)
-        elif lam > 0:  # G + λI is positive definite: Cholesky (LU if rounding says not)
-            _, z, info = _dposv(G, r, lower=1)
-            u = B.T @ (z if info == 0 else np.linalg.solve(G, r))
+        elif lam > 0:
+            u = B.T @ np.linalg.solve(G, r)
         else:
             u = B.T @ _psd_solve(G, r)
         return u if self.P is None else x - self.P @ x + u
