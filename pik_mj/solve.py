@@ -180,9 +180,10 @@ class TrustRegion:
     Each iteration takes ``α x`` with ``α = min(1, radius / ‖x‖_∞)``. If the
     levels satisfied before the step drifted, the correction (``correct``)
     projects back onto them, up to :data:`MAX_CORRECTIONS` times, until each
-    of their checked tasks is within ``CORRECT_ABOVE · drift`` (0.9). The step is accepted when
-    every checked task of those levels and of level 0 (the hard rows, whose
-    linearization a long step can overshoot) has an error of at most
+    of their checked tasks is within :data:`CORRECT_ABOVE` ``· drift``. The
+    step is accepted when every checked task of those levels and of level 0
+    (the hard rows, whose linearization a long step can overshoot) has an
+    error of at most
     ``max(its error before, drift)``: a lower level never moves a higher one
     by more than ``drift`` through linearization error. A rejected step is
     retried ``shrink`` times as long (at most ``retries`` times; then the
@@ -517,8 +518,9 @@ def solve(
             backends keep their workspaces across solves.
         qp_args: Solver settings (seed ``qp-args``), checked against the solver's
             list of settings.
-        correct: When a step makes the satisfied levels drift (beyond the trust
-            region's ``drift``), re-solve them alone at the new configuration
+        correct: When a step makes the satisfied levels drift (beyond
+            :data:`CORRECT_ABOVE` times the trust region's ``drift``), re-solve
+            them alone at the new configuration
             and apply that projection (up to :data:`MAX_CORRECTIONS` times)
             within the same iteration.
         trust_region: The step rule (:class:`TrustRegion`); None takes the full
