@@ -142,8 +142,9 @@ def _pinv_psd(G: np.ndarray) -> np.ndarray:
 CHOLESKY_PIVOT = 1e-8
 """Smallest Cholesky pivot ``L_ii²``, relative to ``G``'s largest diagonal
 entry, for which a Gram matrix ``G = B Bᵀ`` is treated as regular (its rows
-independent); below it, :func:`_pinv_psd` (eigendecomposition, ~20x the
-time on these sizes) decides the rank."""
+independent); below it, :func:`_pinv_psd` (an eigendecomposition, about
+twice the time of the factorization and solve on these sizes) decides the
+rank."""
 
 
 def _cholesky(G: np.ndarray) -> np.ndarray | None:
@@ -151,7 +152,7 @@ def _cholesky(G: np.ndarray) -> np.ndarray | None:
     definite ``G``, or None when a pivot is below :data:`CHOLESKY_PIVOT`
     (``G`` singular or nearly so: then ``G⁺`` is not ``G⁻¹``). numpy's own
     LAPACK: a second BLAS (scipy's) in the loop brings a second thread pool,
-    which on a loaded machine made solves 5-8 times slower."""
+    which on a loaded machine made solves up to 8 times slower."""
     if G.shape[0] == 0:
         return None
     try:
