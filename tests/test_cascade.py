@@ -19,7 +19,14 @@ import pytest
 import qpsolvers
 
 from pik_mj import InfeasibleHardConstraints, QPFailure, TaskRows
-from pik_mj.cascade import DEFAULT_RELAXATION, Regularization, solve_cascade
+from pik_mj.cascade import (
+    DEFAULT_RELAXATION,
+    NullSpaceCascade,
+    Regularization,
+    _cholesky,
+    _psd_solve,
+    solve_cascade,
+)
 from pik_mj.qp import OSQPBackend, QPSolution, QpsolversBackend, make_backend
 from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend
 
@@ -548,3 +555,27 @@ def test_every_backend_names_infeasible_hard_rows(backend):
     levels = [TaskRows.equality(np.eye(NV), np.ones(NV))]
     with pytest.raises(InfeasibleHardConstraints, match="level 0"):
         solve_cascade(hard, levels, [Regularization()], backend)
+
+
+@pytest.mark.parametrize("rank", [12, 9, 1])
+def test_null_space_projector_matches_pseudo_inverse(rank):
+    """The kept rows' projector (Cholesky of the Gram matrix when its rows are
+    independent, the eigendecomposition when not) against numpy's SVD
+    pseudo-inverse: ``P = I - B⁺ B``, and a later level's ``G⁺ r`` likewise."""
+    rng = np.random.default_rng(rank)
+    nv = 62
+    B = rng.normal(size=(12, rank)) @ rng.normal(size=(rank, nv))
+    G = B @ B.T
+    assert (_cholesky(G) is None) == (rank < 12)
+    cascade = NullSpaceCascade(TaskRows.empty(nv), None, 0.0, "step")
+    cascade._keep(B)
+    P = np.eye(nv) - np.linalg.pinv(B, rcond=1e-10) @ B
+    np.testing.assert_allclose(cascade.P, P, atol=1e-12)
+    # a second level's rows, projected onto that null space (rank-deficient
+    # when the first level took some of their directions)
+    B2 = np.vstack([rng.normal(size=(3, nv)), B[:2]]) @ cascade.P
+    G2 = B2 @ B2.T
+    r = rng.normal(size=5)
+    np.testing.assert_allclose(
+        _psd_solve(G2, r), np.linalg.pinv(G2, rcond=1e-10, hermitian=True) @ r, atol=1e-9
+    )

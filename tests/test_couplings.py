@@ -11,7 +11,7 @@ from fd import fd_jacobian
 
 from pik_mj.couplings import CouplingTask, find_couplings
 from pik_mj.exceptions import InvalidInput
-from pik_mj.solve import TrustRegion, solve
+from pik_mj.solve import CORRECT_ABOVE, TrustRegion, solve
 from pik_mj.tasks.frame import FrameTask
 
 # A planar 4-link arm: c follows b by a quartic, the fixed tendon a - 2 d is held
@@ -118,7 +118,7 @@ def test_polynomial_coupling_error_is_second_order_and_vanishes():
     """The quartic coupling is met to first order each step: after a step Δb the
     error is at most ½ max|p''| Δb² (Taylor); the solve's correction projects the
     step back onto it (level 0's rows), so it stays within the trust region's
-    drift / 2 at every iteration and vanishes once the steps do."""
+    CORRECT_ABOVE · drift at every iteration and vanishes once the steps do."""
     model = mujoco.MjModel.from_xml_string(ARM)
     cfg = mink.Configuration(model)
     task = CouplingTask(cfg, check_margin=1e-10)
@@ -127,7 +127,7 @@ def test_polynomial_coupling_error_is_second_order_and_vanishes():
     xi = np.linspace(-2.0, 2.0, 401)
     curvature = np.max(np.abs(2 * c[2] + 6 * c[3] * xi + 12 * c[4] * xi**2))
     assert np.all(errors <= 0.5 * curvature * steps**2 + 1e-9)
-    assert errors.max() <= 0.5 * TrustRegion().drift  # projected back every iteration
+    assert errors.max() <= CORRECT_ABOVE * TrustRegion().drift  # projected back every iteration
     assert errors[-1] <= 1e-10
 
 

@@ -52,6 +52,12 @@ ONE_DEGREE = float(np.deg2rad(1.0))
 _AXES = {"x": 0, "y": 1, "z": 2}
 
 _JACOBIAN = {"body": mujoco.mj_jacBody, "site": mujoco.mj_jacSite, "geom": mujoco.mj_jacGeom}
+_POSE = {
+    "body": ("xpos", "xmat"),
+    "site": ("site_xpos", "site_xmat"),
+    "geom": ("geom_xpos", "geom_xmat"),
+}
+"""Where MuJoCo keeps each frame type's world position and rotation (read in place)."""
 
 
 def constrained_axes(spec: AxisSpec, what: str) -> np.ndarray:
@@ -104,7 +110,11 @@ def ljacinv(e: np.ndarray) -> np.ndarray:
     and costs ~0.3 ms a call); below 1e-6 rad the series
     ``I - ½[e]× + [e]×²/12`` is exact to double precision.
     """
-    x, y, z = float(e[0]), float(e[1]), float(e[2])
+    return np.array(_ljacinv_rows(float(e[0]), float(e[1]), float(e[2])))
+
+
+def _ljacinv_rows(x: float, y: float, z: float) -> list[list[float]]:
+    """The rows of :func:`ljacinv` at ``e = (x, y, z)``, as Python floats."""
     theta2 = x * x + y * y + z * z
     theta = math.sqrt(theta2)
     if theta < 1e-6:
@@ -115,13 +125,11 @@ def ljacinv(e: np.ndarray) -> np.ndarray:
     # than the arithmetic
     a = 1.0 - c * theta2
     cxy, cxz, cyz = c * x * y, c * x * z, c * y * z
-    return np.array(
-        [
-            [a + c * x * x, cxy + 0.5 * z, cxz - 0.5 * y],
-            [cxy - 0.5 * z, a + c * y * y, cyz + 0.5 * x],
-            [cxz + 0.5 * y, cyz - 0.5 * x, a + c * z * z],
-        ]
-    )
+    return [
+        [a + c * x * x, cxy + 0.5 * z, cxz - 0.5 * y],
+        [cxy - 0.5 * z, a + c * y * y, cyz + 0.5 * x],
+        [cxz + 0.5 * y, cyz - 0.5 * x, a + c * z * z],
+    ]
 
 
 def rotation_matrix(value: Any, what: str, also: str = "") -> np.ndarray:
@@ -325,10 +333,10 @@ class FrameTask(EqualityTask):
 
     def error_and_jacobian(self, configuration: mink.Configuration):
         """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
+        if self._both_local and self.target_frame is None:
+            return self._local_error_and_jacobian(configuration)
         data = configuration.data
         e_tW, e_rW, R_WM, R_e = self._errors_world(configuration)
-        if self._both_local and self.target_frame is None:
-            return self._local_error_and_jacobian(configuration, e_tW, e_rW, R_WM)
         Jp_M, Jr_M = self.move_target.jacobians(data)
         nv = Jp_M.shape[1]
         J = np.empty((2, 3, nv))  # [translation; rotation] blocks
@@ -368,9 +376,9 @@ class FrameTask(EqualityTask):
             e, J = e[self._rows], J[self._rows]
         return e, J
 
-    def _local_error_and_jacobian(self, configuration, e_tW, e_rW, R_WM):
-        """The default case (errors in the move target's frame, fixed target) as
-        one 6x6 product: with ``R = R_WM``,
+    def _local_error_and_jacobian(self, configuration):
+        """The default case (errors in the move target's frame, fixed or callable
+        target) as one 6x6 product: with ``R = R_WM``,
 
         .. math::
 
@@ -379,18 +387,31 @@ class FrameTask(EqualityTask):
                 \\begin{bmatrix} J_p \\\\ J_\\omega \\end{bmatrix}
 
         (``J_l^{-1}(e) + [e]_× = J_l^{-1}(-e)``, the inverse right Jacobian).
+        The pose is read in place from MuJoCo's arrays and both 3x3 blocks
+        right of ``R^T`` are made in one product: the solve evaluates this
+        several times per iteration (trial step and corrections).
         """
         frame = self.move_target
-        model = configuration.model
+        model, data = configuration.model, configuration.data
+        xpos, xmat = _POSE[frame.frame_type]
+        p_WM = getattr(data, xpos)[frame.id]
+        R_WM = getattr(data, xmat)[frame.id].reshape(3, 3)
+        p_WT, R_WT = self.target_pose_now(configuration)
+        tx, ty, tz = (p_WM - p_WT).tolist()
+        rx, ry, rz = rotation_vector(R_WM @ R_WT.T).tolist()
         jac = np.zeros((6, model.nv))
-        _JACOBIAN[frame.frame_type](model, configuration.data, jac[:3], jac[3:], frame.id)
+        _JACOBIAN[frame.frame_type](model, data, jac[:3], jac[3:], frame.id)
         R_MW = R_WM.T
         M = np.zeros((6, 6))
         M[:3, :3] = R_MW
-        M[:3, 3:] = R_MW @ skew(e_tW)
-        M[3:, 3:] = R_MW @ ljacinv(-e_rW)
+        # [[e_t]×, J_l^{-1}(-e_r)] in one product with R^T
+        blocks = R_MW @ np.array(
+            [[[0.0, -tz, ty], [tz, 0.0, -tx], [-ty, tx, 0.0]], _ljacinv_rows(-rx, -ry, -rz)]
+        )
+        M[:3, 3:] = blocks[0]
+        M[3:, 3:] = blocks[1]
         J = M @ jac
-        e = np.concatenate([R_MW @ e_tW, R_MW @ e_rW])
+        e = (np.array([[tx, ty, tz], [rx, ry, rz]]) @ R_WM).reshape(6)
         if self._rows.size < 6:
             e, J = e[self._rows], J[self._rows]
         return e, J
