@@ -21,6 +21,12 @@ from .inputs import Q_LIMIT, joint_name
 from .tasks.mink_adapter import as_task
 from .tasks.task import Task
 
+RANGE_TOLERANCE = 1e-5
+"""[rad or m] How far past its range a joint may start without a warning: the
+QP solvers' accuracy on a limit row (OSQP's ``eps_abs + eps_rel·|row|``, 1e-6
+each), so that a solve started where the previous one ended is not warned of
+its own solver's rounding."""
+
 
 def check_configuration(configuration: object) -> mink.Configuration:
     """A :class:`mink.Configuration` with a usable ``q`` and model, or raise.
@@ -89,7 +95,7 @@ def _warn_out_of_range(model: mujoco.MjModel, q: np.ndarray) -> None:
         return
     values = q[model.jnt_qposadr[ids]]
     lo, hi = model.jnt_range[ids, 0], model.jnt_range[ids, 1]
-    outside = (values < lo - 1e-6) | (values > hi + 1e-6)
+    outside = (values < lo - RANGE_TOLERANCE) | (values > hi + RANGE_TOLERANCE)
     if outside.any():
         listed = ", ".join(
             f"{model.joint(int(j)).name} {v:.4g} not in [{a:.4g}, {b:.4g}]"

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import signal
 import threading
+import warnings
 
 import cases
 import mink
@@ -18,6 +19,7 @@ import numpy as np
 import pytest
 
 import pik_mj
+from pik_mj.checks import RANGE_TOLERANCE
 from pik_mj.solve import TrustRegion
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
@@ -501,6 +503,22 @@ def test_start_outside_the_joint_ranges_warns_naming_the_joint_and_pulls_it_in()
         result = s.solve(stop=50, revert_if_fail=False)
     assert result.converged
     assert s.cfg.q[j.qposadr[0]] <= MODEL.jnt_range[j.id][1] + 1e-6
+
+
+def test_a_start_past_a_range_by_the_solvers_rounding_is_not_warned():
+    """A solve that starts where another ended (a joint at its limit, past it
+    by the QP's accuracy) runs without a warning; 10x that tolerance warns."""
+    s = Setup()
+    j = MODEL.joint("right_elbow")
+    for over, warned in ((0.5 * RANGE_TOLERANCE, False), (10 * RANGE_TOLERANCE, True)):
+        q = s.cfg.q.copy()
+        q[j.qposadr[0]] = MODEL.jnt_range[j.id][1] + over
+        s.cfg.update(q)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            s.solve(stop=2, revert_if_fail=False)
+        ranges = [w for w in caught if "outside the joint ranges" in str(w.message)]
+        assert bool(ranges) == warned, (over, [str(w.message) for w in caught])
 
 
 # ----------------------------------------------------------------- Ctrl-C
