@@ -135,6 +135,8 @@ class ScenarioResult:
         motions: The solves' iterates played in physics
             (:class:`pik_mj.sim.MotionReport`), by label, in order (a motion in
             parts, e.g. before and after a grasp, has one per part).
+        walk: A walking pattern played in physics, as the ``motion`` section
+            (:func:`pik_mj.walking.playback.walk_motion`), or None.
         robot_state: The final pose and what rebuilds its scene (the robot's
             source, ``q``, ``allowed_contacts``, ``grasps``, ``external``), what
             ``pik-mj validate`` reads back; None without a scene.
@@ -152,6 +154,7 @@ class ScenarioResult:
     static_reports: dict[str, list[StaticReport]] = field(default_factory=dict)
     static_check_times: list[float] = field(default_factory=list)
     motions: dict[str, MotionReport] = field(default_factory=dict)
+    walk: dict[str, Any] | None = None
     robot_state: dict[str, Any] | None = None
     robot: Robot | None = field(default=None, repr=False, compare=False)
 
@@ -219,9 +222,10 @@ class ScenarioResult:
         (``joints_rad``, ``frames_m``), ``min_com_margin`` [m] (None: contact
         lost), ``max_slip`` [m], ``max_drift`` [m], ``contacts`` (``planned``,
         ``unexpected``), ``fell``, and each part's
-        :meth:`~pik_mj.sim.MotionReport.to_dict` under ``parts``."""
+        :meth:`~pik_mj.sim.MotionReport.to_dict` under ``parts``. A walk
+        (:attr:`walk`) has the same keys, and ``min_zmp_margin`` [m]."""
         if not self.motions:
-            return None
+            return self.walk
         parts = list(self.motions.values())
         margin = min(m.min_margin for m in parts)
         return {

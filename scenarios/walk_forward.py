@@ -14,7 +14,7 @@ from __future__ import annotations
 from pik_mj import Recorder, Robot, Scene
 from pik_mj.scenario import ScenarioResult, count, open_recorder, parser, positive, report
 from pik_mj.walking import GaitParameters, straight_steps
-from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern
+from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern, walk_motion
 from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
 
 NAME = "walk_forward"
@@ -39,6 +39,7 @@ def run(
     walk = play_walk_pattern(pattern, scene, recorder=recorder)
     result.robot = robot
     result.figures, checks = evaluate_walk(pattern, walk)
+    result.walk = walk_motion(pattern, walk)
     for label, ok, detail in checks:
         result.check(label, ok, detail)
     return result

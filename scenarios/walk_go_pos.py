@@ -15,7 +15,7 @@ import numpy as np
 from pik_mj import Recorder, Robot, Scene
 from pik_mj.scenario import ScenarioResult, finite, open_recorder, parser, positive, report
 from pik_mj.walking import GaitParameters, go_pos
-from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern
+from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern, walk_motion
 from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
 
 NAME = "walk_go_pos"
@@ -41,6 +41,7 @@ def run(
     walk = play_walk_pattern(pattern, scene, recorder=recorder)
     result.robot = robot
     result.figures, checks = evaluate_walk(pattern, walk)
+    result.walk = walk_motion(pattern, walk)
     result.figures["sim_final_yaw_error_deg"] = float(np.rad2deg(walk.final_yaw_error))
     for label, ok, detail in checks:
         result.check(label, ok, detail)

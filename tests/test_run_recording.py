@@ -260,6 +260,7 @@ def test_every_scenario_passes_and_writes_a_valid_recording(name, tmp_path):
     assert KEYS <= set(d)
     if not result.solves:  # walking: the pattern is played in physics by the scenario
         assert result.passed, result.summary()
+        assert d["motion"]["passed"] and not d["motion"]["fell"]
         times, _ = rec[PATHS.com].series("Points3D:positions", "sim_time")
         assert len(times) > 100
         return

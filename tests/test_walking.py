@@ -20,6 +20,7 @@ from pik_mj.walking.playback import (
     evaluate_walk,
     feedforward_torques,
     play_walk_pattern,
+    walk_motion,
 )
 from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot, sole_corners
 
@@ -188,6 +189,16 @@ def test_playback_walks_to_the_goal(walk, tmp_path):
     np.testing.assert_allclose(t, report.t, atol=1e-9)
     np.testing.assert_allclose([v[0] for v in x], report.zmp_force_sensors[:, 0])
     assert PATHS.walk_series("margin", "zmp_force_sensors") in entities
+    # the walk as a scenario's motion section: the keys of a played solve's
+    motion = walk_motion(pattern, report)
+    assert set(motion) >= {"duration", "max_tracking_error", "min_com_margin", "max_slip"}
+    assert motion["passed"] and not motion["fell"] and motion["contacts"]["unexpected"] == []
+    assert motion["duration"] == pytest.approx(pattern.duration + 1.0, abs=2 * pattern.dt)
+    assert motion["min_zmp_margin"] == figures["sim_zmp_force_sensors_margin_min_m"]
+    assert motion["max_slip"] == report.foot_slip
+    drift = np.linalg.norm(report.root_p[:K] - pattern.q[:, :3], axis=1).max()
+    assert motion["max_drift"] == pytest.approx(drift) and 0 < drift < 0.05
+    assert motion["contacts"]["planned"] == sorted(scene.allowed_contacts)
 
 
 def test_playback_without_feedforward_at_kp_3000_fails(walk):
@@ -201,6 +212,7 @@ def test_playback_without_feedforward_at_kp_3000_fails(walk):
         settle_time=0.0,
     )
     assert report.fell or report.final_midfeet_error > 0.05
+    assert not walk_motion(pattern, report)["passed"]
 
 
 def test_go_pos_turns_the_feet():

@@ -108,6 +108,7 @@ class PlaybackReport:
             planned position [m].
         joint_error_max: Largest servo tracking error during the pattern [rad].
         wall_time: Wall time of the simulation [s].
+        planned_contacts: Robot geoms allowed to touch the floor (the soles).
     """
 
     t: np.ndarray
@@ -129,6 +130,7 @@ class PlaybackReport:
     params: dict[str, Any] = field(default_factory=dict)
     zmp_force_sensors: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     zmp_force_sensors_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    planned_contacts: list[str] = field(default_factory=list)
 
     @property
     def height_ratio_min(self) -> float:
@@ -430,6 +432,7 @@ def play_walk_pattern(
         foot_error=ferr,
         joint_error_max=joint_err,
         wall_time=wall,
+        planned_contacts=sorted(scene.allowed_contacts),
         params={
             "kp": float(gains[:, 0].max()),
             "kv": float(gains[:, 1].max()),
@@ -442,6 +445,52 @@ def play_walk_pattern(
     if recorder is not None:
         recorder.log_walk(pattern, report)
     return report
+
+
+def walk_motion(
+    pattern: WalkPattern,
+    report: PlaybackReport,
+    *,
+    height_ratio: float = 0.8,
+    final_tolerance: float = 0.05,
+) -> dict[str, Any]:
+    """A walk played in physics as the ``motion`` section of a scenario's JSON,
+    with the keys of :meth:`pik_mj.scenario.ScenarioResult.motion`.
+
+    ``passed``: :meth:`PlaybackReport.passed`; ``duration`` [s]: the pattern and
+    the settling; ``max_tracking_error``: the servos' joint error [rad] and the
+    supporting feet's distance to their planned positions [m]; ``max_slip``: a
+    foot's drift within a stance [m]; ``max_drift``: the root's largest
+    distance to the pattern's root position ``‖p_root − q_ref[:3]‖`` [m];
+    ``min_com_margin``: None (a walk's CoM leaves the single-support polygon by
+    design) and ``min_zmp_margin`` [m] instead, that of the ZMP from the feet's
+    force sensors to the support polygon of the feet carrying it (None without
+    force sensors); ``contacts``: the soles planned, robot geoms on the floor
+    unexpected; ``fell``; the playback's own summary under ``parts["walk"]``.
+    """
+    K = min(len(pattern.t), len(report.t))
+    drift = np.linalg.norm(report.root_p[:K] - pattern.q[:K, :3], axis=1)
+    sensed = report.zmp_force_sensors_margin
+    sensed = sensed[np.isfinite(sensed)] if len(sensed) else sensed
+    return {
+        "passed": report.passed(height_ratio, final_tolerance),
+        "duration": float(report.t[-1] - report.t[0]) if len(report.t) else 0.0,
+        "max_tracking_error": {
+            "joints_rad": report.joint_error_max,
+            "frames_m": report.foot_error,
+        },
+        "min_com_margin": None,
+        "min_zmp_margin": float(sensed.min()) if len(sensed) else None,
+        "max_slip": report.foot_slip,
+        "max_drift": float(np.nanmax(drift)) if K else 0.0,
+        "contacts": {
+            "planned": list(report.planned_contacts),
+            "planned_pairs": [],
+            "unexpected": [[g, "floor", None] for g in report.bad_contacts],
+        },
+        "fell": report.fell,
+        "parts": {"walk": report.to_dict()},
+    }
 
 
 def evaluate_walk(
