@@ -35,13 +35,15 @@ import mujoco
 import numpy as np
 
 from pik_mj import inputs
+from pik_mj.camera import Camera
 from pik_mj.description import RobotDescription, load_description, robot_limbs
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import robot_root_body
-from pik_mj.ground import NoCollisionGeometry, floor_gap, foot_geoms, sole_normal
+from pik_mj.ground import NoCollisionGeometry, floor_gap, foot_geoms, sole_normal, subtree_bodies
 from pik_mj.keyframes import choose_keyframe
 from pik_mj.limbs import LIMB_NAMES, Limb, LimbsNotFound, find_limbs
 from pik_mj.models import model_path
+from pik_mj.sensors import Bumper, ForceSensor, Imu, RobotSensors
 
 __all__ = ["Limb", "LimbsNotFound", "Robot", "RobotSource", "robot_root_body"]
 
@@ -263,6 +265,7 @@ class Robot:
         self.source: RobotSource | None = None
         self.placement: tuple[float, float, float, float] | None = None
         self._own_nq: int | None = None
+        self._sensors: RobotSensors | None = None
         self.description = description
         top_level = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
         if not top_level:
@@ -589,6 +592,81 @@ class Robot:
                     "description (Robot.from_model(..., description=PATH))",
                 )
             raise err from None
+
+    # ------------------------------------------------- sensors and cameras
+    def bodies(self, limb: str | None = None) -> list[str]:
+        """Names of the robot's bodies (the subtree of its root body), or of
+        ``limb``'s: the subtree of its first link (a leg with its foot) without
+        the other limbs that start inside it (a torso without the arms and head).
+
+        Raises:
+            UnknownName: No limb ``limb``.
+        """
+        if limb is None:
+            ids = subtree_bodies(self.model, self._root_id)
+        else:
+            own = self.model.body(self.limb(limb).root_body).id
+            ids = subtree_bodies(self.model, own)
+            for other in self.limbs.values():
+                start = self.model.body(other.root_body).id
+                if start != own and start in ids:
+                    ids = np.setdiff1d(ids, subtree_bodies(self.model, start))
+        return [self.model.body(int(b)).name for b in np.sort(ids)]
+
+    def sensors(self, limb: str | None = None) -> RobotSensors:
+        """The MJCF sensors on the robot's bodies: force/torque sensors, IMUs
+        and bumpers (:class:`pik_mj.sensors.RobotSensors`; seed ``(send robot
+        :force-sensors)``), or only those on ``limb``'s bodies (seed ``(send
+        robot :rleg :force-sensors)``). An environment's sensors are not the
+        robot's.
+
+        Raises:
+            UnknownName: No limb ``limb``.
+        """
+        if self._sensors is None:
+            self._sensors = RobotSensors.from_model(self.model, bodies=self.bodies())
+        if limb is None:
+            return self._sensors
+        return self._sensors.by_limb({limb: self.bodies(limb)})[limb]
+
+    @property
+    def force_sensors(self) -> tuple[ForceSensor, ...]:
+        """The robot's 6-axis force/torque sensors (seed ``:force-sensors``)."""
+        return self.sensors().force_sensors
+
+    @property
+    def imu_sensors(self) -> tuple[Imu, ...]:
+        """The robot's IMUs (seed ``:imu-sensors``)."""
+        return self.sensors().imu_sensors
+
+    @property
+    def bumpers(self) -> tuple[Bumper, ...]:
+        """The robot's touch sensors read on/off (seed ``bumper-model``)."""
+        return self.sensors().bumpers
+
+    @property
+    def cameras(self) -> tuple[Camera, ...]:
+        """The perspective MJCF cameras on the robot's bodies, in model order
+        (seed ``:cameras``), each with its MJCF resolution (:class:`pik_mj.camera.Camera`)."""
+        mine = set(subtree_bodies(self.model, self._root_id).tolist())
+        perspective = int(mujoco.mjtProjection.mjPROJ_PERSPECTIVE)
+        return tuple(
+            Camera(self.model, self.model.camera(c).name)
+            for c in range(self.model.ncam)
+            if int(self.model.cam_bodyid[c]) in mine
+            and int(self.model.cam_projection[c]) == perspective
+        )
+
+    def camera(self, name: str) -> Camera:
+        """The robot's camera ``name`` (seed ``(send robot :camera name)``).
+
+        Raises:
+            UnknownName: Not one of :attr:`cameras` (lists them).
+        """
+        cameras = {c.name: c for c in self.cameras}
+        if name not in cameras:
+            raise UnknownName("camera of the robot", name, cameras)
+        return cameras[name]
 
     # ---------------------------------------------------------------- state
     @property

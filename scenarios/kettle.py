@@ -140,7 +140,7 @@ def run(
     solve("look", path, [], look_at=p_handle, joints="chain")
     gaze_look = gaze_angle(robot, p_handle)
     # The handle in the head camera's image (camera poses: mj_camlight).
-    camera = Camera(robot.model, "head_camera")
+    camera = robot.camera("head_camera")
     mujoco.mj_camlight(robot.model, robot.data)
     pixel, depth = camera.project(robot.data, p_handle)
     centre = 0.5 * np.array([camera.intrinsics.width, camera.intrinsics.height])  # [px]

@@ -42,7 +42,7 @@ from pik_mj.scenario import (
     parser,
     report,
 )
-from pik_mj.sensors import RobotSensors, SensorTrace
+from pik_mj.sensors import SensorTrace
 from pik_mj.solve import TrustRegion
 from pik_mj.spatial import yaw_of
 from pik_mj.tasks.collision import collision_pairs
@@ -129,7 +129,7 @@ def run(
     result.add_solve("lean on the wall", res, checks, finish=[log, progress, path])
 
     # The iterates as a motion in physics, with the hand's bumper and its distance to the wall.
-    bumpers = SensorTrace(RobotSensors.from_model(robot.model))
+    bumpers = SensorTrace(robot.sensors())
     hand, wall_geom = scene.model.geom("rarm_hand").id, scene.model.geom("wall").id
     gap: list[float] = []
 

@@ -15,6 +15,7 @@ import pytest
 
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.models import load_model, load_spec
+from pik_mj.robot import Robot
 from pik_mj.sensors import (
     FORCE_TORQUE,
     IMU,
@@ -148,6 +149,49 @@ def test_sample_humanoid_sensors_found_and_grouped():
         sensors.imu_sensor("gsensor")
     with pytest.raises(UnknownName, match="body 'nope'"):
         RobotSensors.from_model(model, bodies=["nope"])
+
+
+ENVIRONMENT_WITH_SENSORS = """
+<mujoco>
+  <worldbody>
+    <body name="table" pos="1 0 0.4">
+      <geom name="table_top" type="box" size="0.3 0.3 0.02"/>
+      <site name="table_pad" type="box" size="0.3 0.3 0.03"/>
+      <camera name="wall_camera" pos="0 0 1" xyaxes="1 0 0 0 1 0"/>
+    </body>
+  </worldbody>
+  <sensor><touch name="table_touch" site="table_pad"/></sensor>
+</mujoco>
+"""
+
+
+def test_sensors_and_cameras_found_through_the_robot(tmp_path):
+    """``robot.force_sensors``, ``.imu_sensors``, ``.bumpers``, ``.cameras``
+    (seed ``:force-sensors``, ``:imu-sensors``, ``:cameras``), and by limb as
+    ``(send robot :rleg :force-sensors)``: the robot's own, not the
+    environment's touch sensor and camera."""
+    env = tmp_path / "table.xml"
+    env.write_text(ENVIRONMENT_WITH_SENSORS)
+    robot = Robot.from_model("sample_humanoid", environment=str(env))
+    alone = RobotSensors.from_model(load_model("sample_humanoid"))
+    assert [s.name for s in robot.force_sensors] == [s.name for s in alone.force_sensors]
+    assert [s.name for s in robot.imu_sensors] == ["imu"]
+    assert [b.name for b in robot.bumpers] == ["rarm_bumper", "larm_bumper"]
+    assert [c.name for c in robot.cameras] == ["head_camera"]
+    assert "wall_camera" in [robot.model.camera(c).name for c in range(robot.model.ncam)]
+    assert robot.camera("head_camera").intrinsics.width == 320
+    # by limb: the limb's own bodies (the torso without the arms and the head)
+    assert robot.bodies("rleg") == LIMBS["rleg"]
+    assert robot.bodies("rarm") == LIMBS["rarm"]
+    assert set(robot.bodies("torso")).isdisjoint(LIMBS["rarm"] + LIMBS["head"])
+    for limb in ("rleg", "lleg", "rarm", "larm"):
+        assert [s.name for s in robot.sensors(limb).force_sensors] == [f"{limb}_end"]
+    assert [b.name for b in robot.sensors("rarm").bumpers] == ["rarm_bumper"]
+    assert robot.sensors("torso").imu_sensors == ()  # the IMU is on the pelvis, the root
+    with pytest.raises(UnknownName, match=r"camera of the robot 'wall_camera'.*head_camera"):
+        robot.camera("wall_camera")
+    with pytest.raises(UnknownName, match=r"limb 'tail'.*rarm"):
+        robot.sensors("tail")
 
 
 # ------------------------------------------------------- force sensors, ZMP
