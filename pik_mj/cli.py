@@ -45,12 +45,15 @@ progress is closed and readable).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import inspect
 import json
+import signal
 import sys
+import threading
 import traceback
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -130,21 +133,50 @@ def _run(name: str | None, argv: list[str]) -> int:
     if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
         argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
     print(f"running {name}: {describe(name)[0]}", file=sys.stderr)
+    with _sigints() as received:
+        try:
+            return int(module.main(argv))
+        except SystemExit as exc:  # the scenario's argparse: --help (0) or bad options (2)
+            return _exit_code(exc)
+        except OptionError as exc:  # an option the user gave cannot be used: exit 2
+            print(f"pik-mj: error: {exc}", file=sys.stderr)
+            return EXIT_USAGE
+        except KeyboardInterrupt:
+            _recording_note(argv, "up to the interrupt")
+            raise
+        except Exception as exc:
+            if received:  # Ctrl-C, turned into another error by a native library
+                _recording_note(argv, "up to the interrupt")
+                raise KeyboardInterrupt from exc
+            # the scenario raised: its traceback, exit 1
+            traceback.print_exc(file=sys.stderr)
+            print(f"pik-mj: scenario {name} raised {type(exc).__name__}: {exc}", file=sys.stderr)
+            _recording_note(argv, "up to the error")
+            return EXIT_FAILED
+
+
+@contextlib.contextmanager
+def _sigints() -> Iterator[list[int]]:
+    """Python's own SIGINT handler (it raises ``KeyboardInterrupt``) that also
+    notes each signal in the list it yields, restored on leaving. A
+    ``KeyboardInterrupt`` raised inside a native extension can come out as
+    another exception (a Cython buffer check reports a ``ValueError``); the
+    note tells that it was Ctrl-C. Outside the main thread: no handler, an
+    empty list."""
+    received: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield received
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        received.append(signum)
+        signal.default_int_handler(signum, frame)
+
+    previous = signal.signal(signal.SIGINT, handler)
     try:
-        return int(module.main(argv))
-    except SystemExit as exc:  # the scenario's argparse: --help (0) or bad options (2)
-        return _exit_code(exc)
-    except OptionError as exc:  # an option the user gave cannot be used: exit 2
-        print(f"pik-mj: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        _recording_note(argv, "up to the interrupt")
-        raise
-    except Exception as exc:  # the scenario raised: its traceback, exit 1
-        traceback.print_exc(file=sys.stderr)
-        print(f"pik-mj: scenario {name} raised {type(exc).__name__}: {exc}", file=sys.stderr)
-        _recording_note(argv, "up to the error")
-        return EXIT_FAILED
+        yield received
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _recording_note(argv: list[str], when: str) -> None:

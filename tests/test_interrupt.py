@@ -137,11 +137,60 @@ def test_cli_returns_130_and_keeps_the_recording_when_interrupted(tmp_path, monk
     assert verify(rrd).returncode == 0, verify(rrd).stderr
 
 
+MANGLED = '''
+    """A real SIGINT whose KeyboardInterrupt a native call turns into another
+    error (as a Cython buffer check in daqp did: "Buffer dtype mismatch")."""
+    import signal
+    from pik_mj.scenario import ScenarioResult, open_recorder, parser, report
+
+
+    def run(recorder):
+        recorder.log_text("before the interrupt")
+        try:
+            signal.raise_signal(signal.SIGINT)
+        except KeyboardInterrupt:
+            raise ValueError("Buffer dtype mismatch, expected 'int' but got Python object")
+        return ScenarioResult("mangled")
+
+
+    def main(argv=None):
+        args = parser(__doc__, hold=False).parse_args(argv)
+        with open_recorder(args, "mangled") as recorder:
+            result = run(recorder)
+        return report(result, args)
+'''
+
+
+def test_an_interrupt_a_native_library_turns_into_another_error_still_exits_130(
+    tmp_path, monkeypatch, capsys
+):
+    """Ctrl-C is Ctrl-C even when it surfaces as another exception; an error
+    without a SIGINT is still an error (exit 1, its traceback)."""
+    add_scenario(monkeypatch, tmp_path, "mangled", MANGLED)
+    rrd = tmp_path / "out" / "mangled.rrd"
+    assert cli.main(["run", "mangled", "--save", str(rrd), "--quiet"]) == 130
+    captured = capsys.readouterr()
+    assert "pik-mj: interrupted" in captured.err and "Traceback" not in captured.err
+    assert f"recording (up to the interrupt): {rrd}" in captured.out
+    assert verify(rrd).returncode == 0, verify(rrd).stderr
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+    add_scenario(
+        monkeypatch,
+        tmp_path,
+        "plain_error",
+        MANGLED.replace("signal.raise_signal(signal.SIGINT)", "raise KeyboardInterrupt")
+        .replace("except KeyboardInterrupt", "except KeyboardInterrupt as exc")
+        .replace('"mangled"', '"plain_error"'),
+    )
+    assert cli.main(["run", "plain_error", "--save", str(tmp_path / "e.rrd"), "--quiet"]) == 1
+    assert "Traceback" in capsys.readouterr().err
+
+
 #: Where each SIGINT is aimed: after what the run printed, then a random delay [s].
 PHASES = {
     "set-up": (None, 0.3),  # the recording started: robot, scene, geometry
     "solve": ("iteration 1/", 0.15),  # the IK's progress lines (~20 iterations)
-    "hold": ("iterations, converged", 0.5),  # the solve ended: the 3 s physics hold
+    "hold": ("iterations, converged", 0.5),  # the solve ended: the motion, the hold in physics
 }
 
 
