@@ -222,8 +222,10 @@ class _BoxRows:
     ``gain``, ``⊖`` MuJoCo's ``mj_differentiatePos``), the same operations in
     the same order, so the same bits. mink's call rebuilds ``[P; -P]`` (7000
     entries on the CMU humanoid) every time, and the adapter then compared it
-    with the last one: 40 us per evaluation against 8. Used only after
-    :meth:`check` found the rows equal to mink's own, bit for bit.
+    with the last one: an evaluation (rows, error, stop test) took 40 µs, now
+    13 (mink's call alone: 19). Used only after :meth:`check` found the rows
+    equal to mink's own, bit for bit (once per adapter: a solve wraps its
+    ``mink.Limit``s anew); ``G`` is then that call's matrix, read-only.
     """
 
     def __init__(self, limit: mink.ConfigurationLimit, G: np.ndarray):
