@@ -112,7 +112,9 @@ class _Layout:
 
     def __init__(self, nv: int, n_eq0: int, C: np.ndarray, n_keep: list, n_in: list):
         n = nv + 1
-        self.C = C  # the hard inequality rows this layout was made for
+        # the hard inequality rows this layout was made for (a copy unless no
+        # one can write them: a stack buffer is refilled in place)
+        self.C = C if _frozen(C) else C.copy()
         nonzero = C != 0
         single = np.count_nonzero(nonzero, axis=1) == 1
         self.single_rows = np.flatnonzero(single)
@@ -150,6 +152,24 @@ class _Layout:
             self.sense[n + first : n + first + n_eq] = 13  # equality (active, immutable), soft
             self.sense[n + first + n_eq : n + first + size] = 8  # inequality, soft
         self.break_points = np.array(break_points, dtype=np.intc)
+
+    def fits(self, C: np.ndarray) -> bool:
+        """Whether ``C`` holds the rows this layout was made for: the same
+        read-only object, or equal values (a limit's rows rebuilt by a new
+        solve, a refilled stack buffer; a read-only one is kept, so that the
+        next call needs no comparison)."""
+        if C is self.C:
+            return True
+        if C.shape != self.C.shape or not np.array_equal(C, self.C):
+            return False
+        if _frozen(C):
+            self.C = C
+        return True
+
+
+def _frozen(C: np.ndarray) -> bool:
+    """Read-only and owning its data: its values cannot change."""
+    return not C.flags.writeable and C.base is None
 
 
 @dataclass
@@ -202,7 +222,7 @@ class HierarchicalProblem:
         n_keep = [int(np.count_nonzero(k)) for k in keeps]
         shape = (nv, hard.n_eq, *((k, r.n_eq, r.n_in) for k, r in zip(n_keep, levels, strict=True)))
         layout = cache.get(shape) if cache is not None else None
-        if layout is None or layout.C is not C:  # new shape, or new hard rows
+        if layout is None or not layout.fits(C):  # new shape, or new hard rows
             layout = _Layout(nv, hard.n_eq, C, n_keep, [r.n_in for r in levels])
             if cache is not None:
                 cache[shape] = layout

@@ -262,13 +262,15 @@ class _Stack:
         out = held[1]
         i = j = 0
         for r, (m_eq, m_in) in zip(rows, shape, strict=True):
-            out.A[i : i + m_eq] = r.A
-            out.b[i : i + m_eq] = r.b
-            out.w_A[i : i + m_eq] = r.w_A
-            out.C[j : j + m_in] = r.C
-            out.d_lower[j : j + m_in] = r.d_lower
-            out.d_upper[j : j + m_in] = r.d_upper
-            out.w_C[j : j + m_in] = r.w_C
+            if m_eq:  # (an empty slice assignment still costs a numpy call)
+                out.A[i : i + m_eq] = r.A
+                out.b[i : i + m_eq] = r.b
+                out.w_A[i : i + m_eq] = r.w_A
+            if m_in:
+                out.C[j : j + m_in] = r.C
+                out.d_lower[j : j + m_in] = r.d_lower
+                out.d_upper[j : j + m_in] = r.d_upper
+                out.w_C[j : j + m_in] = r.w_C
             i, j = i + m_eq, j + m_in
         damping = float(sum(r.damping for r in rows))
         return out if damping == out.damping else out._replace(damping=damping)

@@ -28,7 +28,7 @@ from pik_mj.cascade import (
     solve_cascade,
 )
 from pik_mj.qp import OSQPBackend, QPSolution, QpsolversBackend, make_backend
-from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend
+from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend, HierarchicalProblem
 
 NV = 8
 # eps_prim_inf well below τ (1e-9): see OSQP_DEFAULTS.
@@ -530,6 +530,32 @@ def test_other_backends_agree_with_the_osqp_cascade(backend, w, seed):
     for rows in levels:
         ea, eb = rows.squared_error(a.x), rows.squared_error(b.x)
         assert abs(ea - eb) <= 1e-6 * max(1.0, ea)
+
+
+def test_hierarchical_layout_follows_hard_rows_refilled_in_place():
+    """A stacked level 0 is a buffer the solve refills in place: the layout
+    kept for its shape (which rows are bounds, their coefficients) follows its
+    values. Row 0's coefficient doubles and row 1 becomes a bound; the problem
+    equals the one built without a cache."""
+    cache: dict = {}
+    C = np.zeros((2, NV))
+    C[0, 0], C[1, :2] = 1.0, [1.0, 1.0]
+    hard = TaskRows.inequality(C, -1.0, 1.0)
+    assert hard.C is C
+    levels = [TaskRows.equality(np.eye(NV), np.ones(NV))]
+    HierarchicalProblem.from_rows(hard, levels, cache)
+    C[0, 0], C[1] = 2.0, np.eye(NV)[1]
+    cached = HierarchicalProblem.from_rows(hard, levels, cache)
+    fresh = HierarchicalProblem.from_rows(hard, levels)
+    for name in ("A", "bupper", "blower", "sense", "break_points"):
+        np.testing.assert_array_equal(getattr(cached, name), getattr(fresh, name), name)
+    assert fresh.bupper[0] == 0.5 and fresh.bupper[1] == 1.0
+    # equal values in a new read-only object: the layout is kept, no rebuild
+    frozen = C.copy()
+    frozen.flags.writeable = False
+    layout = next(iter(cache.values()))
+    HierarchicalProblem.from_rows(TaskRows.inequality(frozen, -1.0, 1.0), levels, cache)
+    assert next(iter(cache.values())) is layout and layout.C is frozen
 
 
 def test_hierarchical_backend_weights_rows_within_a_level():

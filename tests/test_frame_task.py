@@ -6,6 +6,7 @@ from __future__ import annotations
 import itertools
 
 import mink
+import mujoco
 import numpy as np
 import pytest
 from fd import fd_jacobian
@@ -128,3 +129,67 @@ def test_per_axis_thresholds(humanoid_cfg):
     )
     tight = FrameTask(cfg, "right_hand", offset, translation_frame="world", thre=1e-3)
     assert loose_z.is_satisfied(cfg) and not tight.is_satisfied(cfg)
+
+
+@pytest.mark.parametrize("frame_type", ["body", "site", "geom"])
+def test_default_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, frame_type):
+    """The default case (both errors in the move target's frame) is computed on
+    Python floats and MuJoCo's Jacobian of the target point; here the module
+    formulas with mink's SO(3) (log, ljacinv) and MuJoCo's frame Jacobian: the
+    rows, error norm and stop test agree to rounding, for a fixed and a
+    callable target, clamped and not, and a target reached within tolerance."""
+    cfg = humanoid_cfg
+    model, data = cfg.model, cfg.data
+    name = {"body": "right_hand", "site": model.site(0).name, "geom": model.geom(5).name}[
+        frame_type
+    ]
+    pose = mink.SE3.from_rotation_and_translation(
+        mink.SO3.from_rpy_radians(0.3, -0.2, 1.9), np.array([0.4, -0.3, 1.1])
+    )
+    here = cfg.get_transform_frame_to_world(name, frame_type)
+    # within 1 mm / 1 degree; not much closer: mink's closed-form ljacinv loses
+    # digits at small angles (1.5e-11 off at 1e-3 rad, 6e-14 at 0.015)
+    near = here @ mink.SE3.from_rotation_and_translation(
+        mink.SO3.from_x_radians(0.015), np.array([2e-4, 0.0, -3e-4])
+    )
+    for target, limits in (
+        (pose, {}),
+        (pose, {"p_limit": 0.05, "r_limit": 0.2}),
+        (lambda c: pose, {}),
+        (near, {}),
+    ):
+        task = FrameTask(cfg, name, target, move_target_type=frame_type, **limits)
+        state = task.evaluate(cfg)
+        p, R = {
+            "body": (data.xpos, data.xmat),
+            "site": (data.site_xpos, data.site_xmat),
+            "geom": (data.geom_xpos, data.geom_xmat),
+        }[frame_type]
+        p_WM, R_WM = p[task.move_target.id], R[task.move_target.id].reshape(3, 3)
+        goal = target(cfg) if callable(target) else target
+        e_tW = p_WM - goal.translation()
+        e_rW = (mink.SO3.from_matrix(R_WM) @ goal.rotation().inverse()).log()
+        jacp, jacr = np.zeros((3, model.nv)), np.zeros((3, model.nv))
+        {"body": mujoco.mj_jacBody, "site": mujoco.mj_jacSite, "geom": mujoco.mj_jacGeom}[
+            frame_type
+        ](model, data, jacp, jacr, task.move_target.id)
+        skew = np.array(
+            [[0.0, -e_tW[2], e_tW[1]], [e_tW[2], 0.0, -e_tW[0]], [-e_tW[1], e_tW[0], 0.0]]
+        )
+        J = np.vstack(
+            [R_WM.T @ (jacp + skew @ jacr), R_WM.T @ mink.SO3.ljacinv(-e_rW) @ jacr]
+            if np.linalg.norm(e_rW) > 0
+            else [R_WM.T @ (jacp + skew @ jacr), R_WM.T @ jacr]
+        )
+        e = np.concatenate([R_WM.T @ e_tW, R_WM.T @ e_rW])
+        b = -e.copy()
+        for part, limit in ((b[:3], limits.get("p_limit")), (b[3:], limits.get("r_limit"))):
+            if limit is not None and np.linalg.norm(part) > limit:
+                part *= limit / np.linalg.norm(part)
+        np.testing.assert_allclose(state.rows.A, J, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(state.rows.b, b, rtol=0, atol=1e-14)
+        assert state.error == pytest.approx(np.linalg.norm(e), rel=1e-13)
+        satisfied = np.linalg.norm(e[:3]) <= 1e-3 and np.linalg.norm(e[3:]) <= np.deg2rad(1)
+        assert state.satisfied == satisfied
+        assert satisfied == (target is near)
+        np.testing.assert_allclose(task.compute_error(cfg), e, rtol=0, atol=1e-14)

@@ -23,6 +23,7 @@ from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.joint_coupling import JointCouplingTask
 from pik_mj.tasks.joint_limit import JointLimitTask
 from pik_mj.tasks.joint_velocity import JointVelocityTask
+from pik_mj.tasks.mink_adapter import MinkLimit, _BoxRows
 from pik_mj.tasks.task import EqualityTask
 from pik_mj.virtual_root import solve_with_virtual_root, with_virtual_root
 
@@ -123,6 +124,39 @@ def test_ball_joint_cone_row_matches_fd_and_mujoco_angle(ball_model):
     assert np.max(np.abs(J_fd - rows.C)) < TOL
     assert task.violations(cfg)["ball"] == pytest.approx(0.1, abs=1e-12)
     assert not task.is_satisfied(cfg)
+
+
+@pytest.mark.parametrize("name", ["humanoid", "arm", "ball_model"])
+def test_mink_configuration_limit_rows_are_minks_bit_for_bit(name, request):
+    """The adapter computes a ConfigurationLimit's ``h`` itself after checking
+    it once against mink's call (ball joints: mink's call every time); at
+    postures inside and outside the ranges its rows are mink's, bit for bit,
+    and ``G`` stays the same read-only object."""
+    model = request.getfixturevalue(name)
+    limit = mink.ConfigurationLimit(model, gain=0.9)
+    adapter = MinkLimit(limit)
+    cfg = configured(model, random_posture(model, 0))
+    first = adapter.compute_rows(cfg)
+    assert isinstance(adapter._box, _BoxRows) == (name != "ball_model")
+    rng = np.random.default_rng(3)
+    for seed in range(6):
+        q = random_posture(model, seed)
+        if seed % 2:  # some hinges past their ranges
+            for j in range(model.njnt):
+                if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                    q[model.jnt_qposadr[j]] += rng.normal(scale=1.0)
+        cfg.update(q)
+        rows = adapter.compute_rows(cfg)
+        G, h = limit.compute_qp_inequalities(cfg, 1.0)
+        assert np.array_equal(rows.C, G) and np.array_equal(rows.d_upper, h)
+        assert not rows.C.flags.writeable
+        if name != "ball_model":
+            assert rows.C is first.C
+        assert np.all(rows.d_lower == -np.inf)
+        state = adapter.evaluate(cfg)
+        violation = np.maximum(-h, 0.0)
+        assert state.error == pytest.approx(np.linalg.norm(violation), rel=1e-15)
+        assert state.satisfied == bool(violation.max() <= adapter.check_margin)
 
 
 def test_ball_joint_limit_holds_in_a_solve(ball_model):

@@ -42,7 +42,16 @@ import numpy as np
 
 from ..exceptions import InvalidInput
 from ..frames import Frame
-from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
+from .task import (
+    EqualityTask,
+    TaskRows,
+    TaskState,
+    clamp_norm,
+    diagonal_weights,
+    no_inequality,
+    tolerance,
+    within,
+)
 
 AxisSpec = bool | str | None
 
@@ -51,7 +60,6 @@ ONE_DEGREE = float(np.deg2rad(1.0))
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
-_JACOBIAN = {"body": mujoco.mj_jacBody, "site": mujoco.mj_jacSite, "geom": mujoco.mj_jacGeom}
 _POSE = {
     "body": ("xpos", "xmat"),
     "site": ("site_xpos", "site_xmat"),
@@ -95,6 +103,29 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
     e = np.empty(3)
     mujoco.mju_quat2Vel(e, quat, 1.0)
     return e
+
+
+def _quaternion(R: np.ndarray) -> list[float]:
+    """The wxyz quaternion of a rotation matrix given as 9 contiguous floats
+    (MuJoCo's ``mju_mat2Quat``)."""
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, R)
+    return quat.tolist()
+
+
+def _quat_log(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    """The rotation vector [rad] of a unit quaternion, as MuJoCo's
+    ``mju_quat2Vel`` at unit time step (the shorter of the two rotations),
+    on Python floats: ``θ = 2 atan2(‖v‖, w)``, less ``2π`` above ``π``,
+    times ``v / ‖v‖``."""
+    s = math.sqrt(x * x + y * y + z * z)
+    if s < 1e-15:  # MuJoCo's mjMINVAL: no axis, no rotation
+        return 0.0, 0.0, 0.0
+    angle = 2.0 * math.atan2(s, w)
+    if angle > math.pi:
+        angle -= 2.0 * math.pi
+    k = angle / s
+    return k * x, k * y, k * z
 
 
 def ljacinv(e: np.ndarray) -> np.ndarray:
@@ -251,6 +282,8 @@ class FrameTask(EqualityTask):
         self.target_frame: Frame | None = None
         self.target_fn: Callable[[mink.Configuration], Any] | None = None
         self.target_pose: tuple[np.ndarray, np.ndarray] | None = None
+        self._conjugate_of: tuple[np.ndarray, np.ndarray] | None = None
+        self._conjugate: _TargetTerms
         self.set_target(target, target_type, model)
         self.trans_rows = constrained_axes(translation_axis, "translation_axis")
         self.rot_rows = constrained_axes(rotation_axis, "rotation_axis")
@@ -271,6 +304,7 @@ class FrameTask(EqualityTask):
             isinstance(f, str) and f == "local"
             for f in (self.translation_frame, self.rotation_frame)
         )
+        self._body = self.move_target.body_id  # the body carrying the move target
 
     # -- configuration ------------------------------------------------------
     def set_target(self, target: Any, target_type: str | None = None, model=None) -> None:
@@ -281,7 +315,11 @@ class FrameTask(EqualityTask):
         elif callable(target) and not isinstance(target, (mink.SE3, np.ndarray)):
             self.target_fn = target
         else:
-            self.target_pose = as_pose(target, "target")
+            # the task's own read-only copy: what the target's quaternion is
+            # derived from (once, see _target_point_and_conjugate) cannot change
+            p, R = (a.copy() for a in as_pose(target, "target"))
+            p.flags.writeable = R.flags.writeable = False
+            self.target_pose = (p, R)
 
     @staticmethod
     def _frame_option(value: Any, what: str) -> str | np.ndarray:
@@ -301,6 +339,17 @@ class FrameTask(EqualityTask):
             return as_pose(self.target_fn(configuration), f"{self.name} target callable")
         assert self.target_pose is not None
         return self.target_pose
+
+    def _target_point_and_conjugate(self, configuration: mink.Configuration) -> _TargetTerms:
+        """``p_WT`` (array and floats) and the conjugate of ``R_WT``'s wxyz
+        quaternion, for a fixed (derived once per pose) or callable target."""
+        pose = self.target_pose
+        if self.target_fn is None and pose is not None:
+            if self._conjugate_of is not pose:
+                self._conjugate = _point_and_conjugate(*pose)
+                self._conjugate_of = pose
+            return self._conjugate
+        return _point_and_conjugate(*self.target_pose_now(configuration))
 
     def _R_WF(self, option: str | np.ndarray, R_WM: np.ndarray) -> np.ndarray:
         if isinstance(option, str):
@@ -334,7 +383,11 @@ class FrameTask(EqualityTask):
     def error_and_jacobian(self, configuration: mink.Configuration):
         """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
         if self._both_local and self.target_frame is None:
-            return self._local_error_and_jacobian(configuration)
+            e6, J = self._local(configuration)
+            e = np.array(e6)
+            if self._rows.size < 6:
+                e, J = e[self._rows], J[self._rows]
+            return e, J
         data = configuration.data
         e_tW, e_rW, R_WM, R_e = self._errors_world(configuration)
         Jp_M, Jr_M = self.move_target.jacobians(data)
@@ -376,47 +429,98 @@ class FrameTask(EqualityTask):
             e, J = e[self._rows], J[self._rows]
         return e, J
 
-    def _local_error_and_jacobian(self, configuration):
+    def _local(self, configuration) -> tuple[tuple[float, ...], np.ndarray]:
         """The default case (errors in the move target's frame, fixed or callable
-        target) as one 6x6 product: with ``R = R_WM``,
+        target): ``(e, J)`` with the error's six components as Python floats
+        and the full Jacobian (6, nv). With ``R = R_WM``, ``e_t = R^T (p_WM - p_WT)``,
+        ``e_r = R^T log(R_WM R_WT^T) = log(R_WT^T R_WM)`` (``R^T log(X) R = log(R^T X R)``),
+        and
 
         .. math::
 
-            J = \\begin{bmatrix} R^T & R^T [e_{t,W}]_\\times \\\\
-                0 & R^T J_l^{-1}(-e_{r,W}) \\end{bmatrix}
-                \\begin{bmatrix} J_p \\\\ J_\\omega \\end{bmatrix}
+            J = \\begin{bmatrix} R^T & 0 \\\\ 0 & J_l^{-1}(-e_r) R^T \\end{bmatrix}
+                \\begin{bmatrix} J_{p}(p_{WT}) \\\\ J_\\omega \\end{bmatrix}
 
-        (``J_l^{-1}(e) + [e]_× = J_l^{-1}(-e)``, the inverse right Jacobian).
-        The pose is read in place from MuJoCo's arrays and both 3x3 blocks
-        right of ``R^T`` are made in one product: the solve evaluates this
-        several times per iteration (trial step and corrections).
+        where ``J_p(p_WT) = J_{p,M} + [e_{t,W}]_\\times J_\\omega`` is MuJoCo's
+        ``mj_jac`` of the point ``p_WT`` carried by the move target's body, and
+        ``R^T J_l^{-1}(-e_{r,W}) = J_l^{-1}(-e_r) R^T`` (``J_l^{-1}(-e)`` is the
+        inverse right Jacobian). The same rows as the module formulas, made from
+        Python floats and one 6x6 product: the solve evaluates this several
+        times per iteration (trial step and corrections), and numpy's per-call
+        cost on 3x3 arrays is most of the work otherwise.
         """
         frame = self.move_target
         model, data = configuration.model, configuration.data
-        xpos, xmat = _POSE[frame.frame_type]
-        p_WM = getattr(data, xpos)[frame.id]
-        R_WM = getattr(data, xmat)[frame.id].reshape(3, 3)
-        p_WT, R_WT = self.target_pose_now(configuration)
-        tx, ty, tz = (p_WM - p_WT).tolist()
-        rx, ry, rz = rotation_vector(R_WM @ R_WT.T).tolist()
-        jac = np.zeros((6, model.nv))
-        _JACOBIAN[frame.frame_type](model, data, jac[:3], jac[3:], frame.id)
-        R_MW = R_WM.T
-        M = np.zeros((6, 6))
-        M[:3, :3] = R_MW
-        # [[e_t]×, J_l^{-1}(-e_r)] in one product with R^T
-        blocks = R_MW @ np.array(
-            [[[0.0, -tz, ty], [tz, 0.0, -tx], [-ty, tx, 0.0]], _ljacinv_rows(-rx, -ry, -rz)]
-        )
-        M[:3, 3:] = blocks[0]
-        M[3:, 3:] = blocks[1]
-        J = M @ jac
-        e = (np.array([[tx, ty, tz], [rx, ry, rz]]) @ R_WM).reshape(6)
-        if self._rows.size < 6:
-            e, J = e[self._rows], J[self._rows]
-        return e, J
+        i = frame.id
+        if frame.frame_type == "body":
+            w, x, y, z = data.xquat[i].tolist()  # MuJoCo's, R_WM = quat2Mat(xquat)
+            p_WM, R_WM = data.xpos[i], data.xmat[i]
+        else:
+            xpos, xmat = _POSE[frame.frame_type]
+            p_WM, R_WM = getattr(data, xpos)[i], getattr(data, xmat)[i]
+            w, x, y, z = _quaternion(R_WM)
+        p_WT, (px, py, pz), (cw, cx, cy, cz) = self._target_point_and_conjugate(configuration)
+        # q = q_WT^* q_WM, the rotation R_WT^T R_WM
+        qw = cw * w - cx * x - cy * y - cz * z
+        qx = cw * x + cx * w + cy * z - cz * y
+        qy = cw * y - cx * z + cy * w + cz * x
+        qz = cw * z + cx * y - cy * x + cz * w
+        rx, ry, rz = _quat_log(qw, qx, qy, qz)
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = R_WM.tolist()
+        mx, my, mz = p_WM.tolist()
+        dx, dy, dz = mx - px, my - py, mz - pz
+        tx = r0 * dx + r3 * dy + r6 * dz
+        ty = r1 * dx + r4 * dy + r7 * dz
+        tz = r2 * dx + r5 * dy + r8 * dz
+        # L = J_l^{-1}(-e_r), written out as in _ljacinv_rows; then L R^T
+        (l00, l01, l02), (l10, l11, l12), (l20, l21, l22) = _ljacinv_rows(-rx, -ry, -rz)
+        # fmt: off
+        M = np.array([
+            r0, r3, r6, 0.0, 0.0, 0.0,
+            r1, r4, r7, 0.0, 0.0, 0.0,
+            r2, r5, r8, 0.0, 0.0, 0.0,
+            0.0, 0.0, 0.0,
+            l00 * r0 + l01 * r1 + l02 * r2, l00 * r3 + l01 * r4 + l02 * r5,
+            l00 * r6 + l01 * r7 + l02 * r8,
+            0.0, 0.0, 0.0,
+            l10 * r0 + l11 * r1 + l12 * r2, l10 * r3 + l11 * r4 + l12 * r5,
+            l10 * r6 + l11 * r7 + l12 * r8,
+            0.0, 0.0, 0.0,
+            l20 * r0 + l21 * r1 + l22 * r2, l20 * r3 + l21 * r4 + l22 * r5,
+            l20 * r6 + l21 * r7 + l22 * r8,
+        ])  # [[R^T, 0], [0, L R^T]], row by row
+        # fmt: on
+        jac = np.empty((6, model.nv))
+        mujoco.mj_jac(model, data, jac[:3], jac[3:], p_WT, self._body)
+        return (tx, ty, tz, rx, ry, rz), M.reshape(6, 6) @ jac
 
     # -- cascade contract -------------------------------------------------------
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, ``‖e‖`` and stop test from one evaluation; the default case
+        (all six rows in the move target's frame, fixed or callable target,
+        tolerances on the norms) clamps and tests the error as Python floats,
+        as :meth:`clamp` and :meth:`satisfied_by` do on arrays."""
+        if not (
+            self._both_local
+            and self.target_frame is None
+            and self._rows.size == 6
+            and self.thre.ndim == 0
+            and self.rthre.ndim == 0
+        ):
+            return super().evaluate(configuration)
+        (tx, ty, tz, rx, ry, rz), J = self._local(configuration)
+        t2 = tx * tx + ty * ty + tz * tz
+        r2 = rx * rx + ry * ry + rz * rz
+        n_t, n_r = math.sqrt(t2), math.sqrt(r2)
+        s_t = -self.p_limit / n_t if n_t > self.p_limit else -1.0
+        s_r = -self.r_limit / n_r if n_r > self.r_limit else -1.0
+        b = np.array([s_t * tx, s_t * ty, s_t * tz, s_r * rx, s_r * ry, s_r * rz])
+        return TaskState(
+            TaskRows(J, b, self.weights, *no_inequality(J.shape[1])),
+            math.sqrt(t2 + r2),
+            n_t <= float(self.thre) and n_r <= float(self.rthre),
+        )
+
     def clamp(self, e: np.ndarray) -> np.ndarray:
         """``[clamp(e_t, p_limit); clamp(e_r, r_limit)]`` (a copy)."""
         b = e.copy()
@@ -444,6 +548,18 @@ class FrameTask(EqualityTask):
             f"rows={self.trans_rows.size}+{self.rot_rows.size}, p_limit={self.p_limit}, "
             f"r_limit={self.r_limit})"
         )
+
+
+_TargetTerms = tuple[np.ndarray, tuple[float, float, float], tuple[float, float, float, float]]
+
+
+def _point_and_conjugate(p: np.ndarray, R: np.ndarray) -> _TargetTerms:
+    """``(p, p as floats, q^*)``: ``p`` as a contiguous float array (MuJoCo's
+    point argument) and the conjugate of ``R``'s wxyz quaternion, as floats."""
+    w, x, y, z = _quaternion(np.ascontiguousarray(R, dtype=float).reshape(9))
+    p = np.ascontiguousarray(p, dtype=float)
+    px, py, pz = p.tolist()
+    return p, (px, py, pz), (w, -x, -y, -z)
 
 
 def _limit(label: str, value: float | None) -> float:
