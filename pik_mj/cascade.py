@@ -115,7 +115,8 @@ class CascadeStep:
             hierarchical backend: each level exact).
         problems: The QP of each level handed to the backend (levels solved in
             closed form have none; see :meth:`NullSpaceCascade.level_problem`),
-            or the one :class:`HierarchicalProblem`.
+            or the one :class:`HierarchicalProblem` (whose arrays the backend's
+            next problem of the same shape rewrites: copy them to keep them).
         violations: Feasibility error ``v_k`` of each level's solution
             (largest constraint violation of its QP; 0 in closed form). A row
             ``a`` of level ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of its

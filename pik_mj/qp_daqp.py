@@ -152,6 +152,15 @@ class _Layout:
             self.sense[n + first : n + first + n_eq] = 13  # equality (active, immutable), soft
             self.sense[n + first + n_eq : n + first + size] = 8  # inequality, soft
         self.break_points = np.array(break_points, dtype=np.intc)
+        # The problem's arrays, rewritten in place by every problem of this
+        # shape: every entry of A is written each time except the zero ``d``
+        # column of the hard rows; the first n bounds start from ``bounds0``.
+        self.A = np.zeros(self.A_shape)
+        self.upper = np.empty(self.n_bounds)
+        self.lower = np.empty(self.n_bounds)
+        self.bounds0 = np.full((2, n), _DAQP_INF)
+        self.bounds0[1] = -_DAQP_INF
+        self.bounds0[:, nv] = 0.0  # d = 0
 
     def fits(self, C: np.ndarray) -> bool:
         """Whether ``C`` holds the rows this layout was made for: the same
@@ -214,23 +223,28 @@ class HierarchicalProblem:
         cls, hard: TaskRows, levels: list[TaskRows], cache: dict | None = None
     ) -> HierarchicalProblem:
         """The problem of a cascade's rows; ``cache`` (a dict kept by the caller)
-        holds the layout of each stack shape, so that only values are written."""
+        holds the layout of each stack shape and its arrays, so that only values
+        are written: ``A``, ``bupper`` and ``blower`` of a problem made with a
+        cache are rewritten by the next problem of the same shape (copy them to
+        keep them; the solve loop uses a problem before it makes the next)."""
         nv = hard.A.shape[1]
         n = nv + 1
         C = hard.C
-        keeps = [rows.w_A > 0 for rows in levels]
-        n_keep = [int(np.count_nonzero(k)) for k in keeps]
-        shape = (nv, hard.n_eq, *((k, r.n_eq, r.n_in) for k, r in zip(n_keep, levels, strict=True)))
+        # weights are >= 0 (validated where the rows entered): nonzero is > 0
+        n_keep = []
+        shape: list = [nv, hard.n_eq]
+        for rows in levels:
+            k = int(np.count_nonzero(rows.w_A))
+            n_keep.append(k)
+            shape += (k, rows.n_eq, rows.n_in)
+        shape = tuple(shape)  # type: ignore[assignment]
         layout = cache.get(shape) if cache is not None else None
         if layout is None or not layout.fits(C):  # new shape, or new hard rows
             layout = _Layout(nv, hard.n_eq, C, n_keep, [r.n_in for r in levels])
             if cache is not None:
                 cache[shape] = layout
-        A = np.zeros(layout.A_shape)
-        upper = np.empty(layout.n_bounds)
-        lower = np.empty(layout.n_bounds)
-        upper[:n], lower[:n] = _DAQP_INF, -_DAQP_INF
-        upper[nv] = lower[nv] = 0.0  # d = 0
+        A, upper, lower = layout.A, layout.upper, layout.lower
+        upper[:n], lower[:n] = layout.bounds0
         # hard inequality rows with one entry c x_i in [l, u]: bounds on x_i,
         # one side of the rows (c > 0, then c < 0) at a time
         for rows_, cols, coef, unique in layout.sides:
@@ -243,14 +257,15 @@ class HierarchicalProblem:
                 np.maximum.at(lower, cols, lo_i)
                 np.minimum.at(upper, cols, hi_i)
         r = hard.n_eq
-        A[:r, :nv] = hard.A
-        upper[n : n + r] = lower[n : n + r] = hard.b
+        if r:
+            A[:r, :nv] = hard.A
+            upper[n : n + r] = lower[n : n + r] = hard.b
         g = layout.n_general
         if g > r:
             A[r:g, :nv] = C[layout.general_rows]
             upper[n + r : n + g] = hard.d_upper[layout.general_rows]
             lower[n + r : n + g] = hard.d_lower[layout.general_rows]
-        for rows, keep, (i, n_eq, size) in zip(levels, keeps, layout.blocks, strict=True):
+        for rows, (i, n_eq, size) in zip(levels, layout.blocks, strict=True):
             if size == 0:
                 continue
             block = A[i : i + size]
@@ -258,8 +273,10 @@ class HierarchicalProblem:
             if n_eq == rows.n_eq:
                 sw = np.sqrt(rows.w_A)
                 np.multiply(sw[:, None], rows.A, out=block[:n_eq, :nv])
-                upper[j : j + n_eq] = lower[j : j + n_eq] = sw * rows.b
-            else:
+                np.multiply(sw, rows.b, out=upper[j : j + n_eq])
+                lower[j : j + n_eq] = upper[j : j + n_eq]
+            elif n_eq:
+                keep = rows.w_A > 0
                 sw = np.sqrt(rows.w_A[keep])
                 np.multiply(sw[:, None], rows.A[keep], out=block[:n_eq, :nv])
                 upper[j : j + n_eq] = lower[j : j + n_eq] = sw * rows.b[keep]
@@ -274,8 +291,10 @@ class HierarchicalProblem:
             D = np.maximum(np.maximum.reduceat(norms, layout.block_starts), 1e-300)
             np.subtract(np.repeat(D, layout.block_sizes), norms, out=norms)
             np.sqrt(np.maximum(norms, 0.0, out=norms), out=soft[:, nv])
-        np.clip(upper, -_DAQP_INF, _DAQP_INF, out=upper)
-        np.clip(lower, -_DAQP_INF, _DAQP_INF, out=lower)
+        # the rows' bounds within ±_DAQP_INF (the first n are already)
+        for bound in (upper[n:], lower[n:]):
+            np.minimum(bound, _DAQP_INF, out=bound)
+            np.maximum(bound, -_DAQP_INF, out=bound)
         return cls(
             _identity(n),
             A,

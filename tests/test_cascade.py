@@ -558,6 +558,43 @@ def test_hierarchical_layout_follows_hard_rows_refilled_in_place():
     assert next(iter(cache.values())) is layout and layout.C is frozen
 
 
+def test_hierarchical_problem_buffers_are_rewritten_in_full():
+    """A cached layout's arrays are written in place by every problem of its
+    shape: problems of one shape with new values (random rows, a zero weight
+    dropping a row, bounds and joint-limit-like box rows changed) equal the
+    ones built without a cache, entry for entry. A buffer entry left from the
+    last problem (stale rows or bounds) fails this test."""
+    rng = np.random.default_rng(7)
+    cache: dict = {}
+    box = np.vstack([np.eye(NV), -np.eye(NV)])
+    box.flags.writeable = False
+    general = rng.normal(size=(1, NV))
+    C = np.vstack([box, general])
+    C.flags.writeable = False
+    for trial in range(4):
+        hard = TaskRows(
+            rng.normal(size=(1, NV)),
+            rng.normal(size=1),
+            np.ones(1),
+            C,
+            np.r_[np.full(2 * NV, -np.inf), -1.0],
+            np.r_[rng.uniform(0.1, 1.0, 2 * NV), 1.0 + trial],
+            np.ones(2 * NV + 1),
+        )
+        w = np.array([1.0, 0.0, 4.0]) if trial % 2 else np.array([0.0, 2.0, 1.0])
+        levels = [
+            TaskRows.equality(rng.normal(size=(3, NV)), rng.normal(size=3), w),
+            random_rows(rng, 2, 2, rank=2),
+            TaskRows.equality(np.eye(NV), rng.normal(size=NV), 0.01),
+        ]
+        cached = HierarchicalProblem.from_rows(hard, levels, cache)
+        fresh = HierarchicalProblem.from_rows(hard, levels)
+        for name in ("A", "bupper", "blower", "sense", "break_points"):
+            np.testing.assert_array_equal(getattr(cached, name), getattr(fresh, name), name)
+        np.testing.assert_array_equal(HQP.solve_hierarchy(cached).z, HQP.solve_hierarchy(fresh).z)
+    assert len(cache) == 1  # one shape: the same buffers every time
+
+
 def test_hierarchical_backend_weights_rows_within_a_level():
     """DAQP normalizes each soft row; the auxiliary column restores the level's
     weights: rows x0 = 1 (weight 1) and x0 = 0 (weight 100) give x0 = 1/101."""
