@@ -44,6 +44,7 @@ feasibility error of the backend solutions below it (0 in closed form).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -267,11 +268,15 @@ class NullSpaceCascade:
             u = B.T @ _psd_solve(G, r)
         return u if self.P is None else x - self.P @ x + u
 
-    def _violated(self, rows: TaskRows, x: np.ndarray, tol: float) -> tuple:
-        """``(kept rows, own rows)`` violated by more than ``tol`` at ``x``."""
-        cx = rows.C @ x
-        own = (cx < rows.d_lower - tol) | (cx > rows.d_upper + tol)
-        return self._excess(x) > tol, own
+    def _violates(self, rows: TaskRows, x: np.ndarray, tol: float) -> bool:
+        """Whether ``x`` violates a kept row (beyond its allowance) or one of the
+        level's own inequality rows by more than ``tol``."""
+        if self.C.shape[0] and float(self._excess(x).max()) > tol:
+            return True
+        if rows.n_in:
+            cx = rows.C @ x
+            return bool(((cx < rows.d_lower - tol) | (cx > rows.d_upper + tol)).any())
+        return False
 
     def level_problem(self, level: int, rows: TaskRows, lam: float) -> LevelProblem:
         """The level's QP over ``z = [x; ω]`` for the backend: the kept equality
@@ -306,10 +311,11 @@ class NullSpaceCascade:
         """
         x_k = self.candidate(rows, lam) if exact else None
         problem, violation = None, 0.0
-        if x_k is not None:
-            kept, own = self._violated(rows, x_k, FEASIBILITY_TOLERANCE)
-            if kept.any() or own.any() or not np.all(np.isfinite(x_k)):
-                x_k = None
+        if x_k is not None and (
+            not math.isfinite(float(x_k.sum()))  # NaN or inf anywhere
+            or self._violates(rows, x_k, FEASIBILITY_TOLERANCE)
+        ):
+            x_k = None
         if x_k is None:
             if self.backend is None:
                 return None, None, 0.0
