@@ -442,12 +442,11 @@ class _Point:
     def reports(self) -> list[TaskReport]:
         return [r for level in self.level_reports[: self.done] for r in level]
 
-    def errors(self, k: int) -> np.ndarray:
+    def errors(self, k: int) -> list[float]:
         """Error of each checked task of levels ``0..k`` (level 0: the hard rows'
-        violations); unchecked tasks carry no promise to keep."""
-        return np.array(
-            [r.error for level in self.level_reports[: k + 1] for r in level if r.checked]
-        )
+        violations); unchecked tasks carry no promise to keep. (A few floats:
+        Python lists, no numpy calls.)"""
+        return [r.error for level in self.level_reports[: k + 1] for r in level if r.checked]
 
     def level_error(self, k: int) -> float:
         """Norm of the errors of level ``k``'s checked tasks."""
@@ -491,9 +490,14 @@ def _residual(rows: TaskRows, x: np.ndarray | None = None) -> float:
     return math.sqrt(total)
 
 
-def _kept(before: np.ndarray, after: np.ndarray, drift: float) -> bool:
+def _sq(errors: list[float]) -> float:
+    """Sum of squares."""
+    return sum(e * e for e in errors)
+
+
+def _kept(before: list[float], after: list[float], drift: float) -> bool:
     """Every task of the satisfied levels within ``max(its error before, drift)``."""
-    return bool(np.all(after <= np.maximum(before, drift)))
+    return all(a <= max(b, drift) for a, b in zip(after, before, strict=True))
 
 
 # -- the loop ------------------------------------------------------------------------
@@ -648,7 +652,7 @@ def solve(
                         # (with none yet, onto level 0's rows alone: a nonlinear
                         # hard equality such as a polynomial joint coupling)
                         for _ in range(MAX_CORRECTIONS):
-                            if np.all(there.errors(prefix) <= fix_above):
+                            if all(e <= fix_above for e in there.errors(prefix)):
                                 break
                             t2 = time.perf_counter()
                             kept = there.rows[1 : prefix + 1] or [TaskRows.empty(model.nv)]
@@ -673,7 +677,7 @@ def solve(
                     ratio = 1.0
                     # levels above improved (the correction repaired them): a
                     # lexicographic gain whatever it cost the progress level
-                    repaired = float(after @ after) < float(before @ before) - fix_above**2
+                    repaired = _sq(after) < _sq(before) - fix_above**2
                     if kept and progress_level and not repaired:
                         there.upto(progress_level)
                         e0 = here.level_error(progress_level)
