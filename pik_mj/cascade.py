@@ -424,7 +424,9 @@ def _exact(hard: TaskRows, levels: Sequence[TaskRows], errors: list[float]) -> C
 def _solve_hierarchy(
     hard: TaskRows, levels: Sequence[TaskRows], errors: list[float], backend
 ) -> CascadeStep:
-    problem = HierarchicalProblem.from_rows(hard, list(levels), getattr(backend, "layouts", None))
+    problem = HierarchicalProblem.from_rows(
+        hard, list(levels), getattr(backend, "layouts", None), getattr(backend, "zero_rows", None)
+    )
     solution: QPSolution = backend.solve_hierarchy(problem)
     if not solution.ok or solution.z is None:
         if solution.infeasible:
