@@ -17,7 +17,7 @@ import numpy as np
 
 from .exceptions import InvalidInput
 from .qp import LevelProblem, QPSolution
-from .tasks.task import TaskRows
+from .tasks.task import TaskRows, frozen
 
 DAQP_SETTINGS = (
     "primal_tol",
@@ -114,7 +114,7 @@ class _Layout:
         n = nv + 1
         # the hard inequality rows this layout was made for (a copy unless no
         # one can write them: a stack buffer is refilled in place)
-        self.C = C if _frozen(C) else C.copy()
+        self.C = C if frozen(C) else C.copy()
         nonzero = C != 0
         single = np.count_nonzero(nonzero, axis=1) == 1
         self.single_rows = np.flatnonzero(single)
@@ -171,7 +171,7 @@ class _Layout:
             return True
         if C.shape != self.C.shape or not np.array_equal(C, self.C):
             return False
-        if _frozen(C):
+        if frozen(C):
             self.C = C
         return True
 
@@ -189,7 +189,7 @@ def _kept_rows(rows: TaskRows, memo: dict, level: int) -> tuple[np.ndarray | Non
     """
     A = rows.A
     weighted = int(np.count_nonzero(rows.w_A)) == rows.n_eq
-    if not _frozen(A) or not rows.n_eq:
+    if not frozen(A) or not rows.n_eq:
         if weighted:
             return None, A
         keep = np.flatnonzero(rows.w_A)
@@ -204,11 +204,6 @@ def _kept_rows(rows: TaskRows, memo: dict, level: int) -> tuple[np.ndarray | Non
         return keep, kept
     keep = np.flatnonzero(nonzero & (rows.w_A > 0))
     return keep, A[keep]
-
-
-def _frozen(C: np.ndarray) -> bool:
-    """Read-only and owning its data: its values cannot change."""
-    return not C.flags.writeable and C.base is None
 
 
 @dataclass

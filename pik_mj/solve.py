@@ -50,7 +50,7 @@ from .checks import (
 )
 from .exceptions import InvalidInput, QPFailure
 from .qp import make_backend
-from .tasks.task import Task, TaskRows
+from .tasks.task import Task, TaskRows, frozen
 
 MAX_CORRECTIONS = 3
 """Newton projections per trial step (each one re-solves the satisfied levels)."""
@@ -323,16 +323,11 @@ def evaluate_level(
             r.validate(nv, task.name)
         raise InvalidInput(f"level {k}: rows are not finite")  # pragma: no cover
     if stack is not None:
-        if stacked.A is not stack.checked_A and _frozen(stacked.A):
+        if stacked.A is not stack.checked_A and frozen(stacked.A):
             stack.checked_A = stacked.A
-        if stacked.C is not stack.checked_C and _frozen(stacked.C):
+        if stacked.C is not stack.checked_C and frozen(stacked.C):
             stack.checked_C = stacked.C
     return stacked, reports
-
-
-def _frozen(M: np.ndarray) -> bool:
-    """Read-only and owning its data: its values cannot change."""
-    return not M.flags.writeable and M.base is None
 
 
 def _foreign_task(task: Task, configuration: mink.Configuration, exc: Exception) -> str:
