@@ -44,6 +44,7 @@ feasibility error of the backend solutions below it (0 in closed form).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -115,7 +116,8 @@ class CascadeStep:
             hierarchical backend: each level exact).
         problems: The QP of each level handed to the backend (levels solved in
             closed form have none; see :meth:`NullSpaceCascade.level_problem`),
-            or the one :class:`HierarchicalProblem`.
+            or the one :class:`HierarchicalProblem` (whose arrays the backend's
+            next problem of the same shape rewrites: copy them to keep them).
         violations: Feasibility error ``v_k`` of each level's solution
             (largest constraint violation of its QP; 0 in closed form). A row
             ``a`` of level ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of its
@@ -266,11 +268,15 @@ class NullSpaceCascade:
             u = B.T @ _psd_solve(G, r)
         return u if self.P is None else x - self.P @ x + u
 
-    def _violated(self, rows: TaskRows, x: np.ndarray, tol: float) -> tuple:
-        """``(kept rows, own rows)`` violated by more than ``tol`` at ``x``."""
-        cx = rows.C @ x
-        own = (cx < rows.d_lower - tol) | (cx > rows.d_upper + tol)
-        return self._excess(x) > tol, own
+    def _violates(self, rows: TaskRows, x: np.ndarray, tol: float) -> bool:
+        """Whether ``x`` violates a kept row (beyond its allowance) or one of the
+        level's own inequality rows by more than ``tol``."""
+        if self.C.shape[0] and float(self._excess(x).max()) > tol:
+            return True
+        if rows.n_in:
+            cx = rows.C @ x
+            return bool(((cx < rows.d_lower - tol) | (cx > rows.d_upper + tol)).any())
+        return False
 
     def level_problem(self, level: int, rows: TaskRows, lam: float) -> LevelProblem:
         """The level's QP over ``z = [x; ω]`` for the backend: the kept equality
@@ -305,10 +311,11 @@ class NullSpaceCascade:
         """
         x_k = self.candidate(rows, lam) if exact else None
         problem, violation = None, 0.0
-        if x_k is not None:
-            kept, own = self._violated(rows, x_k, FEASIBILITY_TOLERANCE)
-            if kept.any() or own.any() or not np.all(np.isfinite(x_k)):
-                x_k = None
+        if x_k is not None and (
+            not math.isfinite(float(x_k.sum()))  # NaN or inf anywhere
+            or self._violates(rows, x_k, FEASIBILITY_TOLERANCE)
+        ):
+            x_k = None
         if x_k is None:
             if self.backend is None:
                 return None, None, 0.0
@@ -417,7 +424,9 @@ def _exact(hard: TaskRows, levels: Sequence[TaskRows], errors: list[float]) -> C
 def _solve_hierarchy(
     hard: TaskRows, levels: Sequence[TaskRows], errors: list[float], backend
 ) -> CascadeStep:
-    problem = HierarchicalProblem.from_rows(hard, list(levels), getattr(backend, "layouts", None))
+    problem = HierarchicalProblem.from_rows(
+        hard, list(levels), getattr(backend, "layouts", None), getattr(backend, "zero_rows", None)
+    )
     solution: QPSolution = backend.solve_hierarchy(problem)
     if not solution.ok or solution.z is None:
         if solution.infeasible:

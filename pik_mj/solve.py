@@ -50,7 +50,7 @@ from .checks import (
 )
 from .exceptions import InvalidInput, QPFailure
 from .qp import make_backend
-from .tasks.task import Task, TaskRows
+from .tasks.task import Task, TaskRows, frozen
 
 MAX_CORRECTIONS = 3
 """Newton projections per trial step (each one re-solves the satisfied levels)."""
@@ -245,7 +245,10 @@ class _Stack:
     def __init__(self) -> None:
         self.buffers: list[tuple[tuple, TaskRows] | None] = [None, None]
         self.slot = 0
-        self.checked_C: np.ndarray | None = None  # a read-only C found finite
+        # read-only matrices found finite (a limit's constant C, a posture's
+        # constant A), handed back as the same objects: not summed again
+        self.checked_A: np.ndarray | None = None
+        self.checked_C: np.ndarray | None = None
 
     def stack(self, rows: list[TaskRows], nv: int) -> TaskRows:
         if len(rows) == 1:
@@ -253,7 +256,7 @@ class _Stack:
         if not rows:
             return TaskRows.empty(nv)
         self.slot ^= 1
-        shape = tuple((r.A.shape[0], r.C.shape[0]) for r in rows)
+        shape = tuple([(r.A.shape[0], r.C.shape[0]) for r in rows])
         held = self.buffers[self.slot]
         if held is None or held[0] != shape:
             held = (shape, TaskRows.stack(rows, nv))
@@ -282,8 +285,10 @@ def evaluate_level(
     level: list[Task],
     stack: _Stack | None = None,
     validate: bool = True,
+    nv: int | None = None,
 ) -> tuple[TaskRows, list[TaskReport]]:
-    """The rows of level ``k`` (stacked) and a report per task at ``configuration``.
+    """The rows of level ``k`` (stacked) and a report per task at ``configuration``
+    (``nv``: the model's, if the caller has it at hand).
 
     One :meth:`Task.evaluate` per task: the rows of the next cascade step and
     the stop test of the one just taken come from the same evaluation. With
@@ -291,7 +296,7 @@ def evaluate_level(
     only the stacked arrays' finiteness is, and a failure is traced back to its
     task.
     """
-    nv = configuration.model.nv
+    nv = configuration.model.nv if nv is None else nv
     rows = []
     reports = []
     for task in level:
@@ -309,13 +314,19 @@ def evaluate_level(
         stacked = stack.stack(rows, nv) if stack is not None else TaskRows.stack(rows, nv)
     except ValueError:
         stacked = None
-    known = stack.checked_C if stack is not None else None
-    if stacked is None or not _finite(stacked, nv, known):
+    if stack is None:
+        finite = stacked is not None and _finite(stacked, nv)
+    else:
+        finite = stacked is not None and _finite(stacked, nv, stack.checked_A, stack.checked_C)
+    if not finite:
         for task, r in zip(level, rows, strict=True):
             r.validate(nv, task.name)
         raise InvalidInput(f"level {k}: rows are not finite")  # pragma: no cover
-    if stack is not None and not stacked.C.flags.writeable and stacked.C.base is None:
-        stack.checked_C = stacked.C
+    if stack is not None:
+        if stacked.A is not stack.checked_A and frozen(stacked.A):
+            stack.checked_A = stacked.A
+        if stacked.C is not stack.checked_C and frozen(stacked.C):
+            stack.checked_C = stacked.C
     return stacked, reports
 
 
@@ -348,17 +359,26 @@ def evaluate_levels(
     return stacked, reports
 
 
-def _finite(rows: TaskRows, nv: int, known: np.ndarray | None = None) -> bool:
+def _finite(
+    rows: TaskRows,
+    nv: int,
+    known_A: np.ndarray | None = None,
+    known_C: np.ndarray | None = None,
+) -> bool:
     """Cheap check of stacked rows: shapes agree with ``nv``; no NaN or inf in
     the matrices and targets, no NaN in the bounds (sums propagate them).
-    ``known``: a read-only matrix already found finite (a limit's constant
-    ``C``, handed back as the same object), not summed again."""
-    if rows.A.shape[1:] != (nv,) or rows.C.shape[1:] != (nv,):
+    ``known_A``, ``known_C``: read-only matrices already found finite (a
+    posture's constant ``A``, a limit's constant ``C``, handed back as the same
+    objects), not summed again."""
+    A, C = rows.A, rows.C
+    if A.shape[1:] != (nv,) or C.shape[1:] != (nv,):
         return False
-    if rows.n_eq and not math.isfinite(rows.A.sum() + rows.b.sum()):
-        return False
-    if rows.n_in:
-        total = 0.0 if rows.C is known else rows.C.sum()
+    if A.shape[0]:
+        total = rows.b.sum() if A is known_A else A.sum() + rows.b.sum()
+        if not math.isfinite(total):
+            return False
+    if C.shape[0]:
+        total = 0.0 if C is known_C else C.sum()
         return not (
             math.isnan(total)
             or math.isinf(total)
@@ -394,6 +414,7 @@ class _Point:
         configuration.update(q)
         self.q, self.configuration, self.levels, self.stacks = q, configuration, levels, stacks
         self.counts = counts  # evaluations of each level, shared by the solve's points
+        self.nv = configuration.model.nv
         n = len(levels)
         self.rows: list[TaskRows] = [None] * n  # type: ignore[list-item]
         self.level_reports: list[list[TaskReport]] = [None] * n  # type: ignore[list-item]
@@ -403,7 +424,7 @@ class _Point:
         """Evaluate levels ``0..k`` (those not done yet)."""
         for j in range(self.done, min(k, len(self.levels) - 1) + 1):
             self.rows[j], self.level_reports[j] = evaluate_level(
-                self.configuration, j, self.levels[j], self.stacks[j], validate
+                self.configuration, j, self.levels[j], self.stacks[j], validate, self.nv
             )
             self.counts[j] += 1
         self.done = max(self.done, min(k, len(self.levels) - 1) + 1)
@@ -416,12 +437,11 @@ class _Point:
     def reports(self) -> list[TaskReport]:
         return [r for level in self.level_reports[: self.done] for r in level]
 
-    def errors(self, k: int) -> np.ndarray:
+    def errors(self, k: int) -> list[float]:
         """Error of each checked task of levels ``0..k`` (level 0: the hard rows'
-        violations); unchecked tasks carry no promise to keep."""
-        return np.array(
-            [r.error for level in self.level_reports[: k + 1] for r in level if r.checked]
-        )
+        violations); unchecked tasks carry no promise to keep. (A few floats:
+        Python lists, no numpy calls.)"""
+        return [r.error for level in self.level_reports[: k + 1] for r in level if r.checked]
 
     def level_error(self, k: int) -> float:
         """Norm of the errors of level ``k``'s checked tasks."""
@@ -465,9 +485,14 @@ def _residual(rows: TaskRows, x: np.ndarray | None = None) -> float:
     return math.sqrt(total)
 
 
-def _kept(before: np.ndarray, after: np.ndarray, drift: float) -> bool:
+def _sq(errors: list[float]) -> float:
+    """Sum of squares."""
+    return sum(e * e for e in errors)
+
+
+def _kept(before: list[float], after: list[float], drift: float) -> bool:
     """Every task of the satisfied levels within ``max(its error before, drift)``."""
-    return bool(np.all(after <= np.maximum(before, drift)))
+    return all(a <= max(b, drift) for a, b in zip(after, before, strict=True))
 
 
 # -- the loop ------------------------------------------------------------------------
@@ -608,7 +633,7 @@ def solve(
                 step = solve_cascade(here.rows[0], here.rows[1:], regs, backend, tau)
                 qp_time += time.perf_counter() - t0
                 x = step.x
-                size = float(np.max(np.abs(x), initial=0.0))
+                size = float(np.abs(x).max())  # (nv >= 1)
                 alpha = 1.0 if size <= radius else radius / size
                 before = here.errors(prefix)
                 progress_level = prefix + 1 if prefix < n_solved else 0
@@ -622,7 +647,7 @@ def solve(
                         # (with none yet, onto level 0's rows alone: a nonlinear
                         # hard equality such as a polynomial joint coupling)
                         for _ in range(MAX_CORRECTIONS):
-                            if np.all(there.errors(prefix) <= fix_above):
+                            if all(e <= fix_above for e in there.errors(prefix)):
                                 break
                             t2 = time.perf_counter()
                             kept = there.rows[1 : prefix + 1] or [TaskRows.empty(model.nv)]
@@ -647,7 +672,7 @@ def solve(
                     ratio = 1.0
                     # levels above improved (the correction repaired them): a
                     # lexicographic gain whatever it cost the progress level
-                    repaired = float(after @ after) < float(before @ before) - fix_above**2
+                    repaired = _sq(after) < _sq(before) - fix_above**2
                     if kept and progress_level and not repaired:
                         there.upto(progress_level)
                         e0 = here.level_error(progress_level)

@@ -558,6 +558,59 @@ def test_hierarchical_layout_follows_hard_rows_refilled_in_place():
     assert next(iter(cache.values())) is layout and layout.C is frozen
 
 
+def test_hierarchical_problem_buffers_are_rewritten_in_full():
+    """A cached layout's arrays are written in place by every problem of its
+    shape: problems of one shape with new values (random rows, a zero weight
+    dropping a row, bounds and joint-limit-like box rows changed, a read-only
+    posture-like matrix whose zero rows move) equal the ones built without a
+    cache, entry for entry. A buffer entry left from the last problem (stale
+    rows or bounds), or a zero-row mask kept for another matrix, fails this
+    test. Leaving a read-only matrix's zero rows out does not change DAQP's
+    solution (the same rows, writable, are all handed over)."""
+    rng = np.random.default_rng(7)
+    cache: dict = {}
+    zero_rows: dict = {}
+    box = np.vstack([np.eye(NV), -np.eye(NV)])
+    box.flags.writeable = False
+    general = rng.normal(size=(1, NV))
+    C = np.vstack([box, general])
+    C.flags.writeable = False
+    for trial in range(4):
+        hard = TaskRows(
+            np.zeros((0, NV)),
+            np.zeros(0),
+            np.zeros(0),
+            C,
+            np.r_[np.full(2 * NV, -np.inf), -1.0],
+            np.r_[rng.uniform(0.1, 1.0, 2 * NV), 1.0 + trial],
+            np.ones(2 * NV + 1),
+        )
+        w = np.array([1.0, 0.0, 4.0]) if trial % 2 else np.array([0.0, 2.0, 1.0])
+        posture = np.eye(NV)
+        posture[:, [trial, trial + 1]] = 0.0  # two zero rows, a new pair each trial
+        posture.flags.writeable = False
+        target = rng.normal(size=NV)
+        levels = [
+            TaskRows.equality(rng.normal(size=(3, NV)), rng.normal(size=3), w),
+            random_rows(rng, 2, 2, rank=2),
+            TaskRows.equality(posture, target, 0.01),
+        ]
+        assert levels[2].A is posture
+        cached = HierarchicalProblem.from_rows(hard, levels, cache, zero_rows)
+        fresh = HierarchicalProblem.from_rows(hard, levels)
+        # the general hard row, 2 of 3 rows (one of weight 0), 2 + 2 rows, NV - 2 of NV rows
+        assert cached.A.shape == (1 + 2 + 4 + NV - 2, NV + 1)
+        for name in ("A", "bupper", "blower", "sense", "break_points"):
+            np.testing.assert_array_equal(getattr(cached, name), getattr(fresh, name), name)
+        x = HQP.solve_hierarchy(cached).z
+        np.testing.assert_array_equal(x, HQP.solve_hierarchy(fresh).z)
+        writable = [*levels[:2], TaskRows.equality(posture.copy(), target, 0.01)]
+        every_row = HierarchicalProblem.from_rows(hard, writable)
+        assert every_row.A.shape[0] == cached.A.shape[0] + 2
+        np.testing.assert_allclose(HQP.solve_hierarchy(every_row).z, x, atol=1e-12)
+    assert len(cache) == 1  # one shape: the same buffers every time
+
+
 def test_hierarchical_backend_weights_rows_within_a_level():
     """DAQP normalizes each soft row; the auxiliary column restores the level's
     weights: rows x0 = 1 (weight 1) and x0 = 0 (weight 100) give x0 = 1/101."""

@@ -15,6 +15,7 @@ import pik_mj
 from pik_mj.solve import CORRECT_ABOVE, TrustRegion
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import as_task
+from pik_mj.tasks.task import TaskState
 
 
 @pytest.fixture(scope="module")
@@ -155,6 +156,46 @@ def test_nan_in_mink_task_rows_restores_configuration(model):
     stack.posture.target_q = np.full(model.nq, np.nan)
     with pytest.raises(pik_mj.InvalidInput, match="PostureTask"):
         pik_mj.solve(cfg, stack.levels)
+    np.testing.assert_array_equal(cfg.q, q_before)
+
+
+class _FrozenRows(pik_mj.Task):
+    """Equality rows ``A x = b`` with a read-only ``A``; ``A`` is replaced by a
+    new read-only matrix holding a NaN after ``n_good`` evaluations."""
+
+    name = "frozen"
+
+    def __init__(self, nv: int, n_good: int):
+        self.nv, self.n_good, self.calls = nv, n_good, 0
+        self.A = np.eye(nv)[:3].copy()
+        self.A.flags.writeable = False
+
+    def compute_rows(self, configuration):
+        self.calls += 1
+        if self.calls > self.n_good:
+            A = np.eye(self.nv)[:3].copy()
+            A[1, 2] = np.nan
+            A.flags.writeable = False
+            self.A = A
+        return pik_mj.TaskRows.equality(self.A, np.full(3, 1e-3))
+
+    def evaluate(self, configuration):
+        return TaskState(self.compute_rows(configuration), 1e-3, False)
+
+
+def test_a_new_read_only_matrix_with_nan_is_caught_mid_solve(model):
+    """The loop sums a read-only matrix once (a posture's constant Jacobian is
+    handed back as the same object); a new object is summed again: a NaN in it
+    after three evaluations ends the solve with the task named, the
+    configuration restored. A check keyed on anything but the object would
+    miss it."""
+    cfg = mink.Configuration(model)
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 0.5))
+    frozen = _FrozenRows(model.nv, n_good=3)
+    q_before = cfg.q.copy()
+    with pytest.raises(pik_mj.InvalidInput, match="frozen"):
+        pik_mj.solve(cfg, [*stack.levels[:3], [frozen]], stop=20)
+    assert frozen.calls == 4
     np.testing.assert_array_equal(cfg.q, q_before)
 
 

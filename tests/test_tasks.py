@@ -159,6 +159,35 @@ def test_mink_configuration_limit_rows_are_minks_bit_for_bit(name, request):
         assert state.satisfied == bool(violation.max() <= adapter.check_margin)
 
 
+@pytest.mark.parametrize("name", ["humanoid", "arm"])
+def test_mink_posture_rows_are_minks_and_follow_cost_changes(name, request):
+    """The adapter keeps a PostureTask's Jacobian (constant) and its cost²
+    weights; at every posture its rows are mink's own (``J``, ``-gain e``,
+    ``cost²``) bit for bit, and a cost changed in place by ``set_cost`` (the
+    same array object) changes the weights at the next evaluation: a stale
+    cache fails this test."""
+    model = request.getfixturevalue(name)
+    posture = mink.PostureTask(model, cost=0.3, gain=0.7)
+    cfg = configured(model, random_posture(model, 0))
+    posture.set_target_from_configuration(cfg)
+    adapter = pik_mj.MinkTask(posture, check=False)
+    first = adapter.evaluate(cfg).rows
+    for seed in range(1, 5):
+        cfg.update(random_posture(model, seed))
+        if seed == 3:
+            cost = posture.cost
+            posture.set_cost(np.linspace(0.1, 2.0, model.nv))
+            assert posture.cost is cost  # written in place
+        state = adapter.evaluate(cfg)
+        e = posture.compute_error(cfg)
+        assert np.array_equal(state.rows.A, posture.compute_jacobian(cfg))
+        assert state.rows.A is first.A and not state.rows.A.flags.writeable
+        assert np.array_equal(state.rows.b, -0.7 * e)
+        assert np.array_equal(state.rows.w_A, posture.cost**2)
+        assert state.error == pytest.approx(np.linalg.norm(e), rel=1e-14)
+        assert state.satisfied == bool(np.abs(e).max() <= 1e-3)
+
+
 def test_ball_joint_limit_holds_in_a_solve(ball_model):
     cfg = configured(ball_model, ball_model.qpos0.copy())
     limit = JointLimitTask(cfg, "ball")

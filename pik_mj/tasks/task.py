@@ -296,6 +296,13 @@ class EqualityTask(Task):
         return TaskState(self.rows_from(e, J), math.sqrt(float(e @ e)), self.satisfied_by(e))
 
 
+def frozen(M: np.ndarray) -> bool:
+    """Read-only and owning its data: its values cannot change (a task may
+    hand back such a matrix, e.g. a constant Jacobian, as the same object every
+    evaluation; users of the rows may then keep what they derive from it)."""
+    return not M.flags.writeable and M.base is None
+
+
 _EMPTY = np.zeros(0)
 _EMPTY.flags.writeable = False
 
