@@ -447,6 +447,18 @@ def play_walk_pattern(
     return report
 
 
+def _played_ticks(
+    pattern: WalkPattern, report: PlaybackReport
+) -> tuple[int, np.ndarray, np.ndarray]:
+    """``K``, the pattern's ticks that were played, and over them the ticks
+    where the ZMP of the contact forces exists, and those where the ZMP from
+    the feet's force sensors exists too (empty when the feet have none)."""
+    K = min(len(pattern.t), len(report.t))
+    contacts = np.all(np.isfinite(report.zmp[:K]), axis=1)
+    sensed = np.all(np.isfinite(report.zmp_force_sensors[:K]), axis=1)
+    return K, contacts, (sensed & contacts) if len(sensed) else sensed
+
+
 def walk_motion(
     pattern: WalkPattern,
     report: PlaybackReport,
@@ -464,14 +476,14 @@ def walk_motion(
     distance to the pattern's root position ``‖p_root − q_ref[:3]‖`` [m];
     ``min_com_margin``: None (a walk's CoM leaves the single-support polygon by
     design) and ``min_zmp_margin`` [m] instead, that of the ZMP from the feet's
-    force sensors to the support polygon of the feet carrying it (None without
-    force sensors); ``contacts``: the soles planned, robot geoms on the floor
+    force sensors to the support polygon of the feet carrying it over the
+    pattern's ticks (:func:`evaluate_walk`'s ``sim_zmp_force_sensors_margin_min_m``;
+    None without force sensors); ``contacts``: the soles planned, robot geoms on the floor
     unexpected; ``fell``; the playback's own summary under ``parts["walk"]``.
     """
-    K = min(len(pattern.t), len(report.t))
+    K, _, sensed = _played_ticks(pattern, report)
     drift = np.linalg.norm(report.root_p[:K] - pattern.q[:K, :3], axis=1)
-    sensed = report.zmp_force_sensors_margin
-    sensed = sensed[np.isfinite(sensed)] if len(sensed) else sensed
+    margins = report.zmp_force_sensors_margin[:K][sensed]
     return {
         "passed": report.passed(height_ratio, final_tolerance),
         "duration": float(report.t[-1] - report.t[0]) if len(report.t) else 0.0,
@@ -480,7 +492,7 @@ def walk_motion(
             "frames_m": report.foot_error,
         },
         "min_com_margin": None,
-        "min_zmp_margin": float(sensed.min()) if len(sensed) else None,
+        "min_zmp_margin": float(margins.min()) if margins.size else None,
         "max_slip": report.foot_slip,
         "max_drift": float(np.nanmax(drift)) if K else 0.0,
         "contacts": {
@@ -511,9 +523,8 @@ def evaluate_walk(
     """
     margin = pattern.support_margin("computed")
     k_min = int(np.argmin(margin))
-    K = min(len(pattern.t), len(report.t))
+    K, ok_rows, ok = _played_ticks(pattern, report)
     measured = report.zmp[:K]
-    ok_rows = np.all(np.isfinite(measured), axis=1)
     sim_err = np.linalg.norm(measured[ok_rows] - pattern.zmp_ref[:K][ok_rows], axis=1)
     figures: dict[str, Any] = {
         "footsteps": len(pattern.plan.footsteps),
@@ -538,7 +549,6 @@ def evaluate_walk(
     sensed = report.zmp_force_sensors[:K]
     has_sensors = len(sensed) > 0 and bool(np.all(np.isfinite(sensed), axis=1).any())
     if has_sensors:
-        ok = np.all(np.isfinite(sensed), axis=1) & ok_rows
         e_ref = np.linalg.norm(sensed[ok] - pattern.zmp_ref[:K][ok], axis=1)
         e_contacts = np.linalg.norm(sensed[ok] - measured[ok], axis=1)
         planned = support_margin(
