@@ -489,7 +489,7 @@ class NullSpaceCascade:
             cx = C @ x
             below, above = lo - cx, cx - hi
             excess = np.maximum(below, above)
-            p = int(np.argmax(excess / norm1))
+            p = int(np.argmax(excess / np.maximum(norm1, 1e-300)))  # (zero rows: no 0/0)
             if excess[p] <= FEASIBILITY_TOLERANCE:
                 return held, [float(n @ C[i]) < 0 for i, n in zip(held, normals, strict=True)]
             if p in held:
