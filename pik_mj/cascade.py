@@ -26,8 +26,16 @@ with ``λ_k = min(w + w_r e_k, w_max) + μ_k``, ``e_k`` the level's squared erro
   its equality part minimized over the null space of the kept equality rows
   (projector ``P``). This is the common case (joint limits far away): a few
   small dense products;
-* otherwise the level's QP goes to the QP backend (OSQP by default), with the
-  kept equality rows as equalities and the inequality rows as bounds;
+* when that optimum crosses a few hard or kept inequality rows (joint limits
+  reached), those found active are held at their bounds as extra equality
+  rows of this level alone and the level is solved again in closed form
+  (:meth:`NullSpaceCascade.active_set`), accepted only with a KKT
+  certificate (feasible, multipliers of the right sign): the level's exact
+  optimum, like the closed form (no ``τ``, no feasibility error);
+* otherwise (no certificate, the level's own inequality rows needing their
+  slacks, ``λ_k = 0``) the level's QP goes to the QP backend (OSQP by
+  default), with the kept equality rows as equalities and the inequality rows
+  as bounds;
 * a hierarchical backend (``"daqp-hqp"``, :class:`~pik_mj.qp.HierarchicalBackend`)
   solves all levels in one call instead, exactly (``λ_k → 0``, ``τ = 0``).
 
@@ -47,6 +55,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -63,7 +72,16 @@ primal feasibility tolerance."""
 
 FEASIBILITY_TOLERANCE = 1e-10
 """How far [row units] the closed-form step may cross an inequality before the
-level goes to the QP backend."""
+level goes to the active-set closed form or the QP backend."""
+
+ACTIVE_SET_STEPS = 16
+"""Most rows :meth:`NullSpaceCascade.dual_active_set` adds before the level
+goes to the QP backend."""
+
+KKT_TOLERANCE = 1e-9
+"""Relative tolerance of the active-set certificate: a held row's multiplier
+(per unit 1-norm of the row) may have the wrong sign, and the stationarity
+residual may be, by this times the gradient's scale."""
 
 
 @dataclass(frozen=True)
@@ -167,6 +185,29 @@ def _cholesky(G: np.ndarray) -> np.ndarray | None:
     return L
 
 
+def _gram_solve(B: np.ndarray, G: np.ndarray, r: np.ndarray, lam: float, nv: int) -> np.ndarray:
+    """``u = Bᵀ G⁻¹ r`` with ``G = B Bᵀ + λ I`` (``G⁺`` when ``λ = 0``); zero
+    without rows."""
+    if r.size == 0:
+        return np.zeros(nv)
+    if lam > 0:
+        return B.T @ np.linalg.solve(G, r)
+    return B.T @ _psd_solve(G, r)
+
+
+class _Unconstrained(NamedTuple):
+    """A level's optimum with every inequality inactive, and its products:
+    ``x``, ``Â = W^½ A_k``, ``W^½ b_k``, ``B = Â P``, ``G = B Bᵀ + λ I``,
+    ``x_e = (I − P) x`` (None while ``P = I``)."""
+
+    x: np.ndarray
+    A_hat: np.ndarray
+    b_hat: np.ndarray
+    B: np.ndarray
+    G: np.ndarray
+    x_e: np.ndarray | None
+
+
 def _psd_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``G⁺ r`` for a small symmetric positive semidefinite ``G``: ``G⁻¹ r``
     when ``G`` is regular, else the pseudo-inverse."""
@@ -190,8 +231,10 @@ class NullSpaceCascade:
 
     This is the level's optimum when it meets every inequality (hard rows, kept
     inequality rows, the level's own rows with ``ω = 0``); otherwise
-    :meth:`level_problem` goes to the QP backend. Then the projector is
-    updated with the level's equality rows (``P ← P − Bᵀ (B Bᵀ)^+ B``).
+    :meth:`active_set` holds the active hard and kept rows at their bounds,
+    and failing its certificate :meth:`level_problem` goes to the QP backend.
+    Then the projector is updated with the level's equality rows
+    (``P ← P − Bᵀ (B Bᵀ)^+ B``; held rows are this level's alone).
     """
 
     def __init__(self, hard: TaskRows, backend: QPBackend | None, relaxation: float, role: str):
@@ -207,6 +250,8 @@ class NullSpaceCascade:
         self.s0 = np.zeros(hard.n_in)
         self._norm1: np.ndarray | None = None  # of C's rows, made when first needed
         self.slack = 0.0  # Σ feasibility errors of backend solutions so far
+        self.held = 0  # levels solved by active_set
+        self.released = 0  # rows released by dual_active_set's partial steps
         # kept equality rows E x = e (the hard ones, then each level's)
         self.E, self.e = hard.A, hard.b
         if hard.n_eq:
@@ -250,23 +295,207 @@ class NullSpaceCascade:
 
     def candidate(self, rows: TaskRows, lam: float) -> np.ndarray:
         """The level's optimum with every inequality inactive (closed form)."""
-        x = self.x
+        return self._unconstrained(rows, lam).x
+
+    def _unconstrained(self, rows: TaskRows, lam: float) -> _Unconstrained:
+        """:meth:`candidate` with the products that :meth:`active_set` reuses.
+        ``x_e = (I − P) x`` (0 while ``P = I``) is the part of any step meeting
+        the kept equality rows in their row space, and ``r + B x = W^½ b − Â x_e``."""
         sw = np.sqrt(rows.w_A)
         A_hat = sw[:, None] * rows.A
-        if self.P is None:  # B = Â, and r + B x = W^½ b
-            B, r = A_hat, sw * rows.b
+        b_hat = sw * rows.b
+        if self.P is None:
+            B, r, x_e = A_hat, b_hat, None
         else:
             B = A_hat @ self.P
-            r = sw * rows.b - A_hat @ x + B @ x
+            x_e = self.x - self.P @ self.x
+            r = b_hat - A_hat @ x_e
         G = B @ B.T
         G.flat[:: G.shape[0] + 1] += lam
-        if r.size == 0:
-            u = np.zeros(self.nv)
-        elif lam > 0:
-            u = B.T @ np.linalg.solve(G, r)
-        else:
-            u = B.T @ _psd_solve(G, r)
-        return u if self.P is None else x - self.P @ x + u
+        u = _gram_solve(B, G, r, lam, self.nv)
+        return _Unconstrained(u if x_e is None else x_e + u, A_hat, b_hat, B, G, x_e)
+
+    def active_set(self, rows: TaskRows, lam: float, free: _Unconstrained) -> np.ndarray | None:
+        """The level's optimum with a few hard or kept inequality rows active,
+        in closed form, or None when it cannot be certified (the backend then
+        solves the level).
+
+        First the rows the unconstrained optimum ``free`` violates are held at
+        their violated bounds (:meth:`face`); when that face's optimum has no
+        KKT certificate, the rows to hold are found by the dual active-set
+        method (:meth:`dual_active_set`) and their face is solved and
+        certified in turn.
+        """
+        C = self.C
+        if not C.shape[0]:
+            return None  # only the level's own rows violated: their slacks need the backend
+        lo, hi = self.lo, self.hi
+        if self.slack > 0:
+            extra = (self.slack - self.s0) * self.norm1
+            lo, hi = lo - extra, hi + extra
+        cx = C @ free.x
+        fixed = np.flatnonzero(np.maximum(lo - cx, cx - hi) > FEASIBILITY_TOLERANCE).tolist()
+        if not fixed:
+            return None  # only the level's own rows violated
+        upper = [bool(cx[i] > hi[i]) for i in fixed]
+        x = self.face(rows, lam, free, lo, hi, fixed, upper)
+        if x is None:
+            held = self.dual_active_set(lam, free, lo, hi)
+            if held is not None and held[0]:
+                x = self.face(rows, lam, free, lo, hi, *held)
+        return x
+
+    def face(
+        self,
+        rows: TaskRows,
+        lam: float,
+        free: _Unconstrained,
+        lo: np.ndarray,
+        hi: np.ndarray,
+        fixed: list[int],
+        upper: list[bool],
+    ) -> np.ndarray | None:
+        """The level's optimum with the inequality rows ``fixed`` of :attr:`C`
+        held at their bounds (``hi`` where ``upper``, else ``lo``), if it is
+        the level's optimum: None unless it carries a KKT certificate.
+
+        The rows ``C_W x = t_W`` are held in addition to the kept equality
+        rows. With ``S = C_W P C_Wᵀ = L Lᵀ`` (regular: else None),
+        ``Y = L⁻¹ C_W P`` (so ``Y Yᵀ = I``) and ``Z = Â Yᵀ``, the projector onto
+        the null space of both is ``P_W = P − Yᵀ Y``, and the optimum on that
+        face is :meth:`candidate`'s with ``P_W``:
+
+        .. math::
+
+            x_p = x_e + Y^T L^{-1} (t_W − C_W x_e), \\qquad
+            x_W = x_p + B_W^T (B B^T + \\lambda_k I − Z Z^T)^{-1} (W^½ b − Â x_p)
+
+        with ``B_W = B − Z Y`` (so ``B_W B_Wᵀ = B Bᵀ − Z Zᵀ``) and ``x_p`` the
+        point of least norm meeting the kept equality rows and the held rows.
+        Its multipliers, from the gradient ``g = Âᵀ (Â x_W − W^½ b) + λ_k x_W``
+        and ``g + Eᵀ μ + C_Wᵀ ν = 0``, are ``ν = −L⁻ᵀ Y g``. The certificate,
+        which for this convex QP makes ``x_W`` THE optimum: every inequality
+        row met within :data:`FEASIBILITY_TOLERANCE` (the level's own rows with
+        ``ω = 0``), ``ν_i ≥ 0`` at an upper bound and ``ν_i ≤ 0`` at a lower
+        one (either for a row with equal bounds), and the stationarity
+        residual ``P_W g = 0``, both within :data:`KKT_TOLERANCE` of the
+        gradient's scale.
+        """
+        C, P, A_hat, b_hat, x_e = self.C, self.P, free.A_hat, free.b_hat, free.x_e
+        Cw = C.take(fixed, axis=0)
+        t = np.where(upper, hi.take(fixed), lo.take(fixed))
+        PCt = Cw.T if P is None else P @ Cw.T
+        L = _cholesky(Cw @ PCt)
+        if L is None:
+            return None  # held rows dependent on each other or on kept equalities
+        Li = np.linalg.inv(L)
+        Y = Li @ PCt.T
+        x_p = Y.T @ (Li @ t) if x_e is None else x_e + Y.T @ (Li @ (t - Cw @ x_e))
+        Z = A_hat @ Y.T
+        u = _gram_solve(free.B - Z @ Y, free.G - Z @ Z.T, b_hat - A_hat @ x_p, lam, self.nv)
+        x = x_p + u
+        # u meets C_W u = 0 only to within about ε/λ_k (B_W Bᵀ_W + λ I is
+        # nearly singular along the held rows): back onto the face, within P's
+        # range (the kept equality rows unchanged).
+        x += Y.T @ (Li @ (t - Cw @ x))
+        cx = C @ x
+        if float(np.maximum(lo - cx, cx - hi).max()) > FEASIBILITY_TOLERANCE:
+            return None
+        if rows.n_in and self._violates(rows, x, FEASIBILITY_TOLERANCE):
+            return None  # the level's own rows need their slacks
+        g = A_hat.T @ (A_hat @ x - b_hat) + lam * x
+        Yg = Y @ g
+        nu = -(Li.T @ Yg)
+        # A bound on the gradient's terms: ‖Â‖² ‖x‖ + ‖Â‖ ‖W^½ b‖ + λ ‖x‖.
+        a2 = float(np.dot(A_hat.ravel(), A_hat.ravel()))
+        norm_x = math.sqrt(float(x @ x))
+        scale = (a2 + lam) * norm_x + math.sqrt(a2 * float(b_hat @ b_hat))
+        if not math.isfinite(scale):
+            return None
+        tol = KKT_TOLERANCE * max(scale, 1e-300)
+        # Multipliers per unit 1-norm of their row, positive when their sign is right.
+        signed = np.where(upper, nu, -nu) * self.norm1.take(fixed)
+        signed[(hi - lo).take(fixed) <= 2 * FEASIBILITY_TOLERANCE] = 0.0
+        if float(signed.min()) < -tol:
+            return None
+        stationarity = (g if P is None else P @ g) - Y.T @ Yg  # P_W g
+        if float(np.abs(stationarity).max()) > tol:
+            return None
+        return x
+
+    def dual_active_set(
+        self, lam: float, free: _Unconstrained, lo: np.ndarray, hi: np.ndarray
+    ) -> tuple[list[int], list[bool]] | None:
+        """The inequality rows of :attr:`C` active at the level's optimum, as
+        ``(rows, at upper bound)``, by Goldfarb and Idnani's dual active-set
+        method from the unconstrained optimum, or None (``λ_k = 0``, dependent
+        rows, no convergence within :data:`ACTIVE_SET_STEPS` steps).
+
+        Rows are written ``n_iᵀ x ≥ b_i`` (``n = c, b = d_l`` at a lower bound,
+        ``n = −c, b = −d_u`` at an upper one) with multipliers ``u_i ≥ 0``.
+        ``M = (P − Bᵀ G⁻¹ B) / λ_k`` is the inverse of the level's Hessian on
+        the null space of the kept equality rows. Each step takes the most
+        violated row ``p``; with ``N`` the held rows' normals and
+        ``S = Nᵀ M N``: primal direction ``z = M n_p − M N S⁻¹ Nᵀ M n_p``, dual
+        direction ``r = S⁻¹ Nᵀ M n_p``; step ``t = min(t_1, t_2)`` with
+        ``t_2 = (b_p − n_pᵀ x) / zᵀ n_p`` (``p`` becomes active) and
+        ``t_1 = min_{r_i > 0} u_i / r_i`` (held row ``i`` released first).
+        The rows only; :meth:`face` then solves and certifies their face.
+        """
+        if lam <= 0:
+            return None
+        C, P, B = self.C, self.P, free.B
+        M = B.T @ np.linalg.solve(free.G, B) if B.shape[0] else np.zeros((self.nv, self.nv))
+        M = ((np.eye(self.nv) if P is None else P) - M) / lam
+        norm1 = self.norm1
+        x = free.x
+        held: list[int] = []
+        normals: list[np.ndarray] = []
+        u: list[float] = []
+        for _ in range(ACTIVE_SET_STEPS):
+            cx = C @ x
+            below, above = lo - cx, cx - hi
+            excess = np.maximum(below, above)
+            p = int(np.argmax(excess / norm1))
+            if excess[p] <= FEASIBILITY_TOLERANCE:
+                return held, [float(n @ C[i]) < 0 for i, n in zip(held, normals, strict=True)]
+            if p in held:
+                return None  # a held row off its bound: rounding
+            n = C[p] if below[p] > above[p] else -C[p]
+            b_p = lo[p] if below[p] > above[p] else -hi[p]
+            u_p = 0.0
+            while True:
+                Mn = M @ n
+                if held:
+                    N = np.array(normals).T
+                    MN = M @ N
+                    S = N.T @ MN
+                    if _cholesky(S) is None:
+                        return None
+                    r = np.linalg.solve(S, MN.T @ n)
+                    z = Mn - MN @ r
+                else:
+                    r, z = np.zeros(0), Mn
+                zn = float(z @ n)
+                t1, k = math.inf, -1
+                for j, (r_j, u_j) in enumerate(zip(r.tolist(), u, strict=True)):
+                    if r_j > 0 and u_j / r_j < t1:
+                        t1, k = u_j / r_j, j
+                t2 = (b_p - float(n @ x)) / zn if zn > 1e-10 * float(n @ Mn) else math.inf
+                t = min(t1, t2)
+                if t == math.inf:
+                    return None  # infeasible with the held rows: the backend says so
+                x = x + t * z
+                u = [u_j - t * r_j for u_j, r_j in zip(u, r.tolist(), strict=True)]
+                u_p += t
+                if t2 <= t1:
+                    held.append(p)
+                    normals.append(n)
+                    u.append(u_p)
+                    break
+                del held[k], normals[k], u[k]
+                self.released += 1
+        return None
 
     def _violates(self, rows: TaskRows, x: np.ndarray, tol: float) -> bool:
         """Whether ``x`` violates a kept row (beyond its allowance) or one of the
@@ -306,16 +535,22 @@ class NullSpaceCascade:
     def level(self, k: int, rows: TaskRows, lam: float, last: bool, exact: bool) -> tuple:
         """Solve level ``k`` (1-based): ``(x_k*, problem or None, violation)``.
 
-        The closed-form candidate when it meets every inequality row, else the
-        backend's solution of :meth:`level_problem`.
+        The closed-form candidate when it meets every inequality row, else
+        :meth:`active_set`'s certified optimum (with a backend: a user's
+        backend gets every level, ``exact`` False), else the backend's solution
+        of :meth:`level_problem`. A level solved in closed form has no problem
+        and violation 0 (its kept inequality rows take ``τ = 0``).
         """
-        x_k = self.candidate(rows, lam) if exact else None
+        x_k = None
+        if exact:
+            free = self._unconstrained(rows, lam)
+            x_k = free.x
+            if not math.isfinite(float(x_k.sum())):  # NaN or inf anywhere
+                x_k = None
+            elif self._violates(rows, x_k, FEASIBILITY_TOLERANCE):
+                x_k = None if self.backend is None else self.active_set(rows, lam, free)
+                self.held += x_k is not None
         problem, violation = None, 0.0
-        if x_k is not None and (
-            not math.isfinite(float(x_k.sum()))  # NaN or inf anywhere
-            or self._violates(rows, x_k, FEASIBILITY_TOLERANCE)
-        ):
-            x_k = None
         if x_k is None:
             if self.backend is None:
                 return None, None, 0.0

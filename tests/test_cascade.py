@@ -300,19 +300,23 @@ def test_failed_level_carries_level_and_problem():
     assert info.value.problem.P.shape == (NV, NV)
 
 
+class Counting(OSQPBackend):
+    """Tight OSQP that records the level of every problem it gets."""
+
+    def __init__(self):
+        super().__init__(dict(TIGHT_SETTINGS))
+        self.levels = []
+
+    def solve(self, problem):
+        self.levels.append(problem.level)
+        return super().solve(problem)
+
+
 def test_levels_without_active_constraint_are_solved_in_closed_form():
     """Levels whose inequalities stay inactive never reach the backend, and the
     closed form is the exact optimum (DAQP's active set on the same problem);
-    an active hard row sends level 1 to the backend, which then respects it."""
-
-    class Counting(OSQPBackend):
-        def __init__(self):
-            super().__init__(dict(TIGHT_SETTINGS))
-            self.levels = []
-
-        def solve(self, problem):
-            self.levels.append(problem.level)
-            return super().solve(problem)
+    an active hard row is held at its bound, still without the backend, with
+    the optimum of the level's QP."""
 
     rng = np.random.default_rng(3)
     A1 = rng.normal(size=(3, NV))
@@ -338,9 +342,202 @@ def test_levels_without_active_constraint_are_solved_in_closed_form():
     tight = TaskRows.inequality(np.eye(NV)[i : i + 1], -bound, bound)
     backend = Counting()
     step = solve_cascade(tight, levels, regs, backend)
-    assert backend.levels[0] == 1
-    assert abs(step.level_x[0][i]) <= bound + 1e-6
-    assert abs(step.x[i]) <= bound + 1e-6
+    assert backend.levels == [] and step.violations == [0.0, 0.0]
+    assert abs(step.level_x[0][i]) == pytest.approx(bound, abs=1e-12)  # held at its bound
+    assert abs(step.x[i]) <= bound + 1e-12
+    reference = daqp_reference(tight, levels, regs)
+    for k in range(2):
+        np.testing.assert_allclose(step.level_x[k], reference[k][0], atol=1e-9)
+
+
+def limited_stack(seed: int):
+    """Equality levels (3 to 5 rows each, some rank-deficient) and a hard box
+    that cuts 1 to 3 coordinates of the unconstrained first level's step to
+    70 % of their value, the others far away."""
+    rng = np.random.default_rng(300 + seed)
+    levels = [
+        random_rows(rng, int(rng.integers(3, 6)), 0, rank=int(rng.integers(2, 4)))
+        for _ in range(int(rng.integers(2, 4)))
+    ]
+    regs = [Regularization(1e-4, 1.0, 0.1)] * len(levels)
+    free = solve_cascade(TaskRows.empty(NV), levels, regs, tight())
+    cut = rng.choice(NV, size=int(rng.integers(1, 4)), replace=False)
+    bound = np.full(NV, 10.0)
+    bound[cut] = 0.7 * np.abs(free.level_x[0][cut])
+    return TaskRows.inequality(np.eye(NV), -bound, bound), levels, regs, bound
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_active_limits_are_held_exactly_without_the_backend(seed):
+    """Levels whose unconstrained optimum crosses 1 to 3 hard limits: the
+    active-set closed form gives DAQP's optimum of the same QPs (higher levels
+    kept exactly) without calling the backend, and meets the limits exactly."""
+    hard, levels, regs, bound = limited_stack(seed)
+    backend = Counting()
+    step = solve_cascade(hard, levels, regs, backend, relaxation=1e-9)
+    assert backend.levels == [] and step.closed_form == len(levels)
+    reference = daqp_reference(hard, levels, regs)
+    active = 0
+    for x_k, (x_ref, _) in zip(step.level_x, reference, strict=True):
+        np.testing.assert_allclose(x_k, x_ref, atol=1e-9)
+        assert np.all(np.abs(x_k) <= bound + 1e-12)
+        active = max(active, int(np.sum(np.abs(x_ref) >= bound - 1e-9)))
+    assert 1 <= active <= 3
+    check_never_worsened(step, levels, 1e-9)
+
+
+def test_a_held_row_whose_multiplier_has_the_wrong_sign_is_released():
+    """min ‖x − (2, 0.5, 0…)‖² with x_0 <= 1 and x_0 − x_1 <= 1: the
+    unconstrained optimum violates both rows; holding both gives x_1 = 0 with
+    a negative multiplier on the second, so it is released and the optimum
+    (1, 0.5, 0…) has only x_0 <= 1 active."""
+    target = np.zeros(NV)
+    target[:2] = 2.0, 0.5
+    levels = [TaskRows.equality(np.eye(NV), target)]
+    regs = [Regularization(1e-6, 0.0, 1.0)]
+    C = np.zeros((2, NV))
+    C[0, 0], C[1, :2] = 1.0, (1.0, -1.0)
+    hard = TaskRows.inequality(C, -np.inf, 1.0)
+    cascade = NullSpaceCascade(hard, Counting(), 0.0, "step")
+    lam = lam_of(levels[0], regs[0])
+    free = cascade.candidate(levels[0], lam)
+    assert np.all(C @ free > 1.0 + 1e-3)  # both rows violated at first
+    x, problem, violation = cascade.level(1, levels[0], lam, True, True)
+    assert problem is None and violation == 0.0 and cascade.held == 1
+    assert cascade.backend.levels == []
+    ((x_ref, _),) = daqp_reference(hard, levels, regs)
+    np.testing.assert_allclose(x, x_ref, atol=1e-12)
+    assert x[0] == pytest.approx(1.0, abs=1e-15)
+    assert x[1] == pytest.approx(0.5 / (1 + 1e-6), rel=1e-12)
+
+
+def test_the_dual_active_set_releases_rows_on_the_way():
+    """3-D problems, 4 general rows: the rows the unconstrained optimum
+    violates are not the active set, and Goldfarb–Idnani's dual method
+    releases a held row on its way (a partial step) before the face it finds
+    is certified; the optimum is DAQP's."""
+    for seed in (14, 115, 156):  # found among 400 draws: each releases a row
+        rng = np.random.default_rng(seed)
+        C = rng.normal(size=(4, NV))
+        C[:, 3:] = 0.0
+        target = np.zeros(NV)
+        target[:3] = 3 * rng.normal(size=3)
+        levels = [TaskRows.equality(np.eye(NV), target)]
+        regs = [Regularization(1e-6, 0.0, 1.0)]
+        hard = TaskRows.inequality(C, -1.0, 1.0)
+        backend = Counting()
+        cascade = NullSpaceCascade(hard, backend, 0.0, "step")
+        x, problem, _ = cascade.level(1, levels[0], lam_of(levels[0], regs[0]), True, True)
+        assert problem is None and backend.levels == []
+        assert cascade.held == 1 and cascade.released >= 1
+        ((x_ref, _),) = daqp_reference(hard, levels, regs)
+        np.testing.assert_allclose(x, x_ref, atol=1e-8)
+        assert np.all(np.abs(C @ x) <= 1.0 + 1e-12)
+
+
+def test_dependent_limits_are_held_once():
+    """Two limits on the same coordinate, both crossed: holding both is
+    singular, the dual method holds one (the other is then met exactly)."""
+    levels = [TaskRows.equality(np.eye(NV), np.ones(NV))]
+    hard = TaskRows.inequality(np.vstack([np.eye(NV)[:1]] * 2), -np.inf, 0.5)
+    backend = Counting()
+    cascade = NullSpaceCascade(hard, backend, 0.0, "step")
+    x, problem, _ = cascade.level(1, levels[0], lam_of(levels[0], Regularization()), True, True)
+    assert problem is None and backend.levels == [] and cascade.held == 1
+    assert x[0] == pytest.approx(0.5, abs=1e-15)
+    ((x_ref, _),) = daqp_reference(hard, levels, [Regularization()])
+    np.testing.assert_allclose(x, x_ref, atol=1e-9)
+
+
+@pytest.mark.parametrize("case", ["dependent limits with λ = 0", "own rows need slacks"])
+def test_levels_the_active_set_cannot_certify_go_to_the_backend(case):
+    """Two crossed limits on the same coordinate at λ = 0 (holding both is
+    singular, and the dual method needs the Hessian's inverse), or a level
+    whose own inequality row cannot be met: the active set gives up and the
+    backend solves the level, as before."""
+    levels = [TaskRows.equality(np.eye(NV), np.ones(NV))]
+    reg = Regularization()
+    if case == "dependent limits with λ = 0":
+        hard = TaskRows.inequality(np.vstack([np.eye(NV)[:1]] * 2), -np.inf, 0.5)
+        reg = Regularization(0.0, 0.0, 0.0)
+    else:  # x_0 <= 0.5 hard, and the level's own x_0 + x_1 >= 3 (slack needed)
+        hard = TaskRows.inequality(np.eye(NV)[:1], -np.inf, 0.5)
+        own = TaskRows.inequality(np.eye(NV)[:1] + np.eye(NV)[1:2], 3.0, np.inf)
+        levels = [TaskRows.stack([levels[0], own], NV)]
+    backend = Counting()
+    cascade = NullSpaceCascade(hard, backend, 1e-9, "step")
+    x, problem, _ = cascade.level(1, levels[0], lam_of(levels[0], reg), True, True)
+    assert backend.levels == [1] and problem is not None and cascade.held == 0
+    assert x[0] <= 0.5 + 1e-7
+    ((x_ref, _),) = daqp_reference(hard, levels, [reg])
+    np.testing.assert_allclose(x, x_ref, atol=1e-6)
+
+
+def captured_cmu_cascades(monkeypatch, n_targets=3):
+    """Solves on the CMU humanoid's reach stack (joint limits hard, feet, hand,
+    posture) for a few reachable targets: each cascade the solve loop runs
+    and its re-solve with every level handed to OSQP at 1e-9 (made at once:
+    the loop may rewrite its rows later), and (converged, iterations, q) of
+    each solve."""
+    import importlib
+
+    import cases
+    import mink
+
+    import pik_mj
+
+    solve_module = importlib.import_module("pik_mj.solve")
+    model = cases.cmu_humanoid()
+    targets = cases.reachable_hand_targets(model, n_targets, seed=1)
+    seen = []
+    original = solve_module.solve_cascade
+
+    def recording(*args, **kwargs):
+        step = original(*args, **kwargs)
+        # (hard, levels, regularization, backend, relaxation, role): a tight backend
+        reference = original(*args[:3], tight(), *args[4:], closed_form=False, **kwargs)
+        seen.append((step, reference))
+        return step
+
+    monkeypatch.setattr(solve_module, "solve_cascade", recording)
+    finals = []
+    for target in targets:
+        cfg = mink.Configuration(model)
+        cfg.update(cases.stance(model))
+        stack = cases.reach_stack(cfg, target)
+        result = pik_mj.solve(cfg, stack.levels, stop=50, revert_if_fail=False)
+        finals.append((result.converged, result.iterations, cfg.q.copy()))
+    monkeypatch.undo()
+    return seen, finals
+
+
+def test_cmu_reach_cascades_match_every_level_solved_by_tight_osqp(monkeypatch):
+    """On the CMU humanoid (62 DoF) the active set takes levels with active
+    joint limits; each captured cascade, re-solved with every level handed to
+    OSQP at 1e-9, gives the same steps, and a solve with the active set
+    disabled (every such level to OSQP, as before) converges as fast to the
+    same configurations."""
+    held = []
+    original = NullSpaceCascade.active_set
+
+    def counting(self, *args):
+        x = original(self, *args)
+        held.append(x is not None)
+        return x
+
+    monkeypatch.setattr(NullSpaceCascade, "active_set", counting)
+    seen, finals = captured_cmu_cascades(monkeypatch)
+    assert sum(held) >= 5 and all(held), held  # the path is exercised, never gave up
+    for step, reference in seen:
+        for x_k, x_ref in zip(step.level_x, reference.level_x, strict=True):
+            np.testing.assert_allclose(x_k, x_ref, atol=1e-6)
+    monkeypatch.setattr(NullSpaceCascade, "active_set", lambda *args: None)
+    _, before = captured_cmu_cascades(monkeypatch)
+    for (ok, iterations, q), (ok_before, iterations_before, q_before) in zip(
+        finals, before, strict=True
+    ):
+        assert ok and ok_before and iterations == iterations_before
+        np.testing.assert_allclose(q, q_before, atol=1e-4)
 
 
 def test_tight_osqp_rarely_needs_the_fallback():
