@@ -74,6 +74,10 @@ FEASIBILITY_TOLERANCE = 1e-10
 """How far [row units] the closed-form step may cross an inequality before the
 level goes to the active-set closed form or the QP backend."""
 
+FACE_ROUNDS = 2
+"""Most faces :meth:`NullSpaceCascade.active_set` tries by adding the rows
+crossed on the face before (then the dual active-set method decides)."""
+
 ACTIVE_SET_STEPS = 16
 """Most rows :meth:`NullSpaceCascade.dual_active_set` adds before the level
 goes to the QP backend."""
@@ -208,6 +212,24 @@ class _Unconstrained(NamedTuple):
     x_e: np.ndarray | None
 
 
+def _inverse_cholesky(S: np.ndarray, norms: np.ndarray) -> np.ndarray | None:
+    """``L⁻¹`` for ``S = C P Cᵀ = L Lᵀ`` (rows ``C`` projected by ``P``), or
+    None when a pivot ``L_ii²`` is below :data:`CHOLESKY_PIVOT` times its
+    row's squared norm ``norms_i = ‖c_i‖²`` (the row nearly a combination of
+    the rows before it and of those ``P`` projects out)."""
+    if S.shape[0] == 1:
+        s = float(S[0, 0])
+        return np.array([[1.0 / math.sqrt(s)]]) if s > CHOLESKY_PIVOT * float(norms[0]) else None
+    try:
+        L = np.linalg.cholesky(S)
+    except np.linalg.LinAlgError:
+        return None
+    d = L.diagonal()
+    if bool((d * d <= CHOLESKY_PIVOT * norms).any()):
+        return None
+    return np.linalg.inv(L)
+
+
 def _psd_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``G⁺ r`` for a small symmetric positive semidefinite ``G``: ``G⁻¹ r``
     when ``G`` is regular, else the pseudo-inverse."""
@@ -321,10 +343,11 @@ class NullSpaceCascade:
         solves the level).
 
         First the rows the unconstrained optimum ``free`` violates are held at
-        their violated bounds (:meth:`face`); when that face's optimum has no
-        KKT certificate, the rows to hold are found by the dual active-set
-        method (:meth:`dual_active_set`) and their face is solved and
-        certified in turn.
+        their violated bounds (:meth:`face`), then also those that face's
+        optimum violates (at most :data:`FACE_ROUNDS` faces); when a face's
+        optimum has no KKT certificate otherwise, the rows to hold are found by
+        the dual active-set method (:meth:`dual_active_set`) and their face is
+        solved and certified in turn.
         """
         C = self.C
         if not C.shape[0]:
@@ -338,11 +361,16 @@ class NullSpaceCascade:
         if not fixed:
             return None  # only the level's own rows violated
         upper = [bool(cx[i] > hi[i]) for i in fixed]
-        x = self.face(rows, lam, free, lo, hi, fixed, upper)
+        for _ in range(FACE_ROUNDS):
+            x, crossed = self.face(rows, lam, free, lo, hi, fixed, upper)
+            if x is not None or not crossed:
+                break
+            fixed += crossed
+            upper += [bool(cx_i > hi[i]) for i, cx_i in crossed.items()]
         if x is None:
             held = self.dual_active_set(lam, free, lo, hi)
             if held is not None and held[0]:
-                x = self.face(rows, lam, free, lo, hi, *held)
+                x, _ = self.face(rows, lam, free, lo, hi, *held)
         return x
 
     def face(
@@ -354,10 +382,12 @@ class NullSpaceCascade:
         hi: np.ndarray,
         fixed: list[int],
         upper: list[bool],
-    ) -> np.ndarray | None:
+    ) -> tuple[np.ndarray | None, dict[int, float]]:
         """The level's optimum with the inequality rows ``fixed`` of :attr:`C`
         held at their bounds (``hi`` where ``upper``, else ``lo``), if it is
-        the level's optimum: None unless it carries a KKT certificate.
+        the level's optimum: None unless it carries a KKT certificate; and the
+        rows of :attr:`C` that face's optimum violates (row: ``C_i x``; empty
+        unless that is why it is None).
 
         The rows ``C_W x = t_W`` are held in addition to the kept equality
         rows. With ``S = C_W P C_Wᵀ = L Lᵀ`` (regular: else None),
@@ -383,12 +413,11 @@ class NullSpaceCascade:
         """
         C, P, A_hat, b_hat, x_e = self.C, self.P, free.A_hat, free.b_hat, free.x_e
         Cw = C.take(fixed, axis=0)
-        t = np.where(upper, hi.take(fixed), lo.take(fixed))
+        t = np.array([hi[i] if up else lo[i] for i, up in zip(fixed, upper, strict=True)])
         PCt = Cw.T if P is None else P @ Cw.T
-        L = _cholesky(Cw @ PCt)
-        if L is None:
-            return None  # held rows dependent on each other or on kept equalities
-        Li = np.linalg.inv(L)
+        Li = _inverse_cholesky(Cw @ PCt, (Cw * Cw).sum(axis=1))
+        if Li is None:
+            return None, {}  # held rows dependent on each other or on kept equalities
         Y = Li @ PCt.T
         x_p = Y.T @ (Li @ t) if x_e is None else x_e + Y.T @ (Li @ (t - Cw @ x_e))
         Z = A_hat @ Y.T
@@ -399,10 +428,13 @@ class NullSpaceCascade:
         # range (the kept equality rows unchanged).
         x += Y.T @ (Li @ (t - Cw @ x))
         cx = C @ x
-        if float(np.maximum(lo - cx, cx - hi).max()) > FEASIBILITY_TOLERANCE:
-            return None
+        crossed = np.flatnonzero(np.maximum(lo - cx, cx - hi) > FEASIBILITY_TOLERANCE).tolist()
+        if crossed:
+            if any(i in fixed for i in crossed):
+                return None, {}  # a held row off its bound: rounding
+            return None, {i: float(cx[i]) for i in crossed}
         if rows.n_in and self._violates(rows, x, FEASIBILITY_TOLERANCE):
-            return None  # the level's own rows need their slacks
+            return None, {}  # the level's own rows need their slacks
         g = A_hat.T @ (A_hat @ x - b_hat) + lam * x
         Yg = Y @ g
         nu = -(Li.T @ Yg)
@@ -411,17 +443,18 @@ class NullSpaceCascade:
         norm_x = math.sqrt(float(x @ x))
         scale = (a2 + lam) * norm_x + math.sqrt(a2 * float(b_hat @ b_hat))
         if not math.isfinite(scale):
-            return None
+            return None, {}
         tol = KKT_TOLERANCE * max(scale, 1e-300)
-        # Multipliers per unit 1-norm of their row, positive when their sign is right.
-        signed = np.where(upper, nu, -nu) * self.norm1.take(fixed)
-        signed[(hi - lo).take(fixed) <= 2 * FEASIBILITY_TOLERANCE] = 0.0
-        if float(signed.min()) < -tol:
-            return None
+        # Multipliers per unit 1-norm of their row, of the right sign (either
+        # for a row with equal bounds).
+        norm1 = self.norm1
+        for i, up, nu_i in zip(fixed, upper, nu.tolist(), strict=True):
+            if (nu_i if up else -nu_i) * norm1[i] < -tol and hi[i] - lo[i] > FEASIBILITY_TOLERANCE:
+                return None, {}
         stationarity = (g if P is None else P @ g) - Y.T @ Yg  # P_W g
         if float(np.abs(stationarity).max()) > tol:
-            return None
-        return x
+            return None, {}
+        return x, {}
 
     def dual_active_set(
         self, lam: float, free: _Unconstrained, lo: np.ndarray, hi: np.ndarray

@@ -473,6 +473,20 @@ def test_levels_the_active_set_cannot_certify_go_to_the_backend(case):
     np.testing.assert_allclose(x, x_ref, atol=1e-6)
 
 
+def test_a_crossed_limit_fixed_by_hard_equalities_goes_to_the_backend():
+    """a x = 0.7 (hard equality) against a x <= 0.5 (hard limit): the limit
+    lies in the kept equality rows' span, so holding it is refused (it is not
+    a face), and the backend names the hard rows infeasible."""
+    A = np.zeros((1, NV))
+    A[0, :3] = 0.36, 0.48, 0.8
+    hard = TaskRows.stack([TaskRows.equality(A, [0.7]), TaskRows.inequality(A, -np.inf, 0.5)], NV)
+    levels = [TaskRows.equality(np.eye(NV), np.ones(NV))]
+    backend = Counting()
+    with pytest.raises(InfeasibleHardConstraints):
+        solve_cascade(hard, levels, [Regularization()], backend)
+    assert backend.levels == [1]
+
+
 def captured_cmu_cascades(monkeypatch, n_targets=3):
     """Solves on the CMU humanoid's reach stack (joint limits hard, feet, hand,
     posture) for a few reachable targets: each cascade the solve loop runs
