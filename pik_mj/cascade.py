@@ -644,7 +644,22 @@ def solve_cascade(
         QPFailure: Another level's QP failed; carries the level and the problem.
     """
     errors = [rows.squared_error() for rows in levels]
-    if hasattr(backend, "solve_hierarchy"):
+    hierarchical = hasattr(backend, "solve_hierarchy")
+    if hierarchical:
+        lambdas = [0.0] * len(levels)
+    else:
+        lambdas = [
+            reg.weight(e) + rows.damping
+            for rows, reg, e in zip(levels, regularization, errors, strict=True)
+        ]
+        closed_form = closed_form and isinstance(
+            backend, (OSQPBackend, DAQPBackend, QpsolversBackend)
+        )
+    if role == "correction" and closed_form and len(levels) == 1:
+        x = _projection(hard, levels[0], lambdas[0])
+        if x is not None:
+            return CascadeStep(x, [x], errors, lambdas, [], [0.0], 1)
+    if hierarchical:
         if role == "correction" and closed_form:
             # The projection back onto satisfied levels: exact in closed form
             # (λ = 0, like the hierarchical solve) unless an inequality is active.
@@ -652,11 +667,6 @@ def solve_cascade(
             if step is not None:
                 return step
         return _solve_hierarchy(hard, levels, errors, backend)
-    lambdas = [
-        reg.weight(e) + rows.damping
-        for rows, reg, e in zip(levels, regularization, errors, strict=True)
-    ]
-    closed_form = closed_form and isinstance(backend, (OSQPBackend, DAQPBackend, QpsolversBackend))
     cascade = NullSpaceCascade(hard, backend, relaxation, role)
     level_x: list[np.ndarray] = []
     problems: list[LevelProblem | HierarchicalProblem] = []
@@ -674,6 +684,42 @@ def solve_cascade(
         else:
             problems.append(problem)
     return CascadeStep(level_x[-1].copy(), level_x, errors, lambdas, problems, violations, n_exact)
+
+
+def _projection(hard: TaskRows, rows: TaskRows, lam: float) -> np.ndarray | None:
+    """The correction's common case in closed form: one level of equality rows
+    and only inequality rows above it (joint limits). With ``B = W^½ A``,
+    ``r = W^½ b``:
+
+    .. math::
+
+        x = B^T (B B^T + \\lambda I)^{-1} r
+
+    returned when it meets every hard row within :data:`FEASIBILITY_TOLERANCE`
+    (then it is the level's optimum, as :meth:`NullSpaceCascade.candidate`
+    finds it with ``P = I``), else None: other shapes, an active limit, and
+    with ``λ = 0`` rows that are dependent (a Cholesky pivot below
+    :data:`CHOLESKY_PIVOT`), go to :class:`NullSpaceCascade` and the backend.
+    The same products without the cascade's bookkeeping: the solve loop
+    corrects 1.2-1.6 times per iteration.
+    """
+    if hard.n_eq or rows.n_in or not rows.n_eq:
+        return None
+    sw = np.sqrt(rows.w_A)
+    B = sw[:, None] * rows.A
+    G = B @ B.T
+    if lam > 0:
+        G.flat[:: G.shape[0] + 1] += lam
+    elif _cholesky(G) is None:
+        return None
+    x = B.T @ np.linalg.solve(G, sw * rows.b)
+    if not math.isfinite(float(x @ x)):
+        return None
+    if hard.n_in:
+        cx = hard.C @ x
+        if float(np.maximum(hard.d_lower - cx, cx - hard.d_upper).max()) > FEASIBILITY_TOLERANCE:
+            return None
+    return x
 
 
 def _exact(hard: TaskRows, levels: Sequence[TaskRows], errors: list[float]) -> CascadeStep | None:

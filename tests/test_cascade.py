@@ -24,6 +24,7 @@ from pik_mj.cascade import (
     NullSpaceCascade,
     Regularization,
     _cholesky,
+    _projection,
     _psd_solve,
     solve_cascade,
 )
@@ -869,3 +870,42 @@ def test_null_space_projector_matches_pseudo_inverse(rank):
     np.testing.assert_allclose(
         _psd_solve(G2, r), np.linalg.pinv(G2, rcond=1e-10, hermitian=True) @ r, atol=1e-9
     )
+
+
+@pytest.mark.parametrize("backend", ["osqp", "daqp-hqp"])
+def test_a_correction_of_one_equality_level_is_its_closed_form(backend):
+    """The correction's common case (one level of equality rows under joint
+    limits) is :func:`~pik_mj.cascade._projection`: the weighted rows' least
+    norm solution for daqp-hqp (``λ = 0``; reference: numpy's pseudo-inverse)
+    and the regularized one for OSQP (reference: the primal normal equations
+    ``(Bᵀ B + λ I)⁻¹ Bᵀ r``, not the dual form the code uses), with no QP
+    handed to the backend. An active limit, or dependent rows with ``λ = 0``,
+    leave it to the cascade: the limit is then met, and the dependent rows get
+    the pseudo-inverse."""
+    rng = np.random.default_rng(11)
+    rows = random_rows(rng, 4, 0)
+    B = np.sqrt(rows.w_A)[:, None] * rows.A
+    r = np.sqrt(rows.w_A) * rows.b
+    loose = TaskRows.inequality(np.eye(NV), -1e3, 1e3)
+    reg = Regularization()
+    lam = 0.0 if backend == "daqp-hqp" else reg.weight(rows.squared_error())
+    if lam:
+        reference = np.linalg.solve(B.T @ B + lam * np.eye(NV), B.T @ r)
+    else:
+        reference = np.linalg.pinv(B) @ r
+    fix = solve_cascade(loose, [rows], [reg], make_backend(backend), role="correction")
+    np.testing.assert_allclose(fix.x, reference, rtol=0, atol=1e-12)
+    assert fix.problems == [] and fix.closed_form == 1 and fix.level_lambdas == [lam]
+
+    i = int(np.argmax(np.abs(reference)))
+    bound = 0.5 * abs(reference[i])
+    limited = TaskRows.inequality(np.eye(NV)[i : i + 1], -bound, bound)
+    assert _projection(limited, rows, lam) is None
+    fix = solve_cascade(limited, [rows], [reg], make_backend(backend), role="correction")
+    assert abs(fix.x[i]) <= bound + 1e-6
+
+    dependent = TaskRows.equality(np.vstack([rows.A, rows.A[:1]]), np.append(rows.b, rows.b[0]))
+    assert _projection(loose, dependent, 0.0) is None
+    if backend == "daqp-hqp":
+        fix = solve_cascade(loose, [dependent], [reg], make_backend(backend), role="correction")
+        np.testing.assert_allclose(fix.x, np.linalg.pinv(dependent.A) @ dependent.b, atol=1e-10)
