@@ -262,6 +262,7 @@ class NullSpaceCascade:
     def __init__(self, hard: TaskRows, backend: QPBackend | None, relaxation: float, role: str):
         nv = hard.A.shape[1]
         self.backend, self.tau, self.role = backend, relaxation, role
+        self.hard = hard
         self.nv = nv
         self.x = np.zeros(nv)
         self.P: np.ndarray | None = None  # None: still I (the products with it are skipped)
@@ -274,8 +275,9 @@ class NullSpaceCascade:
         self.slack = 0.0  # Σ feasibility errors of backend solutions so far
         self.held = 0  # levels solved by active_set
         self.released = 0  # rows released by dual_active_set's partial steps
-        # kept equality rows E x = e (the hard ones, then each level's)
-        self.E, self.e = hard.A, hard.b
+        # kept equality rows E x = e (the hard ones, then each level's), as
+        # blocks (A_j, x_j*) with e_j = A_j x_j*: stacked only for the backend
+        self._kept: list[tuple[np.ndarray, np.ndarray]] = []
         if hard.n_eq:
             B = hard.A
             self.x = B.T @ (_pinv_psd(B @ B.T) @ hard.b)
@@ -284,6 +286,13 @@ class NullSpaceCascade:
                     "the equality rows of level 0 admit no step (inconsistent equations)"
                 )
             self._keep(hard.A)
+
+    def kept_equalities(self) -> tuple[np.ndarray, np.ndarray]:
+        """The kept equality rows ``E x = e``: level 0's, then each solved
+        level's at what it achieved (``A_j x = A_j x_j*``)."""
+        E = np.vstack([self.hard.A, *(A for A, _ in self._kept)])
+        e = np.concatenate([self.hard.b, *(A @ x for A, x in self._kept)])
+        return E, e
 
     def _keep(self, A: np.ndarray) -> None:
         """``P ← P − Bᵀ (B Bᵀ)⁺ B`` with ``B = A P``: with ``B Bᵀ = L Lᵀ``
@@ -554,15 +563,16 @@ class NullSpaceCascade:
         P.flat[n * (n + m + 1) :: n + m + 1] = rows.w_C
         q = np.zeros(n + m)
         q[:n] = -(WA.T @ rows.b)
-        n_e, n_c = self.E.shape[0], self.C.shape[0]
+        E, e = self.kept_equalities()
+        n_e, n_c = E.shape[0], self.C.shape[0]
         A = np.zeros((n_e + n_c + m, n + m))
-        A[:n_e, :n] = self.E
+        A[:n_e, :n] = E
         A[n_e : n_e + n_c, :n] = self.C
         A[n_e + n_c :, :n] = rows.C
         A[n_e + n_c :, n:] = np.eye(m)
         extra = (self.slack - self.s0) * self.norm1 if self.slack > 0 else 0.0
-        l = np.concatenate([self.e, self.lo - extra, rows.d_lower])
-        u = np.concatenate([self.e, self.hi + extra, rows.d_upper])
+        l = np.concatenate([e, self.lo - extra, rows.d_lower])
+        u = np.concatenate([e, self.hi + extra, rows.d_upper])
         return LevelProblem(level, P, q, A, l, u, n, self.role)
 
     def level(self, k: int, rows: TaskRows, lam: float, last: bool, exact: bool) -> tuple:
@@ -603,8 +613,7 @@ class NullSpaceCascade:
             self.slack += violation
             A_keep = rows.A[rows.w_A > 0]
             self._keep(A_keep)
-            self.E = np.vstack([self.E, A_keep])
-            self.e = np.concatenate([self.e, A_keep @ x_k])
+            self._kept.append((A_keep, x_k))
             if rows.n_in:
                 cx = rows.C @ x_k
                 tau = self.tau if problem is not None else 0.0
