@@ -578,11 +578,12 @@ class NullSpaceCascade:
     def level(self, k: int, rows: TaskRows, lam: float, last: bool, exact: bool) -> tuple:
         """Solve level ``k`` (1-based): ``(x_k*, problem or None, violation)``.
 
-        The closed-form candidate when it meets every inequality row, else
-        :meth:`active_set`'s certified optimum (with a backend: a user's
-        backend gets every level, ``exact`` False), else the backend's solution
-        of :meth:`level_problem`. A level solved in closed form has no problem
-        and violation 0 (its kept inequality rows take ``τ = 0``).
+        With ``exact`` (closed forms allowed): the closed-form candidate when it
+        meets every inequality row, else (with a backend to fall back on)
+        :meth:`active_set`'s certified optimum. Otherwise the backend's
+        solution of :meth:`level_problem` (without a backend: None). A level
+        solved in closed form has no problem and violation 0 (its kept
+        inequality rows take ``τ = 0``).
         """
         x_k = None
         if exact:

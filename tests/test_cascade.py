@@ -389,8 +389,8 @@ def test_active_limits_are_held_exactly_without_the_backend(seed):
 def test_a_held_row_whose_multiplier_has_the_wrong_sign_is_released():
     """min ‖x − (2, 0.5, 0…)‖² with x_0 <= 1 and x_0 − x_1 <= 1: the
     unconstrained optimum violates both rows; holding both gives x_1 = 0 with
-    a negative multiplier on the second, so it is released and the optimum
-    (1, 0.5, 0…) has only x_0 <= 1 active."""
+    a negative multiplier on the second, so that face is refused and the row
+    released: the optimum (1, 0.5, 0…) has only x_0 <= 1 active."""
     target = np.zeros(NV)
     target[:2] = 2.0, 0.5
     levels = [TaskRows.equality(np.eye(NV), target)]
