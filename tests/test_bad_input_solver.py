@@ -525,7 +525,7 @@ def test_a_start_past_a_range_by_the_solvers_rounding_is_not_warned():
 
 
 @pytest.mark.parametrize("qp_solver", ["osqp", "daqp-hqp"])
-def test_ctrl_c_always_stops_the_solve_and_restores_the_configuration(qp_solver):
+def test_ctrl_c_always_stops_the_solve_and_restores_the_configuration(qp_solver, ctrl_c):
     """A real SIGINT at a random moment of a long solve (hand 2 m out of reach,
     joint limits active: OSQP, which catches SIGINT itself, is called), 10
     times per backend: each one raises KeyboardInterrupt and the configuration

@@ -162,7 +162,7 @@ MANGLED = '''
 
 
 def test_an_interrupt_a_native_library_turns_into_another_error_still_exits_130(
-    tmp_path, monkeypatch, capsys
+    tmp_path, monkeypatch, capsys, ctrl_c
 ):
     """Ctrl-C is Ctrl-C even when it surfaces as another exception; an error
     without a SIGINT is still an error (exit 1, its traceback)."""
