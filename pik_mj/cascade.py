@@ -266,9 +266,8 @@ class NullSpaceCascade:
         self.nv = nv
         self.x = np.zeros(nv)
         self.P: np.ndarray | None = None  # None: still I (the products with it are skipped)
-        # The inequality rows to respect, stacked: C x in [lo, hi], each row
-        # widened by (slack - s0) times its 1-norm (the feasibility errors of
-        # the backend solutions from its own level on).
+        # The inequality rows to respect, stacked: C x in [lo, hi], widened
+        # by _allowed.
         self.C, self.lo, self.hi = hard.C, hard.d_lower, hard.d_upper
         self.s0 = np.zeros(hard.n_in)
         self._norm1: np.ndarray | None = None  # of C's rows, made when first needed
@@ -316,13 +315,20 @@ class NullSpaceCascade:
             self._norm1 = np.abs(self.C).sum(axis=1)
         return self._norm1
 
+    def _allowed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds of :attr:`C`'s rows widened by their allowance: each row
+        by ``(slack − s0)`` times its 1-norm (the feasibility errors of the
+        backend solutions from its own level on; none while ``slack`` is 0)."""
+        if self.slack > 0:
+            extra = (self.slack - self.s0) * self.norm1
+            return self.lo - extra, self.hi + extra
+        return self.lo, self.hi
+
     def _excess(self, x: np.ndarray) -> np.ndarray:
         """Violation of each inequality row at ``x`` beyond its allowance (<= 0: met)."""
         cx = self.C @ x
-        v = np.maximum(self.lo - cx, cx - self.hi)
-        if self.slack > 0:
-            v -= (self.slack - self.s0) * self.norm1
-        return v
+        lo, hi = self._allowed()
+        return np.maximum(lo - cx, cx - hi)
 
     def candidate(self, rows: TaskRows, lam: float) -> np.ndarray:
         """The level's optimum with every inequality inactive (closed form)."""
@@ -361,10 +367,7 @@ class NullSpaceCascade:
         C = self.C
         if not C.shape[0]:
             return None  # only the level's own rows violated: their slacks need the backend
-        lo, hi = self.lo, self.hi
-        if self.slack > 0:
-            extra = (self.slack - self.s0) * self.norm1
-            lo, hi = lo - extra, hi + extra
+        lo, hi = self._allowed()
         cx = C @ free.x
         fixed = np.flatnonzero(np.maximum(lo - cx, cx - hi) > FEASIBILITY_TOLERANCE).tolist()
         if not fixed:
@@ -570,9 +573,9 @@ class NullSpaceCascade:
         A[n_e : n_e + n_c, :n] = self.C
         A[n_e + n_c :, :n] = rows.C
         A[n_e + n_c :, n:] = np.eye(m)
-        extra = (self.slack - self.s0) * self.norm1 if self.slack > 0 else 0.0
-        l = np.concatenate([e, self.lo - extra, rows.d_lower])
-        u = np.concatenate([e, self.hi + extra, rows.d_upper])
+        lo, hi = self._allowed()
+        l = np.concatenate([e, lo, rows.d_lower])
+        u = np.concatenate([e, hi, rows.d_upper])
         return LevelProblem(level, P, q, A, l, u, n, self.role)
 
     def level(self, k: int, rows: TaskRows, lam: float, last: bool, exact: bool) -> tuple:
