@@ -368,11 +368,15 @@ def subtree(model: mujoco.MjModel, root: int) -> np.ndarray:
     return inside
 
 
-def unique_names(kind: str, names: Sequence[str]) -> list[str]:
-    """MJCF names with ``<kind>_<id>`` for unnamed ones, made unique."""
+def unique_names(model: mujoco.MjModel, kind: str) -> list[str]:
+    """The MJCF names of ``model``'s bodies or geoms (``kind``: ``"body"``,
+    ``"geom"``), with ``<kind>_<id>`` for unnamed ones, made unique."""
+    accessor = getattr(model, kind)
+    count = model.nbody if kind == "body" else model.ngeom
     out: list[str] = []
     seen: set[str] = set()
-    for i, name in enumerate(names):
+    for i in range(count):
+        name = accessor(i).name
         n = name or f"{kind}_{i}"
         if n in seen:
             n = f"{n}_{i}"

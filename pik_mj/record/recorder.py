@@ -334,7 +334,7 @@ class Recorder:
         root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, self.robot_root_body)
         robot = geometry.subtree(model, root)
         base = self.paths.reference
-        names = geometry.unique_names("geom", [model.geom(g).name for g in range(model.ngeom)])
+        names = geometry.unique_names(model, "geom")
         groups, _ = geometry.geom_groups(
             model,
             names,
@@ -349,7 +349,7 @@ class Recorder:
         ids = np.flatnonzero(robot)
         path = f"{base}/bodies"
         # the body frames are drawn as the robot's are (an Ellipsoids3D needs its sizes)
-        body_names = geometry.unique_names("body", [model.body(b).name for b in range(model.nbody)])
+        body_names = geometry.unique_names(model, "body")
         self._log_static(path, geometry.body_markers([body_names[b] for b in ids]))
         for group in groups:
             self._log_static(group.path, group.shape)
@@ -649,7 +649,7 @@ class Recorder:
             math.isfinite(plane_half_size) and plane_half_size > 0
         ):
             raise InvalidInput(f"plane_half_size must be > 0 [m], got {plane_half_size}")
-        body_names = geometry.unique_names("body", [model.body(b).name for b in range(model.nbody)])
+        body_names = geometry.unique_names(model, "body")
         if robot_root_body is None:
             robot = np.ones(model.nbody, dtype=bool)
             robot[0] = False
@@ -685,7 +685,7 @@ class Recorder:
             plane_half_size = self.measures.floor_half_size
 
         self._log_static(self.paths.world, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
-        geom_names = geometry.unique_names("geom", [model.geom(g).name for g in range(model.ngeom)])
+        geom_names = geometry.unique_names(model, "geom")
         found, self.skipped_geoms = geometry.geom_groups(
             model,
             geom_names,
