@@ -133,7 +133,7 @@ def foot_drift(model, raw_mink: bool) -> float:
 
     def watch(info):
         drift.append(
-            max(np.linalg.norm(f.compute_error(info.configuration)[:3]) for f in stack.feet)
+            max(np.linalg.norm(f.pose_error(info.configuration)[:3]) for f in stack.feet)
         )
 
     pik_mj.solve(cfg, levels, stop=STOP, revert_if_fail=False, callback=watch)

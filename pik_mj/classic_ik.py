@@ -190,7 +190,14 @@ def _as_tasks(
         elif isinstance(t, (tuple, list)) and len(t) == 2 and isinstance(t[0], str):
             tasks.append(
                 FrameTask(
-                    configuration, t[0], t[1], thre=thre, rthre=rthre, p_limit=0.1, r_limit=0.5
+                    configuration,
+                    t[0],
+                    t[1],
+                    thre=thre,
+                    rthre=rthre,
+                    p_limit=0.1,
+                    r_limit=0.5,
+                    error_type="split",  # irteus's difference-pos and difference-rot
                 )
             )
         else:
@@ -223,7 +230,8 @@ def classic_inverse_kinematics(
         targets: :class:`FrameTask`s (their own axes, tolerances and step limits:
             the SR-inverse has no trust region, so give them ``p_limit`` and
             ``r_limit``), or ``(move_target, pose)`` tuples made into full 6-D
-            FrameTasks with the seed's limits (0.1 m, 0.5 rad).
+            FrameTasks with the seed's limits (0.1 m, 0.5 rad) and error
+            (``error_type="split"``).
         method: ``"sr-inverse"`` (seed default) or ``"pseudo-inverse"`` (``k = 0``).
         stop: Maximum iterations (seed ``stop``).
         min_loop: Iterations before the stop test may end the loop.

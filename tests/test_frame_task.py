@@ -13,7 +13,7 @@ from fd import fd_jacobian
 
 from pik_mj import FrameTask, InvalidInput
 from pik_mj.models import load_model
-from pik_mj.tasks.frame import constrained_axes, ljacinv
+from pik_mj.tasks.frame import _twist_distances, constrained_axes, ljacinv
 
 TRANSLATION_AXES = [True, "x", "y", "z", "xy", "yz", "zx", None]
 ROTATION_AXES = [True, "x", "y", "z", None]
@@ -36,7 +36,10 @@ FRAMES = ["local", "world", np.array([0.8, 0.2, -0.4, 0.4]) / np.linalg.norm([0.
 
 @pytest.mark.parametrize("frame", range(len(FRAMES)))
 @pytest.mark.parametrize("relative", [False, True])
-def test_jacobian_matches_finite_differences_all_options(humanoid_cfg, frame, relative):
+@pytest.mark.parametrize("error_type", [None, "split"])
+def test_jacobian_matches_finite_differences_all_options(humanoid_cfg, frame, relative, error_type):
+    """Every axis selection and frame, fixed and robot-frame targets; the
+    default error (the twist for the whole local pose) and the split one."""
     cfg = humanoid_cfg
     target = (
         "left_hand"
@@ -57,6 +60,7 @@ def test_jacobian_matches_finite_differences_all_options(humanoid_cfg, frame, re
             rotation_axis=r_axis,
             translation_frame=FRAMES[frame],
             rotation_frame=FRAMES[frame],
+            error_type=error_type,
         )
         J = task.compute_jacobian(cfg)
         assert J.shape == (
@@ -132,9 +136,9 @@ def test_per_axis_thresholds(humanoid_cfg):
 
 
 @pytest.mark.parametrize("frame_type", ["body", "site", "geom"])
-def test_default_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, frame_type):
-    """The default case (both errors in the move target's frame) is computed on
-    Python floats and MuJoCo's Jacobian of the target point; here the module
+def test_split_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, frame_type):
+    """The split error of the whole pose in the move target's frame is computed
+    on Python floats and MuJoCo's Jacobian of the target point; here the module
     formulas with mink's SO(3) (log, ljacinv) and MuJoCo's frame Jacobian: the
     rows, error norm and stop test agree to rounding, for a fixed and a
     callable target, clamped and not, and a target reached within tolerance."""
@@ -158,7 +162,9 @@ def test_default_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, 
         (lambda c: pose, {}),
         (near, {}),
     ):
-        task = FrameTask(cfg, name, target, move_target_type=frame_type, **limits)
+        task = FrameTask(
+            cfg, name, target, move_target_type=frame_type, error_type="split", **limits
+        )
         state = task.evaluate(cfg)
         p, R = {
             "body": (data.xpos, data.xmat),
@@ -193,3 +199,112 @@ def test_default_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, 
         assert state.satisfied == satisfied
         assert satisfied == (target is near)
         np.testing.assert_allclose(task.compute_error(cfg), e, rtol=0, atol=1e-14)
+
+
+@pytest.mark.parametrize("frame_type", ["body", "site", "geom"])
+def test_twist_rows_are_mink_frame_tasks_and_the_stop_test_reads_the_split_error(
+    humanoid_cfg, frame_type
+):
+    """The default rows of a whole pose are mink's ``FrameTask`` rows with the
+    sign of ``log(T_WT⁻¹ T_WM)`` (mink's error is ``log(T_WM⁻¹ T_WT)``); the
+    error norm and the stop test are the split error's (the distance between
+    the origins, the rotation angle), for a fixed and a callable target,
+    clamped and not, and a target reached within tolerance."""
+    cfg = humanoid_cfg
+    model = cfg.model
+    name = {"body": "right_hand", "site": model.site(0).name, "geom": model.geom(5).name}[
+        frame_type
+    ]
+    pose = mink.SE3.from_rotation_and_translation(
+        mink.SO3.from_rpy_radians(0.3, -0.2, 1.9), np.array([0.4, -0.3, 1.1])
+    )
+    here = cfg.get_transform_frame_to_world(name, frame_type)
+    near = here @ mink.SE3.from_rotation_and_translation(
+        mink.SO3.from_x_radians(0.015), np.array([2e-4, 0.0, -3e-4])
+    )
+    for target, limits in (
+        (pose, {}),
+        (pose, {"p_limit": 0.05, "r_limit": 0.2}),
+        (lambda c: pose, {}),
+        (near, {}),
+    ):
+        task = FrameTask(cfg, name, target, move_target_type=frame_type, **limits)
+        assert task.error_type == "twist"
+        goal = target(cfg) if callable(target) else target
+        reference = mink.FrameTask(name, frame_type, position_cost=1.0, orientation_cost=1.0)
+        reference.set_target(goal)
+        e, J = -reference.compute_error(cfg), -reference.compute_jacobian(cfg)
+        state = task.evaluate(cfg)
+        b = -e.copy()
+        for part, limit in ((b[:3], limits.get("p_limit")), (b[3:], limits.get("r_limit"))):
+            if limit is not None and np.linalg.norm(part) > limit:
+                part *= limit / np.linalg.norm(part)
+        # (the task hands mink its target as a matrix: rounding of the quaternion)
+        np.testing.assert_allclose(state.rows.A, J, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(state.rows.b, b, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(task.compute_error(cfg), e, rtol=0, atol=1e-12)
+        # the twist's rotation is the split's; its translation is not the distance
+        split = FrameTask(cfg, name, target, move_target_type=frame_type, error_type="split")
+        e_split = split.compute_error(cfg)
+        np.testing.assert_allclose(task.pose_error(cfg), e_split, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(e[3:], e_split[3:], rtol=0, atol=1e-14)
+        distance = np.linalg.norm(goal.translation() - here.translation())
+        assert np.linalg.norm(e_split[:3]) == pytest.approx(distance, rel=1e-12)
+        if target is pose:
+            assert abs(np.linalg.norm(e[:3]) - distance) > 1e-2
+        assert state.error == pytest.approx(np.linalg.norm(e_split), rel=1e-12)
+        n_t, n_r = np.linalg.norm(e_split[:3]), np.linalg.norm(e_split[3:])
+        satisfied = n_t <= 1e-3 and n_r <= np.deg2rad(1)
+        assert state.satisfied == satisfied == task.is_satisfied(cfg) == (target is near)
+
+
+def test_twist_toward_a_robot_frame_is_minks_relative_frame_task(humanoid_cfg):
+    """With another robot frame as the target (both move), the twist rows are
+    mink's ``RelativeFrameTask`` rows toward the identity, same sign."""
+    cfg = humanoid_cfg
+    task = FrameTask(cfg, "right_hand", "left_hand", move_target_type="body", target_type="body")
+    reference = mink.RelativeFrameTask("right_hand", "body", "left_hand", "body", 1.0, 1.0)
+    reference.set_target(mink.SE3.identity())
+    e, J = task.error_and_jacobian(cfg)
+    np.testing.assert_allclose(e, reference.compute_error(cfg), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(J, reference.compute_jacobian(cfg), rtol=0, atol=1e-14)
+    state = task.evaluate(cfg)
+    split = FrameTask(cfg, "right_hand", "left_hand", error_type="split").compute_error(cfg)
+    assert state.error == pytest.approx(np.linalg.norm(split), rel=1e-12)
+    # a new target frame: the rows follow it
+    task.set_target("head", "body")
+    reference = mink.RelativeFrameTask("right_hand", "body", "head", "body", 1.0, 1.0)
+    reference.set_target(mink.SE3.identity())
+    np.testing.assert_allclose(task.compute_error(cfg), reference.compute_error(cfg), atol=1e-14)
+
+
+def test_twist_distances_match_the_split_error_at_any_angle():
+    """``_twist_distances`` turns ``(ρ, φ)`` back into the distance between the
+    origins and the angle, on both sides of its series (1e-2 rad) and near π."""
+    rng = np.random.default_rng(3)
+    for angle in (0.0, 1e-7, 3e-3, 9.9e-3, 1.01e-2, 0.4, 2.0, np.pi - 1e-6):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        p = rng.normal(size=3)
+        T = mink.SE3.from_rotation_and_translation(mink.SO3.exp(angle * axis), p)
+        twist = T.log()
+        n_t, n_r = _twist_distances(*twist.tolist())
+        assert n_t == pytest.approx(np.linalg.norm(p), rel=1e-12)
+        assert n_r == pytest.approx(angle, rel=1e-12, abs=1e-15)
+
+
+def test_error_type_is_checked_and_defaults_to_split_where_the_twist_does_not_apply(
+    humanoid_cfg,
+):
+    cfg = humanoid_cfg
+    pose = (np.array([0.4, -0.3, 1.1]), np.array([1.0, 0.0, 0.0, 0.0]))
+    assert FrameTask(cfg, "right_hand", pose).error_type == "twist"
+    assert FrameTask(cfg, "right_hand", pose, translation_axis="z").error_type == "split"
+    assert FrameTask(cfg, "right_hand", pose, rotation_frame="world").error_type == "split"
+    assert FrameTask(cfg, "right_hand", pose, error_type="split").error_type == "split"
+    with pytest.raises(InvalidInput, match=r"'screw' is not one of \('twist', 'split'\)"):
+        FrameTask(cfg, "right_hand", pose, error_type="screw")
+    with pytest.raises(InvalidInput, match="error_type='twist' matches the whole pose"):
+        FrameTask(cfg, "right_hand", pose, rotation_axis="z", error_type="twist")
+    with pytest.raises(InvalidInput, match="both frames 'local'"):
+        FrameTask(cfg, "right_hand", pose, translation_frame="world", error_type="twist")

@@ -23,6 +23,27 @@ inverse left Jacobian of SO(3), ``R_e = R_{WM} R_{WT}^T``):
 components *not* freed by the axis selection, following irteus: naming an axis
 frees it — ``translation_axis="z"`` leaves motion along z free (x, y matched),
 ``"xy"`` matches z only, ``rotation_axis="z"`` leaves rotation about z free.
+The whole pose in the move target's frame (all six rows, both frames
+``"local"``, the default) is matched by default through its **twist** error
+(``error_type="twist"``), mink's body twist from the target to the move target:
+
+.. math::
+
+    e = \\log(T_{WT}^{-1} T_{WM})
+      = \\big(J_l^{-1}(\\phi)\\, R_{WT}^T (p_{WM} - p_{WT}),\\ \\phi\\big),
+    \\qquad \\phi = \\log(R_{WT}^T R_{WM}),
+
+with ``J = J_r^{-1}(e) V`` where ``V`` is the body twist Jacobian (mink's
+``FrameTask``, or ``RelativeFrameTask`` for a robot-frame target, compute both).
+The motion of one revolute joint is a straight line in these coordinates, so
+Newton steps on them follow the arcs a limb makes: on the reference reaching
+stack (20 targets) they need 3.7 iterations on the CMU humanoid and 4.9 on
+dm_control's where the seed's ``(e_t, e_r)`` above (``error_type="split"``,
+always used with axis selection or other frames) needs 4.7 and 5.25. ``φ`` is ``e_r``; the twist's
+translation part differs from ``e_t`` by ``O(θ ‖e_t‖)``. The stop test, the
+reported error and :meth:`FrameTask.pose_error` are the split error either way:
+``thre`` bounds the distance between the two origins.
+
 Each iteration asks ``J x = -clamp(e)``, the translation clamped to norm
 ``p_limit`` [m] and the rotation to ``r_limit`` [rad] (seed ``p-limit``/``r-limit``)
 when given. By default nothing is clamped: :func:`pik_mj.solve`'s trust region
@@ -57,6 +78,9 @@ AxisSpec = bool | str | None
 
 ONE_DEGREE = float(np.deg2rad(1.0))
 """Default rotation tolerance [rad] (seed ``rthre``: 1 degree)."""
+
+ERROR_TYPES = ("twist", "split")
+"""The errors a :class:`FrameTask` can ask of its rows (module docstring)."""
 
 _AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -254,6 +278,10 @@ class FrameTask(EqualityTask):
             None: no clamp.
         check: Whether the solve loop's stop test looks at this task.
         name: Display name.
+        error_type: The rows' error (module docstring): ``"twist"`` (the pose's
+            body twist ``log(T_WT⁻¹ T_WM)``; all six rows in the ``"local"``
+            frames only) or ``"split"`` (the seed's ``(e_t, e_r)``). None: the
+            twist where it applies, else the split.
     """
 
     def __init__(
@@ -276,6 +304,7 @@ class FrameTask(EqualityTask):
         r_limit: float | None = None,
         check: bool = True,
         name: str | None = None,
+        error_type: str | None = None,
     ):
         model = configuration.model
         self.move_target = Frame.find(model, move_target, move_target_type)
@@ -305,6 +334,25 @@ class FrameTask(EqualityTask):
             for f in (self.translation_frame, self.rotation_frame)
         )
         self._body = self.move_target.body_id  # the body carrying the move target
+        self.error_type = self._error_type(error_type)
+        # mink's twist task (made on first use; its target follows self's)
+        self._mink_task: mink.FrameTask | mink.RelativeFrameTask | None = None
+        self._mink_target: object = None  # the target pose the mink task was given
+
+    def _error_type(self, requested: str | None) -> str:
+        """``"twist"`` or ``"split"``: the requested one, checked, or the default."""
+        whole_local_pose = self._both_local and self._rows.size == 6
+        if requested is None:
+            return "twist" if whole_local_pose else "split"
+        if requested not in ERROR_TYPES:
+            raise InvalidInput(f"error_type {requested!r} is not one of {ERROR_TYPES} or None")
+        if requested == "twist" and not whole_local_pose:
+            raise InvalidInput(
+                "error_type='twist' matches the whole pose in the move target's frame: it "
+                "needs translation_axis=True, rotation_axis=True and both frames 'local' "
+                "(use error_type='split' with axis selection or other frames)"
+            )
+        return requested
 
     # -- configuration ------------------------------------------------------
     def set_target(self, target: Any, target_type: str | None = None, model=None) -> None:
@@ -371,17 +419,69 @@ class FrameTask(EqualityTask):
         e[3:] = self._R_WF(self.rotation_frame, R_WM).T @ e_rW
         return e
 
-    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
-        """Selected ``[e_t; e_r]`` in their frames [m, rad], unclamped."""
+    def pose_error(self, configuration: mink.Configuration) -> np.ndarray:
+        """The split error, selected ``[e_t; e_r]`` in their frames [m, rad],
+        whatever :attr:`error_type`: what ``thre``/``rthre`` and the reported
+        error measure (``‖e_t‖`` is the distance between the two origins)."""
+        if self._both_local and self.target_frame is None:
+            e = np.array(self._local_error(configuration)[0])
+            return e if self._rows.size == 6 else e[self._rows]
         e_tW, e_rW, R_WM, _ = self._errors_world(configuration)
         return self._in_frames(e_tW, e_rW, R_WM)[self._rows]
+
+    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
+        """The rows' error, unclamped: the twist ``log(T_WT⁻¹ T_WM)`` or the
+        split ``[e_t; e_r]`` (:attr:`error_type`) [m, rad]."""
+        if self.error_type == "twist":
+            return self._twist(configuration, jacobian=False)[0]
+        return self.pose_error(configuration)
 
     def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
         """``d e / d q`` in the tangent space, shape (rows, nv)."""
         return self.error_and_jacobian(configuration)[1]
 
+    def is_satisfied(self, configuration: mink.Configuration) -> bool:
+        """Stop test on :meth:`pose_error`."""
+        return self.satisfied_by(self.pose_error(configuration))
+
+    def _twist(
+        self, configuration: mink.Configuration, jacobian: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The twist error (6,) and, if asked, its Jacobian (6, nv), from mink.
+
+        mink's ``FrameTask`` (fixed or callable target) has the opposite sign,
+        ``log(T_WM⁻¹ T_WT)``, and its Jacobian; ``RelativeFrameTask`` (a robot
+        frame as the target, root ``T``, target pose identity) has this one.
+        """
+        task = self._mink_task
+        if self.target_frame is not None:
+            if task is None or self._mink_target is not self.target_frame:
+                M, T = self.move_target, self.target_frame
+                task = mink.RelativeFrameTask(M.name, M.frame_type, T.name, T.frame_type, 1.0, 1.0)
+                task.set_target(mink.SE3.identity())
+                self._mink_task, self._mink_target = task, self.target_frame
+            e = task.compute_error(configuration)
+            return e, task.compute_jacobian(configuration) if jacobian else None
+        pose = self.target_pose_now(configuration)
+        if task is None or isinstance(task, mink.RelativeFrameTask):
+            task = mink.FrameTask(self.move_target.name, self.move_target.frame_type, 1.0, 1.0)
+            self._mink_task, self._mink_target = task, None
+        if self._mink_target is not pose:  # a new fixed target, or a callable's
+            p, R = pose
+            task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(R), p))
+            self._mink_target = pose
+        e = task.compute_error(configuration)
+        np.negative(e, out=e)
+        if not jacobian:
+            return e, None
+        J = task.compute_jacobian(configuration)
+        np.negative(J, out=J)
+        return e, J
+
     def error_and_jacobian(self, configuration: mink.Configuration):
         """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
+        if self.error_type == "twist":
+            return self._twist(configuration)
         if self._both_local and self.target_frame is None:
             e6, J = self._local(configuration)
             e = np.array(e6)
@@ -429,6 +529,37 @@ class FrameTask(EqualityTask):
             e, J = e[self._rows], J[self._rows]
         return e, J
 
+    def _local_error(
+        self, configuration
+    ) -> tuple[tuple[float, float, float, float, float, float], np.ndarray, list[float]]:
+        """The default case's split error as six Python floats, with ``p_WT``
+        and ``R_WM`` (row-major floats), see :meth:`_local`."""
+        frame = self.move_target
+        data = configuration.data
+        i = frame.id
+        if frame.frame_type == "body":
+            w, x, y, z = data.xquat[i].tolist()  # MuJoCo's, R_WM = quat2Mat(xquat)
+            p_WM, R_WM = data.xpos[i], data.xmat[i]
+        else:
+            xpos, xmat = _POSE[frame.frame_type]
+            p_WM, R_WM = getattr(data, xpos)[i], getattr(data, xmat)[i]
+            w, x, y, z = _quaternion(R_WM)
+        p_WT, (px, py, pz), (cw, cx, cy, cz) = self._target_point_and_conjugate(configuration)
+        # q = q_WT^* q_WM, the rotation R_WT^T R_WM
+        qw = cw * w - cx * x - cy * y - cz * z
+        qx = cw * x + cx * w + cy * z - cz * y
+        qy = cw * y - cx * z + cy * w + cz * x
+        qz = cw * z + cx * y - cy * x + cz * w
+        rx, ry, rz = _quat_log(qw, qx, qy, qz)
+        R = R_WM.tolist()
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = R
+        mx, my, mz = p_WM.tolist()
+        dx, dy, dz = mx - px, my - py, mz - pz
+        tx = r0 * dx + r3 * dy + r6 * dz
+        ty = r1 * dx + r4 * dy + r7 * dz
+        tz = r2 * dx + r5 * dy + r8 * dz
+        return (tx, ty, tz, rx, ry, rz), p_WT, R
+
     def _local(self, configuration) -> tuple[tuple[float, ...], np.ndarray]:
         """The default case (errors in the move target's frame, fixed or callable
         target): ``(e, J)`` with the error's six components as Python floats
@@ -449,29 +580,9 @@ class FrameTask(EqualityTask):
         times per iteration (trial step and corrections), and numpy's per-call
         cost on 3x3 arrays is most of the work otherwise.
         """
-        frame = self.move_target
         model, data = configuration.model, configuration.data
-        i = frame.id
-        if frame.frame_type == "body":
-            w, x, y, z = data.xquat[i].tolist()  # MuJoCo's, R_WM = quat2Mat(xquat)
-            p_WM, R_WM = data.xpos[i], data.xmat[i]
-        else:
-            xpos, xmat = _POSE[frame.frame_type]
-            p_WM, R_WM = getattr(data, xpos)[i], getattr(data, xmat)[i]
-            w, x, y, z = _quaternion(R_WM)
-        p_WT, (px, py, pz), (cw, cx, cy, cz) = self._target_point_and_conjugate(configuration)
-        # q = q_WT^* q_WM, the rotation R_WT^T R_WM
-        qw = cw * w - cx * x - cy * y - cz * z
-        qx = cw * x + cx * w + cy * z - cz * y
-        qy = cw * y - cx * z + cy * w + cz * x
-        qz = cw * z + cx * y - cy * x + cz * w
-        rx, ry, rz = _quat_log(qw, qx, qy, qz)
-        r0, r1, r2, r3, r4, r5, r6, r7, r8 = R_WM.tolist()
-        mx, my, mz = p_WM.tolist()
-        dx, dy, dz = mx - px, my - py, mz - pz
-        tx = r0 * dx + r3 * dy + r6 * dz
-        ty = r1 * dx + r4 * dy + r7 * dz
-        tz = r2 * dx + r5 * dy + r8 * dz
+        (tx, ty, tz, rx, ry, rz), p_WT, R = self._local_error(configuration)
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = R
         # L = J_l^{-1}(-e_r), written out as in _ljacinv_rows; then L R^T
         (l00, l01, l02), (l10, l11, l12), (l20, l21, l22) = _ljacinv_rows(-rx, -ry, -rz)
         # fmt: off
@@ -499,7 +610,22 @@ class FrameTask(EqualityTask):
         """Rows, ``‖e‖`` and stop test from one evaluation; the default case
         (all six rows in the move target's frame, fixed or callable target,
         tolerances on the norms) clamps and tests the error as Python floats,
-        as :meth:`clamp` and :meth:`satisfied_by` do on arrays."""
+        as :meth:`clamp` and :meth:`satisfied_by` do on arrays. With the twist
+        error the rows come from it and the error and stop test from
+        :meth:`pose_error`."""
+        if self.error_type == "twist":
+            e, J = self._twist(configuration)
+            if self.thre.ndim or self.rthre.ndim:  # per-axis tolerances
+                split = self.pose_error(configuration)
+                return TaskState(
+                    self.rows_from(e, J), math.sqrt(float(split @ split)), self.satisfied_by(split)
+                )
+            n_t, n_r = _twist_distances(*e.tolist())
+            return TaskState(
+                self.rows_from(e, J),
+                math.sqrt(n_t * n_t + n_r * n_r),
+                n_t <= float(self.thre) and n_r <= float(self.rthre),
+            )
         if not (
             self._both_local
             and self.target_frame is None
@@ -532,6 +658,8 @@ class FrameTask(EqualityTask):
         return b
 
     def satisfied_by(self, e: np.ndarray) -> bool:
+        """Stop test on the split error ``e`` (:meth:`pose_error`): ``thre`` on
+        the translation, ``rthre`` on the rotation (norms, or per axis)."""
         n_t = self.trans_rows.size
         return within(e[:n_t], self.thre, self.trans_rows) and within(
             e[n_t:], self.rthre, self.rot_rows
@@ -551,6 +679,25 @@ class FrameTask(EqualityTask):
 
 
 _TargetTerms = tuple[np.ndarray, tuple[float, float, float], tuple[float, float, float, float]]
+
+
+def _twist_distances(
+    ux: float, uy: float, uz: float, rx: float, ry: float, rz: float
+) -> tuple[float, float]:
+    """``(‖p_WM - p_WT‖ [m], θ [rad])`` from the twist ``(ρ, φ)``: ``θ = ‖φ‖``
+    and the translation ``J_l(φ) ρ``, with ``J_l(φ) = I + (1 - cos θ)/θ² [φ]×
+    + (θ - sin θ)/θ³ [φ]×²`` (series below ``θ = 10^{-2}``); Python floats."""
+    theta2 = rx * rx + ry * ry + rz * rz
+    if theta2 < 1e-4:
+        a, b = 0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0
+    else:
+        theta = math.sqrt(theta2)
+        a = (1.0 - math.cos(theta)) / theta2
+        b = (theta - math.sin(theta)) / (theta2 * theta)
+    cx, cy, cz = ry * uz - rz * uy, rz * ux - rx * uz, rx * uy - ry * ux  # φ × ρ
+    dx, dy, dz = ry * cz - rz * cy, rz * cx - rx * cz, rx * cy - ry * cx  # φ × (φ × ρ)
+    px, py, pz = ux + a * cx + b * dx, uy + a * cy + b * dy, uz + a * cz + b * dz
+    return math.sqrt(px * px + py * py + pz * pz), math.sqrt(theta2)
 
 
 def _point_and_conjugate(p: np.ndarray, R: np.ndarray) -> _TargetTerms:
