@@ -132,9 +132,7 @@ def foot_drift(model, raw_mink: bool) -> float:
     drift: list[float] = []
 
     def watch(info):
-        drift.append(
-            max(np.linalg.norm(f.pose_error(info.configuration)[:3]) for f in stack.feet)
-        )
+        drift.append(max(np.linalg.norm(f.pose_error(info.configuration)[:3]) for f in stack.feet))
 
     pik_mj.solve(cfg, levels, stop=STOP, revert_if_fail=False, callback=watch)
     return max(drift)
