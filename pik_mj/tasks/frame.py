@@ -39,10 +39,10 @@ The motion of one revolute joint is a straight line in these coordinates, so
 Newton steps on them follow the arcs a limb makes: on the reference reaching
 stack (20 targets) they need 3.7 iterations on the CMU humanoid and 4.9 on
 dm_control's where the seed's ``(e_t, e_r)`` above (``error_type="split"``,
-always used with axis selection or other frames) needs 4.7 and 5.25. ``φ`` is ``e_r``; the twist's
-translation part differs from ``e_t`` by ``O(θ ‖e_t‖)``. The stop test, the
-reported error and :meth:`FrameTask.pose_error` are the split error either way:
-``thre`` bounds the distance between the two origins.
+always used with axis selection or other frames) needs 4.7 and 5.25. ``φ`` is
+``e_r``; the twist's translation part differs from ``e_t`` by ``O(θ ‖e_t‖)``.
+The stop test, the reported error and :meth:`FrameTask.pose_error` are the
+split error either way: ``thre`` bounds the distance between the two origins.
 
 Each iteration asks ``J x = -clamp(e)``, the translation clamped to norm
 ``p_limit`` [m] and the rotation to ``r_limit`` [rad] (seed ``p-limit``/``r-limit``)
