@@ -135,15 +135,11 @@ def test_per_axis_thresholds(humanoid_cfg):
     assert loose_z.is_satisfied(cfg) and not tight.is_satisfied(cfg)
 
 
-@pytest.mark.parametrize("frame_type", ["body", "site", "geom"])
-def test_split_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, frame_type):
-    """The split error of the whole pose in the move target's frame is computed
-    on Python floats and MuJoCo's Jacobian of the target point; here the module
-    formulas with mink's SO(3) (log, ljacinv) and MuJoCo's frame Jacobian: the
-    rows, error norm and stop test agree to rounding, for a fixed and a
-    callable target, clamped and not, and a target reached within tolerance."""
-    cfg = humanoid_cfg
-    model, data = cfg.model, cfg.data
+def default_case_targets(cfg, frame_type):
+    """``(name, here, near, cases)``: a body, site or geom of the humanoid, its
+    pose, a pose within 1 mm / 1 degree of it, and ``(target, limits)`` cases:
+    a far fixed pose, clamped and not, the same as a callable, and the near one."""
+    model = cfg.model
     name = {"body": "right_hand", "site": model.site(0).name, "geom": model.geom(5).name}[
         frame_type
     ]
@@ -156,12 +152,35 @@ def test_split_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, fr
     near = here @ mink.SE3.from_rotation_and_translation(
         mink.SO3.from_x_radians(0.015), np.array([2e-4, 0.0, -3e-4])
     )
-    for target, limits in (
+    cases = [
         (pose, {}),
         (pose, {"p_limit": 0.05, "r_limit": 0.2}),
         (lambda c: pose, {}),
         (near, {}),
-    ):
+    ]
+    return name, here, near, cases
+
+
+def clamped_rows_b(e, limits):
+    """``-e`` with its translation and rotation clamped to ``p_limit``/``r_limit``."""
+    b = -e.copy()
+    for part, limit in ((b[:3], limits.get("p_limit")), (b[3:], limits.get("r_limit"))):
+        if limit is not None and np.linalg.norm(part) > limit:
+            part *= limit / np.linalg.norm(part)
+    return b
+
+
+@pytest.mark.parametrize("frame_type", ["body", "site", "geom"])
+def test_split_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, frame_type):
+    """The split error of the whole pose in the move target's frame is computed
+    on Python floats and MuJoCo's Jacobian of the target point; here the module
+    formulas with mink's SO(3) (log, ljacinv) and MuJoCo's frame Jacobian: the
+    rows, error norm and stop test agree to rounding, for a fixed and a
+    callable target, clamped and not, and a target reached within tolerance."""
+    cfg = humanoid_cfg
+    model, data = cfg.model, cfg.data
+    name, _, near, cases = default_case_targets(cfg, frame_type)
+    for target, limits in cases:
         task = FrameTask(
             cfg, name, target, move_target_type=frame_type, error_type="split", **limits
         )
@@ -188,10 +207,7 @@ def test_split_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, fr
             else [R_WM.T @ (jacp + skew @ jacr), R_WM.T @ jacr]
         )
         e = np.concatenate([R_WM.T @ e_tW, R_WM.T @ e_rW])
-        b = -e.copy()
-        for part, limit in ((b[:3], limits.get("p_limit")), (b[3:], limits.get("r_limit"))):
-            if limit is not None and np.linalg.norm(part) > limit:
-                part *= limit / np.linalg.norm(part)
+        b = clamped_rows_b(e, limits)
         np.testing.assert_allclose(state.rows.A, J, rtol=0, atol=1e-12)
         np.testing.assert_allclose(state.rows.b, b, rtol=0, atol=1e-14)
         assert state.error == pytest.approx(np.linalg.norm(e), rel=1e-13)
@@ -211,23 +227,9 @@ def test_twist_rows_are_mink_frame_tasks_and_the_stop_test_reads_the_split_error
     the origins, the rotation angle), for a fixed and a callable target,
     clamped and not, and a target reached within tolerance."""
     cfg = humanoid_cfg
-    model = cfg.model
-    name = {"body": "right_hand", "site": model.site(0).name, "geom": model.geom(5).name}[
-        frame_type
-    ]
-    pose = mink.SE3.from_rotation_and_translation(
-        mink.SO3.from_rpy_radians(0.3, -0.2, 1.9), np.array([0.4, -0.3, 1.1])
-    )
-    here = cfg.get_transform_frame_to_world(name, frame_type)
-    near = here @ mink.SE3.from_rotation_and_translation(
-        mink.SO3.from_x_radians(0.015), np.array([2e-4, 0.0, -3e-4])
-    )
-    for target, limits in (
-        (pose, {}),
-        (pose, {"p_limit": 0.05, "r_limit": 0.2}),
-        (lambda c: pose, {}),
-        (near, {}),
-    ):
+    name, here, near, cases = default_case_targets(cfg, frame_type)
+    pose = cases[0][0]
+    for target, limits in cases:
         task = FrameTask(cfg, name, target, move_target_type=frame_type, **limits)
         assert task.error_type == "twist"
         goal = target(cfg) if callable(target) else target
@@ -235,10 +237,7 @@ def test_twist_rows_are_mink_frame_tasks_and_the_stop_test_reads_the_split_error
         reference.set_target(goal)
         e, J = -reference.compute_error(cfg), -reference.compute_jacobian(cfg)
         state = task.evaluate(cfg)
-        b = -e.copy()
-        for part, limit in ((b[:3], limits.get("p_limit")), (b[3:], limits.get("r_limit"))):
-            if limit is not None and np.linalg.norm(part) > limit:
-                part *= limit / np.linalg.norm(part)
+        b = clamped_rows_b(e, limits)
         # (the task hands mink its target as a matrix: rounding of the quaternion)
         np.testing.assert_allclose(state.rows.A, J, rtol=0, atol=1e-12)
         np.testing.assert_allclose(state.rows.b, b, rtol=0, atol=1e-12)
