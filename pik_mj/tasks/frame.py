@@ -337,7 +337,7 @@ class FrameTask(EqualityTask):
         self.error_type = self._error_type(error_type)
         # mink's twist task (made on first use; its target follows self's)
         self._mink_task: mink.FrameTask | mink.RelativeFrameTask | None = None
-        self._mink_target: object = None  # the target pose the mink task was given
+        self._mink_target: object = None  # the target frame or pose the mink task was set for
 
     def _error_type(self, requested: str | None) -> str:
         """``"twist"`` or ``"split"``: the requested one, checked, or the default."""
