@@ -25,7 +25,8 @@ def humanoid_cfg():
     cfg = mink.Configuration(model)
     rng = np.random.default_rng(0)
     q = cfg.q.copy()
-    q[3:7] = mink.SO3.sample_uniform().wxyz
+    quat = rng.normal(size=4)  # (seeded: SO3.sample_uniform draws from numpy's global state)
+    q[3:7] = quat / np.linalg.norm(quat)
     q[7:] += rng.normal(0, 0.3, model.nq - 7)
     cfg.update(q)
     return cfg

@@ -335,9 +335,12 @@ class FrameTask(EqualityTask):
         )
         self._body = self.move_target.body_id  # the body carrying the move target
         self.error_type = self._error_type(error_type)
-        # mink's twist task (made on first use; its target follows self's)
+        # mink's twist task, made here and whenever the target changes (a
+        # callable's pose is set on it at each evaluation)
         self._mink_task: mink.FrameTask | mink.RelativeFrameTask | None = None
         self._mink_target: object = None  # the target frame or pose the mink task was set for
+        if self.error_type == "twist":
+            self._twist_task(None)
 
     def _error_type(self, requested: str | None) -> str:
         """``"twist"`` or ``"split"``: the requested one, checked, or the default."""
@@ -368,6 +371,8 @@ class FrameTask(EqualityTask):
             p, R = (a.copy() for a in as_pose(target, "target"))
             p.flags.writeable = R.flags.writeable = False
             self.target_pose = (p, R)
+        if getattr(self, "error_type", None) == "twist":  # (__init__ makes it itself)
+            self._twist_task(None)
 
     @staticmethod
     def _frame_option(value: Any, what: str) -> str | np.ndarray:
@@ -444,6 +449,35 @@ class FrameTask(EqualityTask):
         """Stop test on :meth:`pose_error`."""
         return self.satisfied_by(self.pose_error(configuration))
 
+    def _twist_task(
+        self, configuration: mink.Configuration | None
+    ) -> mink.FrameTask | mink.RelativeFrameTask:
+        """mink's task of the twist error, its target set to this task's: a
+        ``RelativeFrameTask`` (target identity) for a robot frame as the target,
+        else a ``FrameTask`` whose target is the fixed pose (set once per pose)
+        or the callable's pose at ``configuration``."""
+        task = self._mink_task
+        if self.target_frame is not None:
+            if task is None or self._mink_target is not self.target_frame:
+                M, T = self.move_target, self.target_frame
+                task = mink.RelativeFrameTask(M.name, M.frame_type, T.name, T.frame_type, 1.0, 1.0)
+                task.set_target(mink.SE3.identity())
+                self._mink_task, self._mink_target = task, self.target_frame
+            return task
+        if task is None or isinstance(task, mink.RelativeFrameTask):
+            task = mink.FrameTask(self.move_target.name, self.move_target.frame_type, 1.0, 1.0)
+            self._mink_task, self._mink_target = task, None
+        if self.target_fn is None:
+            pose = self.target_pose
+        elif configuration is None:  # (made ahead of the first evaluation)
+            return task
+        else:
+            pose = self.target_pose_now(configuration)
+        if self._mink_target is not pose:  # a new fixed target, or a callable's
+            task.set_target(_se3(*pose))  # type: ignore[misc]
+            self._mink_target = pose
+        return task
+
     def _twist(
         self, configuration: mink.Configuration, jacobian: bool = True
     ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -453,23 +487,10 @@ class FrameTask(EqualityTask):
         ``log(T_WM⁻¹ T_WT)``, and its Jacobian; ``RelativeFrameTask`` (a robot
         frame as the target, root ``T``, target pose identity) has this one.
         """
-        task = self._mink_task
+        task = self._twist_task(configuration)
         if self.target_frame is not None:
-            if task is None or self._mink_target is not self.target_frame:
-                M, T = self.move_target, self.target_frame
-                task = mink.RelativeFrameTask(M.name, M.frame_type, T.name, T.frame_type, 1.0, 1.0)
-                task.set_target(mink.SE3.identity())
-                self._mink_task, self._mink_target = task, self.target_frame
             e = task.compute_error(configuration)
             return e, task.compute_jacobian(configuration) if jacobian else None
-        pose = self.target_pose_now(configuration)
-        if task is None or isinstance(task, mink.RelativeFrameTask):
-            task = mink.FrameTask(self.move_target.name, self.move_target.frame_type, 1.0, 1.0)
-            self._mink_task, self._mink_target = task, None
-        if self._mink_target is not pose:  # a new fixed target, or a callable's
-            p, R = pose
-            task.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(R), p))
-            self._mink_target = pose
         e = task.compute_error(configuration)
         np.negative(e, out=e)
         if not jacobian:
@@ -698,6 +719,15 @@ def _twist_distances(
     dx, dy, dz = ry * cz - rz * cy, rz * cx - rx * cz, rx * cy - ry * cx  # φ × (φ × ρ)
     px, py, pz = ux + a * cx + b * dx, uy + a * cy + b * dy, uz + a * cz + b * dz
     return math.sqrt(px * px + py * py + pz * pz), math.sqrt(theta2)
+
+
+def _se3(p: np.ndarray, R: np.ndarray) -> mink.SE3:
+    """``mink.SE3`` of ``(p, R)``: the wxyz quaternion from ``mju_mat2Quat``, as
+    ``SO3.from_matrix`` makes it (same bits, half the time: no ``SO3`` object)."""
+    wxyz_xyz = np.empty(7)
+    mujoco.mju_mat2Quat(wxyz_xyz[:4], np.ascontiguousarray(R, dtype=float).reshape(9))
+    wxyz_xyz[4:] = p
+    return mink.SE3(wxyz_xyz)
 
 
 def _point_and_conjugate(p: np.ndarray, R: np.ndarray) -> _TargetTerms:

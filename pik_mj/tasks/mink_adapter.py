@@ -57,6 +57,11 @@ class MinkTask(Task):
         # indices it was made with
         self._J: np.ndarray | None = None
         self._J_ids: object = None
+        if type(task) is mink.PostureTask:  # made here, not in the first solve
+            self._J = _posture_jacobian(task)
+            self._J_ids = task._v_ids
+        if isinstance(task, mink.Task) and isinstance(getattr(task, "k", None), int):
+            self._weights_for(task.k)
         if threshold is None:
             threshold = (1e-3, np.deg2rad(1.0)) if self._is_frame else 1e-3
         self.threshold = threshold
@@ -66,36 +71,38 @@ class MinkTask(Task):
 
         A :class:`mink.PostureTask`'s is ``I`` with the free joint's columns
         zeroed, whatever the configuration (its ``compute_jacobian`` depends on
-        ``nv`` and the task's free-joint indices ``_v_ids`` only): mink's matrix
-        is kept, read-only, and asked again only when ``nv`` or ``_v_ids``
-        changes. On the CMU humanoid (nv = 62) building it took 3 of the 8 µs of
-        mink's error and Jacobian, and a kept read-only matrix lets the level's
-        checks and the backends skip it too.
+        ``nv`` and the task's free-joint indices ``_v_ids`` only): the same
+        matrix is made once, with the adapter (:func:`_posture_jacobian`), kept
+        read-only, and made again only when ``nv`` or ``_v_ids`` changes. On the
+        CMU humanoid (nv = 62) building it took 3 of the 8 µs of mink's error
+        and Jacobian, and a kept read-only matrix lets the level's checks and
+        the backends skip it too.
         """
         task = self.task
         if type(task) is mink.PostureTask:
             J = self._J
             if J is None or J.shape[1] != configuration.nv or task._v_ids is not self._J_ids:
-                J = np.array(task.compute_jacobian(configuration), dtype=float)
-                J.flags.writeable = False
-                self._J, self._J_ids = J, task._v_ids
-            return J
+                self._J, self._J_ids = _posture_jacobian(task), task._v_ids
+            return self._J
         return np.asarray(task.compute_jacobian(configuration), dtype=float)
+
+    def _weights_for(self, k: int) -> np.ndarray:
+        """``cost²`` as the weights of ``k`` rows, recomputed only when the task's
+        cost values change (mink's ``set_cost`` writes into the same array)."""
+        cost = np.asarray(self.task.cost, dtype=float)
+        cost_bytes = cost.tobytes()
+        if cost_bytes != self._cost_bytes:
+            self._cost_bytes, self._cost_values = cost_bytes, cost.copy()
+            self._weights = np.broadcast_to(self._cost_values**2, (k,)).copy()
+        if self._weights.shape != (k,):
+            return np.broadcast_to(self._cost_values**2, (k,)).copy()
+        return self._weights
 
     def _task_rows(self, error: np.ndarray, configuration: mink.Configuration) -> TaskRows:
         """Rows of a :class:`mink.Task` whose error at ``configuration`` is ``error``."""
         task = self.task
         jacobian = self._jacobian(configuration)
-        cost = np.asarray(task.cost, dtype=float)
-        cost_bytes = cost.tobytes()
-        if cost_bytes != self._cost_bytes:
-            # cost² as the weights, recomputed only when the task's cost values
-            # change (mink's set_cost writes into the same array)
-            self._cost_bytes, self._cost_values = cost_bytes, cost.copy()
-            self._weights = np.broadcast_to(self._cost_values**2, error.shape).copy()
-        weights = self._weights
-        if weights.shape != error.shape:
-            weights = np.broadcast_to(self._cost_values**2, error.shape).copy()
+        weights = self._weights_for(error.size)
         gain = task.gain
         mu = (
             task.lm_damping * gain * gain * float(error @ (weights * error))
@@ -149,6 +156,17 @@ class MinkTask(Task):
         return f"MinkTask({self.task!r}, name={self.name!r})"
 
 
+def _posture_jacobian(task: mink.PostureTask) -> np.ndarray:
+    """A :class:`mink.PostureTask`'s Jacobian, as its ``compute_jacobian`` makes
+    it at any configuration: ``I`` (nv) with the free joints' columns zeroed;
+    read-only."""
+    J = np.eye(task.k)
+    if task._v_ids is not None:
+        J[:, task._v_ids] = 0.0
+    J.flags.writeable = False
+    return J
+
+
 class MinkLimit(Task):
     """A :class:`mink.Limit` as inequality rows ``G x <= h``.
 
@@ -182,21 +200,23 @@ class MinkLimit(Task):
         # lower bounds (-inf) and slack weights of the last row count, reused
         self._bounds: tuple[np.ndarray, np.ndarray] | None = None
         self._G: np.ndarray | None = None
-        # a ConfigurationLimit's box rows once checked against mink's (None: not
-        # checked yet, False: not a box or not equal, see _BoxRows)
-        self._box: _BoxRows | bool | None = None
+        # a ConfigurationLimit's box rows, made here (None: not a box)
+        self._box = _BoxRows.of(limit)
+        if self._box is not None:
+            self._bounds = self._bounds_of(self._box.G.shape[0])
+
+    def _bounds_of(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """Lower bounds (``-inf``) and slack weights of ``m`` rows."""
+        return np.full(m, -np.inf), np.full(m, float(self.slack_weight))
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         box = self._box
-        if box:
-            h = box.h(configuration)
-            lower, weights = self._bounds  # type: ignore[misc]
-            A, b, w = no_equality(box.G.shape[1])
-            return TaskRows(A, b, w, box.G, lower, h, weights)
-        rows = self._mink_rows(configuration)
         if box is None:
-            self._box = _BoxRows.check(self.limit, configuration, rows) or False
-        return rows
+            return self._mink_rows(configuration)
+        h = box.h(configuration)
+        lower, weights = self._bounds  # type: ignore[misc]
+        A, b, w = no_equality(box.G.shape[1])
+        return TaskRows(A, b, w, box.G, lower, h, weights)
 
     def _mink_rows(self, configuration: mink.Configuration) -> TaskRows:
         """The rows from ``compute_qp_inequalities``."""
@@ -207,7 +227,7 @@ class MinkLimit(Task):
         G = np.atleast_2d(np.asarray(G, dtype=float))
         h = np.asarray(h, dtype=float).reshape(-1)
         if self._bounds is None or self._bounds[0].shape != h.shape:
-            self._bounds = (np.full(h.shape, -np.inf), np.full(h.shape, float(self.slack_weight)))
+            self._bounds = self._bounds_of(h.size)
         lower, weights = self._bounds
         # The same (read-only) G object while its values stay (ConfigurationLimit
         # builds the same matrix every call): users of the rows may cache what
@@ -239,8 +259,8 @@ class MinkLimit(Task):
 
 
 class _BoxRows:
-    """The rows of a :class:`mink.ConfigurationLimit` without ball joints,
-    computed as mink computes them but without rebuilding ``G``:
+    """The rows of a :class:`mink.ConfigurationLimit` without limited ball
+    joints, computed as mink computes them but without rebuilding ``G``:
 
     .. math::
 
@@ -249,33 +269,33 @@ class _BoxRows:
 
     (``P`` the limit's ``projection_matrix``, ``I`` its ``indices``, ``g`` its
     ``gain``, ``⊖`` MuJoCo's ``mj_differentiatePos``), the same operations in
-    the same order, so the same bits. mink's call rebuilds ``[P; -P]`` (7000
-    entries on the CMU humanoid) every time, and the adapter then compared it
-    with the last one: an evaluation (rows, error, stop test) took 40 µs, now
-    13 (mink's call alone: 19). Used only after :meth:`check` found the rows
-    equal to mink's own, bit for bit (once per adapter: a solve wraps its
-    ``mink.Limit``s anew); ``G`` is then that call's matrix, read-only.
+    the same order, so the same bits (``tests/test_tasks.py`` compares them
+    with mink's own at random and out-of-range postures). mink's call rebuilds
+    ``[P; -P]`` (7000 entries on the CMU humanoid) every time: an evaluation
+    (rows, error, stop test) took 40 µs with it, 13 without. ``G`` is made once
+    per adapter, read-only, so that users of the rows may cache what they
+    derive from it.
     """
 
-    def __init__(self, limit: mink.ConfigurationLimit, G: np.ndarray):
-        self.limit, self.G = limit, G
+    def __init__(self, limit: mink.ConfigurationLimit):
+        self.limit = limit
+        P = limit.projection_matrix
+        self.G = np.vstack([P, -P])
+        self.G.flags.writeable = False
         self.n = len(limit.indices)
         nv = limit.model.nv
         self._dq_max, self._dq_min = np.empty(nv), np.empty(nv)
 
     @staticmethod
-    def check(limit: mink.Limit, configuration: mink.Configuration, rows: TaskRows):
-        """A :class:`_BoxRows` for ``limit`` if it is a ConfigurationLimit whose
-        rows at ``configuration`` are exactly ``rows`` (mink's), else None."""
+    def of(limit: mink.Limit) -> _BoxRows | None:
+        """The box rows of ``limit`` if it is a ConfigurationLimit with limited
+        joints and none of them a ball joint (whose rows mink makes otherwise),
+        else None."""
         if type(limit) is not mink.ConfigurationLimit or limit.projection_matrix is None:
             return None
-        P = limit.projection_matrix
-        if rows.C.shape != (2 * P.shape[0], P.shape[1]) or not (
-            np.array_equal(rows.C[: P.shape[0]], P) and np.array_equal(rows.C[P.shape[0] :], -P)
-        ):
-            return None  # ball-joint rows, or not the box
-        box = _BoxRows(limit, rows.C)
-        return box if np.array_equal(box.h(configuration), rows.d_upper) else None
+        model = limit.model
+        ball = (model.jnt_type == int(mujoco.mjtJoint.mjJNT_BALL)) & (model.jnt_limited != 0)
+        return None if ball.any() else _BoxRows(limit)
 
     def h(self, configuration: mink.Configuration) -> np.ndarray:
         """``h`` at ``configuration`` (a new array)."""
