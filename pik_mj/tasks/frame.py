@@ -722,10 +722,11 @@ def _twist_distances(
 
 
 def _se3(p: np.ndarray, R: np.ndarray) -> mink.SE3:
-    """``mink.SE3`` of ``(p, R)``: the wxyz quaternion from ``mju_mat2Quat``, as
-    ``SO3.from_matrix`` makes it (same bits, half the time: no ``SO3`` object)."""
+    """``mink.SE3`` of ``(p, R)``: the wxyz quaternion of :func:`_quaternion`
+    (``mju_mat2Quat``, as ``SO3.from_matrix`` makes it: the same bits, without
+    an ``SO3`` object)."""
     wxyz_xyz = np.empty(7)
-    mujoco.mju_mat2Quat(wxyz_xyz[:4], np.ascontiguousarray(R, dtype=float).reshape(9))
+    wxyz_xyz[:4] = _quaternion(np.ascontiguousarray(R, dtype=float).reshape(9))
     wxyz_xyz[4:] = p
     return mink.SE3(wxyz_xyz)
 
