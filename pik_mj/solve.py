@@ -20,7 +20,9 @@ projection back onto them) within the same iteration.
 
 Inputs are validated here, where they enter (configuration, options, every
 task's rows at the start); afterwards each iteration checks only that the
-stacked rows are finite.
+stacked rows are finite (except for levels of tasks whose rows are finite by
+construction, :attr:`~pik_mj.tasks.task.Task.finite_rows`) and that the step
+is.
 """
 
 from __future__ import annotations
@@ -242,7 +244,10 @@ class _Stack:
     """One level's rows stacked into preallocated arrays, two sets in turn so
     that the rows at the accepted configuration survive a trial evaluation."""
 
-    def __init__(self) -> None:
+    def __init__(self, level: Sequence[Task] = ()) -> None:
+        # rows finite at every finite configuration (Task.finite_rows): not
+        # summed at each evaluation
+        self.finite = bool(level) and all(task.finite_rows for task in level)
         self.buffers: list[tuple[tuple, TaskRows] | None] = [None, None]
         self.slot = 0
         # read-only matrices found finite (a limit's constant C, a posture's
@@ -293,8 +298,9 @@ def evaluate_level(
     One :meth:`Task.evaluate` per task: the rows of the next cascade step and
     the stop test of the one just taken come from the same evaluation. With
     ``validate`` every task's rows are checked (shapes, NaN, bounds); without,
-    only the stacked arrays' finiteness is, and a failure is traced back to its
-    task.
+    only the stacked arrays' finiteness is (not even that when ``stack`` holds
+    a level whose tasks all have :attr:`Task.finite_rows`), and a failure is
+    traced back to its task.
     """
     nv = configuration.model.nv if nv is None else nv
     rows = []
@@ -316,6 +322,8 @@ def evaluate_level(
         stacked = None
     if stack is None:
         finite = stacked is not None and _finite(stacked, nv)
+    elif stack.finite and not validate:
+        finite = stacked is not None
     else:
         finite = stacked is not None and _finite(stacked, nv, stack.checked_A, stack.checked_C)
     if not finite:
@@ -603,7 +611,7 @@ def solve(
         backend.start()  # a shared backend's workspaces start cold: repeatable solves
     model = configuration.model
     q0 = configuration.q.copy()
-    stacks = [_Stack() for _ in task_levels]
+    stacks = [_Stack(level) for level in task_levels]
     counts = [0] * len(task_levels)
     n_corrections = n_rejected = 0
     history: list[list[float]] = []
@@ -634,6 +642,8 @@ def solve(
                 qp_time += time.perf_counter() - t0
                 x = step.x
                 size = float(np.abs(x).max())  # (nv >= 1)
+                if not math.isfinite(size):
+                    _raise_non_finite_step(here, step)
                 alpha = 1.0 if size <= radius else radius / size
                 before = here.errors(prefix)
                 progress_level = prefix + 1 if prefix < n_solved else 0
@@ -660,6 +670,8 @@ def solve(
                                 "correction",
                             )
                             qp_time += time.perf_counter() - t2
+                            if not math.isfinite(float(np.abs(fix.x).max())):
+                                _raise_non_finite_step(there, fix)
                             n_corrections += 1
                             q = q.copy()
                             mujoco.mj_integratePos(model, q, fix.x, 1.0)
@@ -754,6 +766,16 @@ def solve(
         corrections=n_corrections,
         rejected=n_rejected,
     )
+
+
+def _raise_non_finite_step(here: _Point, step: CascadeStep) -> None:
+    """Name what made a cascade step NaN or inf: a task's rows at ``here``
+    (every level evaluated there validated, task by task), else the solver."""
+    for level in here.levels[: here.done]:
+        for task in level:
+            task.evaluate(here.configuration).rows.validate(here.nv, task.name)
+    problem = step.problems[-1] if step.problems else None
+    raise QPFailure(len(here.levels) - 1, "the step is not finite", problem)
 
 
 def _check_after_callback(configuration: mink.Configuration) -> None:

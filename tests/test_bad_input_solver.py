@@ -20,7 +20,9 @@ import pytest
 
 import pik_mj
 from pik_mj.checks import RANGE_TOLERANCE
-from pik_mj.solve import TrustRegion
+from pik_mj.qp import QPSolution
+from pik_mj.solve import TrustRegion, _Stack
+from pik_mj.tasks import MinkLimit
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
 
@@ -546,3 +548,52 @@ def test_ctrl_c_always_stops_the_solve_and_restores_the_configuration(qp_solver,
         np.testing.assert_array_equal(s.cfg.q, s.q0)
         stopped += 1
     assert stopped == 10
+
+
+def test_rows_turning_nan_after_the_start_are_named():
+    """Rows that pass the check at the start and turn NaN at a later
+    configuration: the level's per-evaluation check names the task."""
+    s = Setup()
+    calls = []
+
+    def rows_A(configuration):
+        calls.append(1)
+        A = np.zeros((1, MODEL.nv))
+        A[0, 6] = 1.0 if len(calls) == 1 else np.nan
+        return A
+
+    late = pik_mj.LinearTask(A=rows_A, b=np.zeros(1), name="late_nan", check=False)
+    with pytest.raises(pik_mj.InvalidInput, match=r"task late_nan: A contains NaN"):
+        pik_mj.solve(s.cfg, [*s.stack.levels, [late]])
+    assert len(calls) >= 2
+    np.testing.assert_array_equal(s.cfg.q, s.q0)
+
+
+class _NaNBackend:
+    """A backend object (no closed forms: it gets every level) whose solution is NaN."""
+
+    def solve(self, problem):
+        return QPSolution(np.full(problem.P.shape[0], np.nan), "nan", True)
+
+
+def test_a_backend_returning_nan_ends_the_solve_as_a_qp_failure():
+    s = Setup()
+    result = s.solve(qp_solver=_NaNBackend())
+    assert result.reverted and not result.converged
+    assert result.failure == "QP of priority level 3 failed: the step is not finite"
+    np.testing.assert_array_equal(s.cfg.q, s.q0)
+    with pytest.raises(pik_mj.QPFailure, match=r"the step is not finite"):
+        s.solve(qp_solver=_NaNBackend(), revert_if_fail=False)
+    np.testing.assert_array_equal(s.cfg.q, s.q0)
+
+
+def test_only_levels_of_tasks_finite_by_construction_skip_the_finite_check():
+    s = Setup()
+    feet, hand = s.stack.levels[1], s.stack.levels[2]
+    box = MinkLimit(mink.ConfigurationLimit(MODEL))
+    velocity = MinkLimit(mink.VelocityLimit(MODEL, {"right_elbow": 1.0}))
+    linear = pik_mj.LinearTask(A=np.eye(MODEL.nv)[6:7], b=np.zeros(1))
+    assert _Stack(feet).finite and _Stack(hand).finite and _Stack([box]).finite
+    assert not _Stack([box, velocity]).finite
+    assert not _Stack([*feet, linear]).finite
+    assert not _Stack([]).finite

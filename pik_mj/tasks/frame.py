@@ -284,6 +284,10 @@ class FrameTask(EqualityTask):
             twist where it applies, else the split.
     """
 
+    # MuJoCo's Jacobians and poses at a finite configuration, targets and
+    # weights checked finite where they are set
+    finite_rows = True
+
     def __init__(
         self,
         configuration: mink.Configuration,

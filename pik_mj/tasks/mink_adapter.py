@@ -202,6 +202,8 @@ class MinkLimit(Task):
         self._G: np.ndarray | None = None
         # a ConfigurationLimit's box rows, made here (None: not a box)
         self._box = _BoxRows.of(limit)
+        # box rows: G constant, h from the configuration and the model's ranges
+        self.finite_rows = self._box is not None
         if self._box is not None:
             self._bounds = self._bounds_of(self._box.G.shape[0])
 

@@ -196,10 +196,17 @@ class Task(abc.ABC):
         name: Name shown in results and recordings.
         check: Whether the solve loop's stop test looks at this task
             (seed ``check``).
+        finite_rows: Whether the rows are finite at every finite
+            configuration (their inputs checked where they enter, as a
+            ``FrameTask``'s target). The solve loop validates every task's
+            rows at its start; afterwards it sums the stacked rows of each
+            level at each configuration to check them finite, except for a
+            level whose tasks all declare this.
     """
 
     name: str = "task"
     check: bool = True
+    finite_rows: bool = False
 
     @abc.abstractmethod
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
