@@ -643,7 +643,7 @@ def solve(
                 x = step.x
                 size = float(np.abs(x).max())  # (nv >= 1)
                 if not math.isfinite(size):
-                    _raise_non_finite_step(here, step)
+                    _raise_non_finite_step(here, step, n_solved, "step")
                 alpha = 1.0 if size <= radius else radius / size
                 before = here.errors(prefix)
                 progress_level = prefix + 1 if prefix < n_solved else 0
@@ -671,7 +671,7 @@ def solve(
                             )
                             qp_time += time.perf_counter() - t2
                             if not math.isfinite(float(np.abs(fix.x).max())):
-                                _raise_non_finite_step(there, fix)
+                                _raise_non_finite_step(there, fix, max(prefix, 1), "correction")
                             n_corrections += 1
                             q = q.copy()
                             mujoco.mj_integratePos(model, q, fix.x, 1.0)
@@ -768,14 +768,15 @@ def solve(
     )
 
 
-def _raise_non_finite_step(here: _Point, step: CascadeStep) -> None:
-    """Name what made a cascade step NaN or inf: a task's rows at ``here``
-    (every level evaluated there validated, task by task), else the solver."""
-    for level in here.levels[: here.done]:
-        for task in level:
+def _raise_non_finite_step(here: _Point, step: CascadeStep, level: int, what: str) -> None:
+    """Name what made a cascade ``what`` (its last level ``level``) NaN or
+    inf: a task's rows at ``here`` (every level evaluated there validated,
+    task by task), else the solver."""
+    for tasks in here.levels[: here.done]:
+        for task in tasks:
             task.evaluate(here.configuration).rows.validate(here.nv, task.name)
     problem = step.problems[-1] if step.problems else None
-    raise QPFailure(len(here.levels) - 1, "the step is not finite", problem)
+    raise QPFailure(level, f"the {what} is not finite", problem)
 
 
 def _check_after_callback(configuration: mink.Configuration) -> None:

@@ -201,7 +201,8 @@ class Task(abc.ABC):
             ``FrameTask``'s target). The solve loop validates every task's
             rows at its start; afterwards it sums the stacked rows of each
             level at each configuration to check them finite, except for a
-            level whose tasks all declare this.
+            level whose tasks all declare this (a subclass that makes its
+            rows otherwise should set it back to False).
     """
 
     name: str = "task"
