@@ -189,6 +189,18 @@ def _cholesky(G: np.ndarray) -> np.ndarray | None:
     return L
 
 
+def _overshoot(cx: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """How far each row value ``cx`` lies outside ``[lo, hi]`` [row units]
+    (<= 0: within)."""
+    return np.maximum(lo - cx, cx - hi)
+
+
+def _crossed(cx: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[int]:
+    """The rows whose value ``cx`` lies outside ``[lo, hi]`` by more than
+    :data:`FEASIBILITY_TOLERANCE`."""
+    return np.flatnonzero(_overshoot(cx, lo, hi) > FEASIBILITY_TOLERANCE).tolist()
+
+
 def _gram_solve(B: np.ndarray, G: np.ndarray, r: np.ndarray, lam: float, nv: int) -> np.ndarray:
     """``u = Bᵀ G⁻¹ r`` with ``G = B Bᵀ + λ I`` (``G⁺`` when ``λ = 0``); zero
     without rows."""
@@ -326,9 +338,7 @@ class NullSpaceCascade:
 
     def _excess(self, x: np.ndarray) -> np.ndarray:
         """Violation of each inequality row at ``x`` beyond its allowance (<= 0: met)."""
-        cx = self.C @ x
-        lo, hi = self._allowed()
-        return np.maximum(lo - cx, cx - hi)
+        return _overshoot(self.C @ x, *self._allowed())
 
     def candidate(self, rows: TaskRows, lam: float) -> np.ndarray:
         """The level's optimum with every inequality inactive (closed form)."""
@@ -369,7 +379,7 @@ class NullSpaceCascade:
             return None  # only the level's own rows violated: their slacks need the backend
         lo, hi = self._allowed()
         cx = C @ free.x
-        fixed = np.flatnonzero(np.maximum(lo - cx, cx - hi) > FEASIBILITY_TOLERANCE).tolist()
+        fixed = _crossed(cx, lo, hi)
         if not fixed:
             return None  # only the level's own rows violated
         upper = [bool(cx[i] > hi[i]) for i in fixed]
@@ -440,7 +450,7 @@ class NullSpaceCascade:
         # range (the kept equality rows unchanged).
         x += Y.T @ (Li @ (t - Cw @ x))
         cx = C @ x
-        crossed = np.flatnonzero(np.maximum(lo - cx, cx - hi) > FEASIBILITY_TOLERANCE).tolist()
+        crossed = _crossed(cx, lo, hi)
         if crossed:
             if any(i in fixed for i in crossed):
                 return None, {}  # a held row off its bound: rounding
@@ -729,8 +739,7 @@ def _projection(hard: TaskRows, rows: TaskRows, lam: float) -> np.ndarray | None
     if not math.isfinite(float(x @ x)):
         return None
     if hard.n_in:
-        cx = hard.C @ x
-        if float(np.maximum(hard.d_lower - cx, cx - hard.d_upper).max()) > FEASIBILITY_TOLERANCE:
+        if float(_overshoot(hard.C @ x, hard.d_lower, hard.d_upper).max()) > FEASIBILITY_TOLERANCE:
             return None
     return x
 

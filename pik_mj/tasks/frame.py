@@ -640,14 +640,13 @@ class FrameTask(EqualityTask):
         :meth:`pose_error`."""
         if self.error_type == "twist":
             e, J = self._twist(configuration)
+            rows = self.rows_from(e, J)
             if self.thre.ndim or self.rthre.ndim:  # per-axis tolerances
                 split = self.pose_error(configuration)
-                return TaskState(
-                    self.rows_from(e, J), math.sqrt(float(split @ split)), self.satisfied_by(split)
-                )
+                return TaskState(rows, math.sqrt(float(split @ split)), self.satisfied_by(split))
             n_t, n_r = _twist_distances(*e.tolist())
             return TaskState(
-                self.rows_from(e, J),
+                rows,
                 math.sqrt(n_t * n_t + n_r * n_r),
                 n_t <= float(self.thre) and n_r <= float(self.rthre),
             )
