@@ -21,6 +21,8 @@ from .inputs import Q_LIMIT, joint_name
 from .tasks.mink_adapter import as_task
 from .tasks.task import Task
 
+_FREE, _SLIDE = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+
 RANGE_TOLERANCE = 1e-5
 """[rad or m] How far past its range a joint may start without a warning: the
 QP solvers' accuracy on a limit row (OSQP's ``eps_abs + eps_rel·|row|``, 1e-6
@@ -51,8 +53,8 @@ def check_configuration(configuration: object) -> mink.Configuration:
     q = configuration.q
     if q.shape != (model.nq,):
         raise InvalidInput(f"configuration.q has shape {q.shape}; the model has nq = {model.nq}")
-    bad = ~np.isfinite(q) | (np.abs(q) > Q_LIMIT)
-    if bad.any():
+    if q.size and not float(np.abs(q).max()) <= Q_LIMIT:  # (NaN fails too)
+        bad = ~np.isfinite(q) | (np.abs(q) > Q_LIMIT)
         i = int(np.argmax(bad))
         j = int(np.searchsorted(model.jnt_qposadr, i, side="right")) - 1
         what = "NaN" if np.isnan(q[i]) else ("inf" if np.isinf(q[i]) else f"{q[i]:.3g}")
@@ -60,55 +62,48 @@ def check_configuration(configuration: object) -> mink.Configuration:
             f"configuration.q[{i}] (joint {joint_name(model, j)!r}) is {what}; every "
             f"entry must be finite with |q| <= {Q_LIMIT:g} (rad or m)"
         )
+    # joint types compared as ints (a pybind enum makes numpy loop in Python):
+    # free 0 and ball 1 hold quaternions, slide 2 and hinge 3 have ranges
+    kind = model.jnt_type
+    adr = model.jnt_qposadr
+    ranged = np.flatnonzero((kind >= _SLIDE) & (model.jnt_limited != 0))
+    lo, hi = model.jnt_range[ranged].T
     # the first joint (in model order) with a zero quaternion or an inverted range
-    kind = model.jnt_type  # (compared with ints: a pybind enum makes numpy loop in Python)
-    free = kind == int(mujoco.mjtJoint.mjJNT_FREE)
-    rotating = free | (kind == int(mujoco.mjtJoint.mjJNT_BALL))
-    bad_joint = (
-        ~rotating & (model.jnt_limited != 0) & (model.jnt_range[:, 0] > model.jnt_range[:, 1])
-    )
-    for j in np.flatnonzero(rotating).tolist():
-        a = int(model.jnt_qposadr[j]) + (3 if free[j] else 0)
-        bad_joint[j] = np.linalg.norm(q[a : a + 4]) < 1e-9
-    if bad_joint.any():
-        j = int(np.argmax(bad_joint))
-        if rotating[j]:
+    bad = ranged[lo > hi].tolist()
+    for j in np.flatnonzero(kind < _SLIDE).tolist():
+        a = int(adr[j]) + (3 if kind[j] == _FREE else 0)
+        w, x, y, z = q[a : a + 4].tolist()
+        if w * w + x * x + y * y + z * z < 1e-18:  # ‖quaternion‖ < 1e-9
+            bad.append(j)
+    if bad:
+        j = min(bad)
+        if kind[j] < _SLIDE:
             raise InvalidInput(
                 f"joint {model.joint(j).name!r}: its quaternion in configuration.q is "
                 "zero; give a unit quaternion (w, x, y, z)"
             )
-        lo, hi = model.jnt_range[j]
+        lo_j, hi_j = model.jnt_range[j]
         raise InvalidInput(
-            f"joint {model.joint(j).name!r} has an inverted range [{lo:g}, {hi:g}]; "
+            f"joint {model.joint(j).name!r} has an inverted range [{lo_j:g}, {hi_j:g}]; "
             "the lower limit must not exceed the upper"
         )
-    _warn_out_of_range(model, q)
-    return configuration
-
-
-def _warn_out_of_range(model: mujoco.MjModel, q: np.ndarray) -> None:
-    hinge, slide = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
-    kind = model.jnt_type
-    limited = (model.jnt_limited != 0) & ((kind == hinge) | (kind == slide))
-    ids = np.flatnonzero(limited)
-    if ids.size == 0:
-        return
-    values = q[model.jnt_qposadr[ids]]
-    lo, hi = model.jnt_range[ids, 0], model.jnt_range[ids, 1]
+    # limited hinges and slides outside their range: warned
+    values = q[adr[ranged]]
     outside = (values < lo - RANGE_TOLERANCE) | (values > hi + RANGE_TOLERANCE)
     if outside.any():
         listed = ", ".join(
             f"{model.joint(int(j)).name} {v:.4g} not in [{a:.4g}, {b:.4g}]"
             for j, v, a, b in zip(
-                ids[outside], values[outside], lo[outside], hi[outside], strict=True
+                ranged[outside], values[outside], lo[outside], hi[outside], strict=True
             )
         )
         warnings.warn(
             f"the start configuration is outside the joint ranges: {listed}; joint-limit "
             "rows pull these joints back in range",
             RuntimeWarning,
-            stacklevel=3,
+            stacklevel=2,
         )
+    return configuration
 
 
 def normalize_levels(levels: Sequence[Sequence[object]], dt: float) -> list[list[Task]]:

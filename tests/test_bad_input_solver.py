@@ -25,6 +25,7 @@ from pik_mj.solve import TrustRegion, _Stack
 from pik_mj.tasks import MinkLimit
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.task import Task, TaskRows
 
 MODEL = cases.dm_humanoid()
 OTHER = cases.cmu_humanoid()
@@ -597,3 +598,34 @@ def test_only_levels_of_tasks_finite_by_construction_skip_the_finite_check():
     assert not _Stack([box, velocity]).finite
     assert not _Stack([*feet, linear]).finite
     assert not _Stack([]).finite
+
+
+class _DeclaredFinite(Task):
+    """A task that declares :attr:`Task.finite_rows` and breaks the promise:
+    its fixed rows have the wrong width, or NaN."""
+
+    finite_rows = True
+
+    def __init__(self, rows: TaskRows, name: str):
+        self.rows, self.name, self.check = rows, name, False
+
+    def compute_rows(self, configuration):
+        return self.rows
+
+
+def test_tasks_finite_by_construction_still_have_their_shapes_checked_and_a_nan_named():
+    """At the start a ``finite_rows`` task's rows are checked for shape only;
+    a broken promise of finite values still ends in an error naming the task,
+    through the non-finite step, with the configuration restored."""
+    s = Setup()
+    wide = _DeclaredFinite(TaskRows.equality(np.ones((1, MODEL.nv + 1)), [0.0]), "too_wide")
+    with pytest.raises(pik_mj.InvalidInput, match=r"task too_wide: row shapes do not agree"):
+        pik_mj.solve(s.cfg, [*s.stack.levels, [wide]])
+    np.testing.assert_array_equal(s.cfg.q, s.q0)
+    A = np.zeros((1, MODEL.nv))
+    A[0, 6] = np.nan
+    for qp_solver in ("osqp", "daqp-hqp"):
+        nan = _DeclaredFinite(TaskRows.equality(A, [0.0]), "nan_rows")
+        with pytest.raises(pik_mj.InvalidInput, match=r"task nan_rows: A contains NaN"):
+            pik_mj.solve(s.cfg, [*s.stack.levels, [nan]], qp_solver=qp_solver)
+        np.testing.assert_array_equal(s.cfg.q, s.q0)

@@ -23,6 +23,7 @@ from pik_mj.cascade import (
     DEFAULT_RELAXATION,
     NullSpaceCascade,
     Regularization,
+    _chol_solve,
     _cholesky,
     _projection,
     _psd_solve,
@@ -916,3 +917,28 @@ def test_a_correction_of_one_equality_level_is_its_closed_form(backend):
     if backend == "daqp-hqp":
         fix = solve_cascade(loose, [dependent], [reg], make_backend(backend), role="correction")
         np.testing.assert_allclose(fix.x, np.linalg.pinv(dependent.A) @ dependent.b, atol=1e-10)
+
+
+@pytest.mark.parametrize("n", [1, 6, 12, 56])
+def test_mujoco_cholesky_solve_matches_numpy_and_the_pivot_test(n):
+    """``_chol_solve`` (MuJoCo's ``mju_cholFactor``/``mju_cholSolve``) against
+    ``np.linalg.solve`` on regular Gram matrices, and None exactly where
+    ``_cholesky`` (numpy's factor and the same pivot test) finds ``G``
+    singular or nearly so: dependent rows, a row scaled to 1e-6, no rows."""
+    rng = np.random.default_rng(n)
+    nv = 62
+    B = rng.normal(size=(n, nv))
+    G = B @ B.T
+    r = rng.normal(size=n)
+    y = _chol_solve(G, r)
+    np.testing.assert_allclose(y, np.linalg.solve(G, r), rtol=1e-12, atol=1e-14)
+    np.testing.assert_array_equal(G, B @ B.T)  # G itself untouched
+    if n > 1:
+        dependent = np.vstack([B[:-1], B[0] + B[1]])
+        tiny = np.vstack([B[:-1], 1e-6 * B[-1]])
+        for singular in (dependent, tiny):
+            S = singular @ singular.T
+            assert _cholesky(S) is None and _chol_solve(S, r) is None
+    assert _chol_solve(np.zeros((n, n)), r) is None
+    assert _chol_solve(-G, r) is None
+    assert _chol_solve(np.zeros((0, 0)), np.zeros(0)) is None

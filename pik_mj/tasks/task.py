@@ -143,6 +143,21 @@ class TaskRows(NamedTuple):
         bound fails ``d_lower <= d_upper`` like an inverted one; only then are
         the arrays searched for the culprit.
         """
+        self.check_shapes(nv, owner)
+        m_eq, m_in = self.b.size, self.C.shape[0]
+        ok = self.damping >= 0
+        if m_eq:
+            ok = ok and np.isfinite(self.A.sum() + self.b.sum() + self.w_A.sum())
+            ok = ok and self.w_A.min() >= 0
+        if m_in:
+            ok = ok and np.isfinite(self.C.sum() + self.w_C.sum()) and self.w_C.min() > 0
+            ok = ok and bool((self.d_lower <= self.d_upper).all())
+        if not ok:
+            self._raise_invalid(owner)
+
+    def check_shapes(self, nv: int, owner: str) -> None:
+        """Raise :class:`InvalidInput` naming ``owner`` if the shapes do not
+        agree with each other and with ``nv`` (the first part of :meth:`validate`)."""
         m_eq, m_in = self.b.size, self.C.shape[0]
         if (
             self.A.shape != (m_eq, nv)
@@ -155,15 +170,6 @@ class TaskRows(NamedTuple):
                 f"b {self.b.shape}, w_A {self.w_A.shape}, C {self.C.shape}, d_lower "
                 f"{self.d_lower.shape}, d_upper {self.d_upper.shape}, w_C {self.w_C.shape}"
             )
-        ok = self.damping >= 0
-        if m_eq:
-            ok = ok and np.isfinite(self.A.sum() + self.b.sum() + self.w_A.sum())
-            ok = ok and self.w_A.min() >= 0
-        if m_in:
-            ok = ok and np.isfinite(self.C.sum() + self.w_C.sum()) and self.w_C.min() > 0
-            ok = ok and bool((self.d_lower <= self.d_upper).all())
-        if not ok:
-            self._raise_invalid(owner)
 
     def _raise_invalid(self, owner: str) -> None:
         for name in ("A", "b", "w_A", "C", "w_C"):
@@ -196,13 +202,14 @@ class Task(abc.ABC):
         name: Name shown in results and recordings.
         check: Whether the solve loop's stop test looks at this task
             (seed ``check``).
-        finite_rows: Whether the rows are finite at every finite
-            configuration (their inputs checked where they enter, as a
-            ``FrameTask``'s target). The solve loop validates every task's
-            rows at its start; afterwards it sums the stacked rows of each
-            level at each configuration to check them finite, except for a
-            level whose tasks all declare this (a subclass that makes its
-            rows otherwise should set it back to False).
+        finite_rows: Whether the rows are valid (finite, weights >= 0,
+            bounds in order) at every finite configuration, their inputs
+            checked where they enter, as a ``FrameTask``'s target. The solve
+            loop validates every task's rows at its start (only their shapes
+            for a task that declares this); afterwards it sums the stacked
+            rows of each level at each configuration to check them finite,
+            except for a level whose tasks all declare this (a subclass that
+            makes its rows otherwise should set it back to False).
     """
 
     name: str = "task"
