@@ -19,10 +19,10 @@ drift, their rows at the new configuration are solved again alone (a Newton
 projection back onto them) within the same iteration.
 
 Inputs are validated here, where they enter (configuration, options, every
-task's rows at the start); afterwards each iteration checks only that the
-stacked rows are finite (except for levels of tasks whose rows are finite by
-construction, :attr:`~pik_mj.tasks.task.Task.finite_rows`) and that the step
-is.
+task's rows at the start: only their shapes for tasks whose rows are valid by
+construction, :attr:`~pik_mj.tasks.task.Task.finite_rows`); afterwards each
+iteration checks only that the stacked rows are finite (except for levels of
+such tasks) and that the step is.
 """
 
 from __future__ import annotations
@@ -297,7 +297,8 @@ def evaluate_level(
 
     One :meth:`Task.evaluate` per task: the rows of the next cascade step and
     the stop test of the one just taken come from the same evaluation. With
-    ``validate`` every task's rows are checked (shapes, NaN, bounds); without,
+    ``validate`` every task's rows are checked (shapes, NaN, bounds; the
+    shapes only for a task with :attr:`Task.finite_rows`); without,
     only the stacked arrays' finiteness is (not even that when ``stack`` holds
     a level whose tasks all have :attr:`Task.finite_rows`), and a failure is
     traced back to its task.
