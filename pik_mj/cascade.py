@@ -107,25 +107,27 @@ class Regularization:
 def per_level(value: float | Sequence[float], n_levels: int, name: str) -> list[float]:
     """Seed convention: a float is shared by every level, a list gives one per level."""
     if type(value) is float:  # the common case, without numpy calls
-        if not (math.isfinite(value) and value >= 0):
-            raise InvalidInput(f"{name} must be finite and >= 0, got {[value] * n_levels}")
-        return [value] * n_levels
-    try:
-        if np.ndim(value) == 0:
-            values = [float(value)] * n_levels  # type: ignore[arg-type]
-        else:
-            values = [float(v) for v in value]  # type: ignore[union-attr]
-    except (TypeError, ValueError):
-        raise InvalidInput(
-            f"{name} must be a float or one float per solved level, got {value!r}"
-        ) from None
-    if isinstance(value, bool) or (np.ndim(value) > 0 and any(isinstance(v, bool) for v in value)):  # type: ignore[union-attr]
-        raise InvalidInput(f"{name} must be a float or one per solved level, got {value!r}")
-    if len(values) != n_levels:
-        raise InvalidInput(
-            f"{name} has {len(values)} entries; give a float or one per solved level ({n_levels})"
-        )
-    if not all(np.isfinite(v) and v >= 0 for v in values):
+        values = [value] * n_levels
+    else:
+        try:
+            if np.ndim(value) == 0:
+                values = [float(value)] * n_levels  # type: ignore[arg-type]
+            else:
+                values = [float(v) for v in value]  # type: ignore[union-attr]
+        except (TypeError, ValueError):
+            raise InvalidInput(
+                f"{name} must be a float or one float per solved level, got {value!r}"
+            ) from None
+        if isinstance(value, bool) or (
+            np.ndim(value) > 0 and any(isinstance(v, bool) for v in value)  # type: ignore[union-attr]
+        ):
+            raise InvalidInput(f"{name} must be a float or one per solved level, got {value!r}")
+        if len(values) != n_levels:
+            raise InvalidInput(
+                f"{name} has {len(values)} entries; give a float or one per solved level "
+                f"({n_levels})"
+            )
+    if not all(math.isfinite(v) and v >= 0 for v in values):
         raise InvalidInput(f"{name} must be finite and >= 0, got {values}")
     return values
 
@@ -213,6 +215,14 @@ def _chol_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray | None:
     return x
 
 
+def _regular_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``G⁻¹ r`` for a regular ``G = B Bᵀ + λ I`` (``λ > 0``): MuJoCo's
+    Cholesky (:func:`_chol_solve`), numpy's LU solve when a pivot is below
+    its test (``λ`` small against ``G``'s largest diagonal entry)."""
+    y = _chol_solve(G, r)
+    return np.linalg.solve(G, r) if y is None else y
+
+
 def _overshoot(cx: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """How far each row value ``cx`` lies outside ``[lo, hi]`` [row units]
     (<= 0: within)."""
@@ -230,10 +240,7 @@ def _gram_solve(B: np.ndarray, G: np.ndarray, r: np.ndarray, lam: float, nv: int
     without rows."""
     if r.size == 0:
         return np.zeros(nv)
-    if lam > 0:
-        y = _chol_solve(G, r)
-        return B.T @ (np.linalg.solve(G, r) if y is None else y)
-    return B.T @ _psd_solve(G, r)
+    return B.T @ (_regular_solve(G, r) if lam > 0 else _psd_solve(G, r))
 
 
 class _Unconstrained(NamedTuple):
@@ -757,11 +764,10 @@ def _projection(hard: TaskRows, rows: TaskRows, lam: float) -> np.ndarray | None
     G = B @ B.T
     if lam > 0:
         G.flat[:: G.shape[0] + 1] += lam
-    y = _chol_solve(G, sw * rows.b)
+    r = sw * rows.b
+    y = _regular_solve(G, r) if lam > 0 else _chol_solve(G, r)
     if y is None:
-        if lam <= 0:
-            return None
-        y = np.linalg.solve(G, sw * rows.b)
+        return None
     x = B.T @ y
     if not math.isfinite(float(x @ x)):
         return None
