@@ -52,6 +52,7 @@ _DAQP_EXIT = {
     -8: "unsupported problem",
 }
 _DAQP_INF = 1e30
+_SENTINELS = np.array([-_DAQP_INF, _DAQP_INF])
 
 
 def _daqp_status(exitflag: int) -> str:
@@ -119,14 +120,7 @@ class _Layout:
         single = np.count_nonzero(nonzero, axis=1) == 1
         self.single_rows = np.flatnonzero(single)
         self.general_rows = np.flatnonzero(~single)
-        cols = nonzero[self.single_rows].argmax(axis=1)
-        coef = C[self.single_rows, cols]
-        self.sides = []
-        for side in (coef > 0, coef < 0):
-            if side.any():
-                c = cols[side]
-                unique = np.unique(c).size == c.size
-                self.sides.append((self.single_rows[side], c, coef[side], unique))
+        self._bound_sources(C, nonzero)
         self.n_general = n_eq0 + self.general_rows.size
         self.blocks: list[tuple[int, int, int]] = []  # (first row, equality rows, rows)
         i = self.n_general
@@ -140,6 +134,9 @@ class _Layout:
                 break_points.append(n + i)
                 self.levels.append(k)
         self.A_shape = (i, n)
+        # rows whose bounds may be infinite (inequality rows: equality rows'
+        # targets are finite), clamped to ±_DAQP_INF for DAQP
+        self.infinite_bounds = self.general_rows.size > 0 or any(n_in)
         # the soft rows (after the hard general rows): first row and size of each
         # non-empty level block, for the per-level row norms in one pass
         sized = [(first - self.n_general, size) for first, _, size in self.blocks if size]
@@ -161,6 +158,31 @@ class _Layout:
         self.bounds0 = np.full((2, n), _DAQP_INF)
         self.bounds0[1] = -_DAQP_INF
         self.bounds0[:, nv] = 0.0  # d = 0
+
+    def _bound_sources(self, C: np.ndarray, nonzero: np.ndarray) -> None:
+        """Where the simple bounds of ``x`` come from: a single-entry row
+        ``c x_i ∈ [l, u]`` bounds ``x_i`` below by ``l / c`` and above by
+        ``u / c`` (``c > 0``; swapped for ``c < 0``). With
+        ``v = [d_lower; d_upper; -INF; +INF]`` (:data:`_DAQP_INF`), the bounds
+        of the columns :attr:`bounded` are ``max_j v[lower_src] · scale`` and
+        ``min_j v[upper_src] · scale`` over each column's rows (``j``, axis 0), padded with
+        the ``∓INF`` entries (which also keep them within ±INF)."""
+        m = C.shape[0]
+        rows = self.single_rows
+        cols = nonzero[rows].argmax(axis=1)
+        coef = C[rows, cols]
+        self.bounded, slot_of = np.unique(cols, return_inverse=True)
+        width = 1 + (int(np.bincount(slot_of).max()) if rows.size else 0)
+        shape = (width, self.bounded.size)  # (reduced over axis 0: numpy's fast one)
+        self.lower_src = np.full(shape, 2 * m, dtype=np.intp)
+        self.upper_src = np.full(shape, 2 * m + 1, dtype=np.intp)
+        self.scale = np.ones(shape)
+        filled = np.zeros(self.bounded.size, dtype=np.intp)
+        for r, s, c in zip(rows.tolist(), slot_of.tolist(), coef.tolist(), strict=True):
+            j = filled[s]
+            self.lower_src[j, s], self.upper_src[j, s] = (r, m + r) if c > 0 else (m + r, r)
+            self.scale[j, s] = 1.0 / c
+            filled[s] += 1
 
     def fits(self, C: np.ndarray) -> bool:
         """Whether ``C`` holds the rows this layout was made for: the same
@@ -278,17 +300,11 @@ class HierarchicalProblem:
                 cache[shape] = layout
         A, upper, lower = layout.A, layout.upper, layout.lower
         upper[:n], lower[:n] = layout.bounds0
-        # hard inequality rows with one entry c x_i in [l, u]: bounds on x_i,
-        # one side of the rows (c > 0, then c < 0) at a time
-        for rows_, cols, coef, unique in layout.sides:
-            a, b = hard.d_lower[rows_] / coef, hard.d_upper[rows_] / coef
-            lo_i, hi_i = (a, b) if coef[0] > 0 else (b, a)
-            if unique:  # at most one row per variable on this side (joint limits)
-                lower[cols] = np.maximum(lower[cols], lo_i)
-                upper[cols] = np.minimum(upper[cols], hi_i)
-            else:
-                np.maximum.at(lower, cols, lo_i)
-                np.minimum.at(upper, cols, hi_i)
+        # hard inequality rows with one entry: bounds on x (_Layout._bound_sources)
+        if layout.bounded.size:
+            v = np.concatenate((hard.d_lower, hard.d_upper, _SENTINELS))
+            lower[layout.bounded] = (v[layout.lower_src] * layout.scale).max(axis=0)
+            upper[layout.bounded] = (v[layout.upper_src] * layout.scale).min(axis=0)
         r = hard.n_eq
         if r:
             A[:r, :nv] = hard.A
@@ -320,10 +336,10 @@ class HierarchicalProblem:
             D = np.maximum(np.maximum.reduceat(norms, layout.block_starts), 1e-300)
             np.subtract(np.repeat(D, layout.block_sizes), norms, out=norms)
             np.sqrt(np.maximum(norms, 0.0, out=norms), out=soft[:, nv])
-        # the rows' bounds within ±_DAQP_INF (the first n are already)
-        for bound in (upper[n:], lower[n:]):
-            np.minimum(bound, _DAQP_INF, out=bound)
-            np.maximum(bound, -_DAQP_INF, out=bound)
+        if layout.infinite_bounds:  # the rows' bounds within ±_DAQP_INF (the first n are)
+            for bound in (upper[n:], lower[n:]):
+                np.minimum(bound, _DAQP_INF, out=bound)
+                np.maximum(bound, -_DAQP_INF, out=bound)
         return cls(
             _identity(n),
             A,

@@ -264,11 +264,25 @@ class _Stack:
         shape = tuple([(r.A.shape[0], r.C.shape[0]) for r in rows])
         held = self.buffers[self.slot]
         if held is None or held[0] != shape:
-            held = (shape, TaskRows.stack(rows, nv))
+            m_eq = sum([m for m, _ in shape])
+            m_in = sum([m for _, m in shape])
+            empty = np.empty
+            held = (
+                shape,
+                TaskRows(
+                    empty((m_eq, nv)),
+                    empty(m_eq),
+                    empty(m_eq),
+                    empty((m_in, nv)),
+                    empty(m_in),
+                    empty(m_in),
+                    empty(m_in),
+                ),
+            )
             self.buffers[self.slot] = held
-            return held[1]
         out = held[1]
         i = j = 0
+        damping = 0.0
         for r, (m_eq, m_in) in zip(rows, shape, strict=True):
             if m_eq:  # (an empty slice assignment still costs a numpy call)
                 out.A[i : i + m_eq] = r.A
@@ -280,7 +294,7 @@ class _Stack:
                 out.d_upper[j : j + m_in] = r.d_upper
                 out.w_C[j : j + m_in] = r.w_C
             i, j = i + m_eq, j + m_in
-        damping = float(sum(r.damping for r in rows))
+            damping += r.damping
         return out if damping == out.damping else out._replace(damping=damping)
 
 

@@ -778,6 +778,49 @@ def test_hierarchical_layout_follows_hard_rows_refilled_in_place():
     assert next(iter(cache.values())) is layout and layout.C is frozen
 
 
+def test_hierarchical_simple_bounds_intersect_every_single_entry_row():
+    """Hard rows with one entry, ``c x_i ∈ [l, u]``, become DAQP's simple bounds
+    on ``x_i``: for each column the intersection of its rows' intervals
+    (``[l/c, u/c]``, swapped for ``c < 0``), within ±1e30, as a loop over the
+    rows finds it; columns without such a row are free (±1e30), ``d`` is
+    fixed at 0, and a row with several entries stays a general row. Rows of
+    both signs and several per column, infinite and finite bounds; the same
+    with a cached layout whose bounds change."""
+    inf = np.inf
+    single = [  # (column, c, l, u)
+        (0, 2.0, -1.0, 3.0),
+        (0, -0.5, -1.0, 0.25),
+        (2, 1.0, -inf, 0.75),
+        (2, -1.0, -inf, 0.25),
+        (2, 4.0, -8.0, inf),
+        (5, -3.0, -inf, inf),
+        (6, 1.0, -inf, 0.5),
+        (6, -1.0, -inf, 0.5),
+    ]
+    C = np.zeros((len(single) + 1, NV))
+    for r, (i, c, _, _) in enumerate(single):
+        C[r, i] = c
+    C[-1, [1, 3]] = 1.0  # a general row
+    levels = [TaskRows.equality(np.eye(NV), np.zeros(NV))]
+    cache: dict = {}
+    for scale in (1.0, 0.5):
+        lo = np.array([scale * l for _, _, l, _ in single] + [-1.0])
+        hi = np.array([scale * u for _, _, _, u in single] + [1.0])
+        problem = HierarchicalProblem.from_rows(TaskRows.inequality(C, lo, hi), levels, cache)
+        lower, upper = np.full(NV + 1, -1e30), np.full(NV + 1, 1e30)
+        lower[NV] = upper[NV] = 0.0
+        for r, (i, c, _, _) in enumerate(single):
+            a, b = sorted((lo[r] / c, hi[r] / c))
+            lower[i] = max(lower[i], a, -1e30)
+            upper[i] = min(upper[i], b, 1e30)
+        np.testing.assert_array_equal(problem.blower[: NV + 1], lower)
+        np.testing.assert_array_equal(problem.bupper[: NV + 1], upper)
+        assert problem.A.shape[0] == 1 + NV and problem.A[0, :NV].tolist() == C[-1].tolist()
+        assert (problem.blower[NV + 1], problem.bupper[NV + 1]) == (-1.0, 1.0)
+    assert (lower[0], upper[0]) == (-0.25, 0.75)  # (scale 0.5: [-0.25, 0.75] ∩ [-0.25, 1])
+    assert (lower[2], upper[2]) == (-0.125, 0.375) and (lower[5], upper[5]) == (-1e30, 1e30)
+
+
 def test_hierarchical_problem_buffers_are_rewritten_in_full():
     """A cached layout's arrays are written in place by every problem of its
     shape: problems of one shape with new values (random rows, a zero weight

@@ -639,12 +639,26 @@ class FrameTask(EqualityTask):
         error the rows come from it and the error and stop test from
         :meth:`pose_error`."""
         if self.error_type == "twist":
-            e, J = self._twist(configuration)
-            rows = self.rows_from(e, J)
+            if self.target_frame is None:
+                # mink's FrameTask: error -e and Jacobian -J, so b = -clamp(e) is
+                # clamp(-e) (a clamp scales norms), with no copy when nothing clamps
+                task = self._twist_task(configuration)
+                b = task.compute_error(configuration)
+                J = task.compute_jacobian(configuration)
+                np.negative(J, out=J)
+                ux, uy, uz, rx, ry, rz = b.tolist()
+                e6 = (-ux, -uy, -uz, -rx, -ry, -rz)
+                if self.p_limit < math.inf or self.r_limit < math.inf:
+                    b = self.clamp(b)
+                rows = TaskRows(J, b, self.weights, *no_inequality(J.shape[1]))
+            else:
+                e, J = self._twist(configuration)
+                rows = self.rows_from(e, J)
+                e6 = tuple(e.tolist())
             if self.thre.ndim or self.rthre.ndim:  # per-axis tolerances
                 split = self.pose_error(configuration)
                 return TaskState(rows, math.sqrt(float(split @ split)), self.satisfied_by(split))
-            n_t, n_r = _twist_distances(*e.tolist())
+            n_t, n_r = _twist_distances(*e6)
             return TaskState(
                 rows,
                 math.sqrt(n_t * n_t + n_r * n_r),
