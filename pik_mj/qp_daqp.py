@@ -53,6 +53,7 @@ _DAQP_EXIT = {
 }
 _DAQP_INF = 1e30
 _SENTINELS = np.array([-_DAQP_INF, _DAQP_INF])
+_SENTINELS.flags.writeable = False
 
 
 def _daqp_status(exitflag: int) -> str:

@@ -483,24 +483,25 @@ class FrameTask(EqualityTask):
         return task
 
     def _twist(
-        self, configuration: mink.Configuration, jacobian: bool = True
+        self, configuration: mink.Configuration, jacobian: bool = True, negated: bool = False
     ) -> tuple[np.ndarray, np.ndarray | None]:
-        """The twist error (6,) and, if asked, its Jacobian (6, nv), from mink.
+        """The twist error (6,), or with ``negated`` its negative, and, if
+        asked, its Jacobian (6, nv), from mink (new arrays each call).
 
         mink's ``FrameTask`` (fixed or callable target) has the opposite sign,
         ``log(T_WM⁻¹ T_WT)``, and its Jacobian; ``RelativeFrameTask`` (a robot
         frame as the target, root ``T``, target pose identity) has this one.
         """
         task = self._twist_task(configuration)
-        if self.target_frame is not None:
-            e = task.compute_error(configuration)
-            return e, task.compute_jacobian(configuration) if jacobian else None
+        opposite = self.target_frame is None  # mink's error is -e
         e = task.compute_error(configuration)
-        np.negative(e, out=e)
+        if opposite != negated:
+            np.negative(e, out=e)
         if not jacobian:
             return e, None
         J = task.compute_jacobian(configuration)
-        np.negative(J, out=J)
+        if opposite:
+            np.negative(J, out=J)
         return e, J
 
     def error_and_jacobian(self, configuration: mink.Configuration):
@@ -639,22 +640,13 @@ class FrameTask(EqualityTask):
         error the rows come from it and the error and stop test from
         :meth:`pose_error`."""
         if self.error_type == "twist":
-            if self.target_frame is None:
-                # mink's FrameTask: error -e and Jacobian -J, so b = -clamp(e) is
-                # clamp(-e) (a clamp scales norms), with no copy when nothing clamps
-                task = self._twist_task(configuration)
-                b = task.compute_error(configuration)
-                J = task.compute_jacobian(configuration)
-                np.negative(J, out=J)
-                ux, uy, uz, rx, ry, rz = b.tolist()
-                e6 = (-ux, -uy, -uz, -rx, -ry, -rz)
-                if self.p_limit < math.inf or self.r_limit < math.inf:
-                    b = self.clamp(b)
-                rows = TaskRows(J, b, self.weights, *no_inequality(J.shape[1]))
-            else:
-                e, J = self._twist(configuration)
-                rows = self.rows_from(e, J)
-                e6 = tuple(e.tolist())
+            # b = -clamp(e) = clamp(-e) (a clamp scales norms), copied only to clamp
+            b, J = self._twist(configuration, negated=True)
+            ux, uy, uz, rx, ry, rz = b.tolist()
+            e6 = (-ux, -uy, -uz, -rx, -ry, -rz)
+            if self.p_limit < math.inf or self.r_limit < math.inf:
+                b = self.clamp(b)
+            rows = TaskRows(J, b, self.weights, *no_inequality(J.shape[1]))
             if self.thre.ndim or self.rthre.ndim:  # per-axis tolerances
                 split = self.pose_error(configuration)
                 return TaskState(rows, math.sqrt(float(split @ split)), self.satisfied_by(split))
