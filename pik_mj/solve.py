@@ -472,41 +472,38 @@ class _Point:
         return math.sqrt(sum(r.error * r.error for r in self.level_reports[k] if r.checked))
 
     def satisfaction(self) -> tuple[bool, int]:
-        """``(every checked task satisfied, number of leading solved levels satisfied)``."""
-        return _satisfaction(self.reports, len(self.levels))
+        """``(every checked task satisfied, number of leading solved levels
+        satisfied)`` over the levels evaluated so far.
+
+        A level counts towards the prefix when it has a checked task and all its
+        checked tasks hold; level 0 (hard) does not count.
+        """
+        everything, prefix, leading = True, 0, True
+        for k, level in enumerate(self.level_reports[: self.done]):
+            checked = [r.satisfied for r in level if r.checked]
+            holds = all(checked)
+            everything = everything and holds
+            if k and leading:
+                leading = holds and bool(checked)
+                prefix += leading
+        return everything, prefix
 
 
-def _satisfaction(reports: list[TaskReport], n_levels: int) -> tuple[bool, int]:
-    """``(all checked tasks satisfied, number of leading solved levels satisfied)``.
-
-    A level counts towards the prefix when it has a checked task and all its
-    checked tasks hold; level 0 (hard) does not count.
-    """
-    per_level: list[list[bool]] = [[] for _ in range(n_levels)]
-    for r in reports:
-        if r.checked:
-            per_level[r.level].append(r.satisfied)
-    everything = all(all(s) for s in per_level)
-    prefix = 0
-    for s in per_level[1:]:
-        if not s or not all(s):
-            break
-        prefix += 1
-    return everything, prefix
-
-
-def _residual(rows: TaskRows, x: np.ndarray | None = None) -> float:
-    """Unweighted norm of the rows' residual at step ``x`` (0 if None): what
-    the linear model predicts of the level's error norm, its clamp included."""
-    if x is None:
-        r_eq, cx = rows.b, np.zeros(rows.n_in)
-    else:
-        r_eq, cx = rows.A @ x - rows.b, rows.C @ x
-    total = float(r_eq @ r_eq)
+def _predicted_decrease(rows: TaskRows, x: np.ndarray) -> float:
+    """What the rows' linear model predicts a step ``x`` takes off the level's
+    unweighted error norm, its clamp included: ``‖r(0)‖ − ‖r(x)‖`` with
+    ``r(x) = [A x − b; dist(C x, [d_l, d_u])]``."""
+    b = rows.b
+    r_eq = rows.A @ x - b
+    now, then = float(b @ b), float(r_eq @ r_eq)
     if rows.n_in:
-        viol = np.maximum(rows.d_lower - cx, 0.0) + np.maximum(cx - rows.d_upper, 0.0)
-        total += float(viol @ viol)
-    return math.sqrt(total)
+        lo, hi = rows.d_lower, rows.d_upper
+        viol = np.maximum(lo, 0.0) + np.maximum(-hi, 0.0)
+        now += float(viol @ viol)
+        cx = rows.C @ x
+        viol = np.maximum(lo - cx, 0.0) + np.maximum(cx - hi, 0.0)
+        then += float(viol @ viol)
+    return math.sqrt(now) - math.sqrt(then)
 
 
 def _sq(errors: list[float]) -> float:
@@ -706,7 +703,7 @@ def solve(
                         e0 = here.level_error(progress_level)
                         e1 = there.level_error(progress_level)
                         rows_k = here.rows[progress_level]
-                        predicted = _residual(rows_k) - _residual(rows_k, alpha * x)
+                        predicted = _predicted_decrease(rows_k, alpha * x)
                         # Judged only when the step needed a correction: then a
                         # poor ratio means a step too long for the curvature of
                         # the satisfied levels (the correction undid the gain).

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import pik_mj
-from pik_mj.solve import CORRECT_ABOVE, TrustRegion
+from pik_mj.solve import CORRECT_ABOVE, TaskReport, TrustRegion, _Point, _predicted_decrease
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import as_task
-from pik_mj.tasks.task import TaskState
+from pik_mj.tasks.task import TaskRows, TaskState
 
 
 @pytest.fixture(scope="module")
@@ -475,3 +475,62 @@ def test_no_task_is_evaluated_twice_at_one_configuration(model, targets, qp_solv
         trials = n - gave_up + result.rejected
         assert result.evaluations[0] == result.evaluations[1] == 1 + trials + result.corrections
         assert result.corrections >= 1  # the feet drift beyond 0.9 drift on a 0.5 rad step
+
+
+def test_predicted_decrease_is_the_drop_of_the_rows_residual_norm():
+    """``‖r(0)‖ − ‖r(x)‖`` with ``r(x) = [A x − b; dist(C x, [d_l, d_u])]``,
+    against the distance to the box written with ``np.clip``."""
+    rng = np.random.default_rng(3)
+    nv = 7
+    lo = np.array([-np.inf, -0.2, 0.1, -1.0])
+    hi = np.array([0.3, np.inf, 0.5, -0.4])
+    rows = TaskRows(
+        rng.normal(size=(5, nv)),
+        rng.normal(size=5),
+        np.ones(5),
+        rng.normal(size=(4, nv)),
+        lo,
+        hi,
+        np.ones(4),
+    )
+
+    def residual(x):
+        cx = rows.C @ x
+        return np.linalg.norm(np.concatenate([rows.A @ x - rows.b, cx - np.clip(cx, lo, hi)]))
+
+    for _ in range(20):
+        x = rng.normal(size=nv)
+        assert _predicted_decrease(rows, x) == pytest.approx(
+            residual(np.zeros(nv)) - residual(x), abs=1e-12
+        )
+    equality_only = rows._replace(C=np.zeros((0, nv)), d_lower=lo[:0], d_upper=hi[:0])
+    x = rng.normal(size=nv)
+    expected = np.linalg.norm(rows.b) - np.linalg.norm(rows.A @ x - rows.b)
+    assert _predicted_decrease(equality_only, x) == pytest.approx(expected, abs=1e-12)
+
+
+class _Reports:
+    """What :meth:`_Point.satisfaction` reads: the reports of the evaluated levels."""
+
+    def __init__(self, levels):
+        self.level_reports = [
+            [TaskReport(f"t{k}{i}", k, 0.0, ok, checked) for i, (ok, checked) in enumerate(level)]
+            for k, level in enumerate(levels)
+        ]
+        self.done = len(levels)
+
+
+@pytest.mark.parametrize(
+    "levels, expected",
+    [
+        ([[(True, True)], [(True, True)], [(True, True)]], (True, 2)),
+        # level 0 (the hard rows) is never part of the prefix, but of "everything"
+        ([[(False, True)], [(True, True)], [(False, True)]], (False, 1)),
+        # a level without a checked task ends the prefix, and counts as satisfied
+        ([[], [(True, True)], [(False, False)], [(True, True)]], (True, 1)),
+        ([[], [(True, True), (False, True)], [(True, True)]], (False, 0)),
+        ([[], [(True, True), (True, False)], [(True, True), (False, True)]], (False, 1)),
+    ],
+)
+def test_satisfaction_counts_the_leading_satisfied_levels(levels, expected):
+    assert _Point.satisfaction(_Reports(levels)) == expected

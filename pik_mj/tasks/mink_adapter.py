@@ -206,6 +206,12 @@ class MinkLimit(Task):
         self.finite_rows = self._box is not None
         if self._box is not None:
             self._bounds = self._bounds_of(self._box.G.shape[0])
+            # the rows' constant arrays, all but h, in TaskRows order
+            self._box_rows = (
+                *no_equality(self._box.G.shape[1]),
+                self._box.G,
+                self._bounds[0],
+            )
 
     def _bounds_of(self, m: int) -> tuple[np.ndarray, np.ndarray]:
         """Lower bounds (``-inf``) and slack weights of ``m`` rows."""
@@ -215,10 +221,7 @@ class MinkLimit(Task):
         box = self._box
         if box is None:
             return self._mink_rows(configuration)
-        h = box.h(configuration)
-        lower, weights = self._bounds  # type: ignore[misc]
-        A, b, w = no_equality(box.G.shape[1])
-        return TaskRows(A, b, w, box.G, lower, h, weights)
+        return TaskRows(*self._box_rows, box.h(configuration), self._bounds[1])  # type: ignore[index]
 
     def _mink_rows(self, configuration: mink.Configuration) -> TaskRows:
         """The rows from ``compute_qp_inequalities``."""
@@ -250,10 +253,11 @@ class MinkLimit(Task):
         """Rows once; the error is their violation at ``x = 0`` (``max(-h, 0)``),
         satisfied within ``check_margin``."""
         rows = self.compute_rows(configuration)
-        if rows.n_in == 0:
+        h = rows.d_upper
+        if not h.size:
             return TaskState(rows, 0.0, True)
-        worst = -float(rows.d_upper.min())
-        error = float(np.linalg.norm(np.maximum(-rows.d_upper, 0.0))) if worst > 0 else 0.0
+        worst = -float(h.min())
+        error = float(np.linalg.norm(np.maximum(-h, 0.0))) if worst > 0 else 0.0
         return TaskState(rows, error, worst <= self.check_margin)
 
     def __repr__(self) -> str:
@@ -284,9 +288,12 @@ class _BoxRows:
         P = limit.projection_matrix
         self.G = np.vstack([P, -P])
         self.G.flags.writeable = False
-        self.n = len(limit.indices)
         nv = limit.model.nv
-        self._dq_max, self._dq_min = np.empty(nv), np.empty(nv)
+        # q_max ⊖ q and q ⊖ q_min, one buffer; h takes I from each half at once
+        self._dq = np.empty(2 * nv)
+        self._dq_max, self._dq_min = self._dq[:nv], self._dq[nv:]
+        indices = np.asarray(limit.indices)
+        self._rows = np.concatenate([indices, indices + nv])
 
     @staticmethod
     def of(limit: mink.Limit) -> _BoxRows | None:
@@ -301,13 +308,11 @@ class _BoxRows:
 
     def h(self, configuration: mink.Configuration) -> np.ndarray:
         """``h`` at ``configuration`` (a new array)."""
-        limit, n = self.limit, self.n
+        limit = self.limit
         q = configuration.data.qpos
         mujoco.mj_differentiatePos(limit.model, self._dq_max, 1.0, q, limit.upper)
         mujoco.mj_differentiatePos(limit.model, self._dq_min, 1.0, limit.lower, q)
-        h = np.empty(2 * n)
-        np.take(self._dq_max, limit.indices, out=h[:n])
-        np.take(self._dq_min, limit.indices, out=h[n:])
+        h = self._dq.take(self._rows)
         h *= limit.gain
         return h
 
