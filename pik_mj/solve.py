@@ -497,11 +497,9 @@ def _predicted_decrease(rows: TaskRows, x: np.ndarray) -> float:
     r_eq = rows.A @ x - b
     now, then = float(b @ b), float(r_eq @ r_eq)
     if rows.n_in:
-        lo, hi = rows.d_lower, rows.d_upper
-        viol = np.maximum(lo, 0.0) + np.maximum(-hi, 0.0)
+        viol = rows.bound_distance()
         now += float(viol @ viol)
-        cx = rows.C @ x
-        viol = np.maximum(lo - cx, 0.0) + np.maximum(cx - hi, 0.0)
+        viol = rows.bound_distance(rows.C @ x)
         then += float(viol @ viol)
     return math.sqrt(now) - math.sqrt(then)
 

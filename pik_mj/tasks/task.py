@@ -122,18 +122,23 @@ class TaskRows(NamedTuple):
         if x is None:
             e = float(self.b @ (self.w_A * self.b))
             if self.n_in:
-                viol = np.maximum(self.d_lower, 0.0) + np.maximum(-self.d_upper, 0.0)
+                viol = self.bound_distance()
                 e += float(viol @ (self.w_C * viol))
             return e
         r_eq = self.A @ x - self.b
-        cx = self.C @ x
-        viol = np.maximum(self.d_lower - cx, 0.0) + np.maximum(cx - self.d_upper, 0.0)
+        viol = self.bound_distance(self.C @ x)
         return float(r_eq @ (self.w_A * r_eq) + viol @ (self.w_C * viol))
+
+    def bound_distance(self, cx: np.ndarray | None = None) -> np.ndarray:
+        """``dist(C x, [d_l, d_u])`` of each inequality row, from the row values
+        ``cx = C x`` (``x = 0`` if None) [row units]."""
+        if cx is None:
+            return np.maximum(self.d_lower, 0.0) + np.maximum(-self.d_upper, 0.0)
+        return np.maximum(self.d_lower - cx, 0.0) + np.maximum(cx - self.d_upper, 0.0)
 
     def violation(self) -> np.ndarray:
         """Unweighted violation of the rows at ``x = 0``: ``[-b; dist(0, [d_l, d_u])]``."""
-        viol = np.maximum(self.d_lower, 0.0) + np.maximum(-self.d_upper, 0.0)
-        return np.concatenate([-self.b, viol])
+        return np.concatenate([-self.b, self.bound_distance()])
 
     def validate(self, nv: int, owner: str) -> None:
         """Raise :class:`InvalidInput` naming ``owner`` if shapes or values are bad.
