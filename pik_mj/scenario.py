@@ -438,7 +438,9 @@ class ScenarioParser(argparse.ArgumentParser):
     """The argument parser of a scenario's ``main`` (:func:`parser`): after parsing,
     it checks that the output files (``--save``, ``--json``) can be written and
     that ``--model``/``--description`` give a robot the scenario can move, before
-    any work starts (a usage error otherwise)."""
+    any work starts (a usage error otherwise). The robot it built for that check
+    is kept on the namespace as ``robot`` (None for a scenario without
+    ``--model``), so that the scenario need not build it again."""
 
     robot_option: _RobotOption | None = None
 
@@ -456,9 +458,12 @@ class ScenarioParser(argparse.ArgumentParser):
                 self.error(str(exc))
         if len(outputs) == 2 and Path(outputs[0][1]).resolve() == Path(outputs[1][1]).resolve():
             self.error(f"--save and --json name the same file {outputs[0][1]!r}; give two files")
+        ns.robot = None
         if self.robot_option is not None:
             try:
-                ns.model = self.robot_option.check(ns.model, getattr(ns, "description", None))
+                ns.model, ns.robot = self.robot_option.check(
+                    ns.model, getattr(ns, "description", None)
+                )
             except InvalidInput as exc:
                 self.error(str(exc))
         return ns
@@ -473,9 +478,9 @@ class _RobotOption:
     limbs: tuple[str, ...]
     floating_base: bool
 
-    def check(self, model: str | None, description: str | None) -> str | None:
-        """The model to run (the default when neither option names one), once a
-        robot was built from it and its description.
+    def check(self, model: str | None, description: str | None) -> tuple[str | None, Robot]:
+        """The model to run (the default when neither option names one) and the
+        robot built from it and its description.
 
         Raises:
             InvalidInput: Why not, one line starting with the option to blame.
@@ -500,7 +505,7 @@ class _RobotOption:
                 f"argument {option}: {named} has no floating base (a free joint at its "
                 f"root {robot.root_body!r}), which this scenario needs"
             )
-        return model
+        return model, robot
 
 
 def parser(

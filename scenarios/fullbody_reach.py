@@ -63,9 +63,15 @@ def run(
     hold: float = DEFAULT_HOLD,
     speed: float = DEFAULT_SPEED,
     quiet: bool = True,
+    robot: Robot | None = None,
 ) -> ScenarioResult:
+    """Solve, validate and record the reach. ``robot``: the robot already built
+    from ``model`` and ``description`` (the one
+    :class:`pik_mj.scenario.ScenarioParser` built to check them), else None to
+    build it here."""
     result = ScenarioResult(NAME)
-    robot = Robot.from_model(model, description=description, required_limbs=[*FEET, HAND])
+    if robot is None:
+        robot = Robot.from_model(model, description=description, required_limbs=[*FEET, HAND])
     if "torso_waist_p" in robot.joint_names:  # seed: (send *robot* :torso :waist-p :joint-angle 10)
         robot.set_angle_vector([np.deg2rad(10.0)], ["torso_waist_p"])
     scene = Scene.from_robot(robot)
@@ -159,6 +165,7 @@ def main(argv: list[str] | None = None) -> int:
             recorder,
             model=args.model,
             description=args.description,
+            robot=args.robot,
             hold=args.hold,
             speed=args.speed,
             quiet=args.quiet,

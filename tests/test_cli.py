@@ -83,6 +83,33 @@ def test_run_with_model_option(tmp_path):
     assert d["simulation"]["iterations_checked"] == d["timing"]["total_iterations"]
 
 
+def test_the_robot_the_parser_checked_is_the_one_the_run_moves(tmp_path, monkeypatch):
+    """``--model`` is checked by building the robot; the scenario moves that
+    robot instead of building a second one."""
+    from pik_mj.scenarios import fullbody_reach
+
+    from pik_mj.robot import Robot
+
+    built = []
+    from_model = Robot.from_model.__func__
+
+    def counting(cls, *args, **kwargs):
+        robot = from_model(cls, *args, **kwargs)
+        built.append(robot)
+        return robot
+
+    monkeypatch.setattr(Robot, "from_model", classmethod(counting))
+    js = tmp_path / "d.json"
+    argv = ["--model", "dm_humanoid", "--headless", "--quiet", "--hold", "0", "--speed", "0"]
+    assert fullbody_reach.main([*argv, "--json", str(js)]) == 0
+    assert len(built) == 1
+    assert json.loads(js.read_text())["robot"]["model"] == "dm_humanoid"
+    # a parser without --model keeps no robot
+    from pik_mj.scenario import parser
+
+    assert parser("A scenario.", hold=False).parse_args([]).robot is None
+
+
 FAILING = '''
     """A scenario whose check fails."""
     from pik_mj.scenario import ScenarioResult, open_recorder, parser, report
