@@ -128,7 +128,7 @@ def test_bench_record_rrd_holds_the_iterations(tmp_path):
     _, _, _, _, result = bench.time_recorded(robot, path)
     data = read_recording(path)
     hand = robot.limb(bench.HAND).end_frame
-    err = data[PATHS.task_error(2, f"target:{hand}")]
+    err = data[PATHS.task_error(2, f"target:{hand}", solve="reach")]
     (component,) = [c for c in err.temporal if "Scalar" in c]
     times, values = err.series(component, "iteration")
     np.testing.assert_array_equal(times, np.arange(1, result.iterations + 1))

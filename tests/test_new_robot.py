@@ -133,7 +133,9 @@ def test_a_new_robot_reaches_stands_holds_and_is_recorded(tmp_path):
 
     rec = pik_mj.read_recording(tmp_path / "walker.rrd")
     assert "torso" in rec["world/robot/bodies"].static["Ellipsoids3D:labels"]
-    times, values = rec["errors/level_2/target_rarm_end"].series("Scalars:scalars", "iteration")
+    times, values = rec["errors/level_2/reach/target_rarm_end"].series(
+        "Scalars:scalars", "iteration"
+    )
     assert times.tolist() == list(range(1, result.iterations + 1))
     final = next(t for t in result.tasks if t.name == "target:rarm_end")
     assert values[-1][0] == pytest.approx(final.error, rel=1e-9)

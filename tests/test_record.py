@@ -191,6 +191,7 @@ def test_paths_are_readable_and_nested():
     assert PATHS.task_current("rarm") == "world/tasks/rarm/current"
     assert PATHS.task_error(2, "com") == "errors/level_2/com"
     assert PATHS.task_error(2, "com", log10=True) == "errors_log10/level_2/com"
+    assert PATHS.task_error(2, "com", solve="reach again") == "errors/level_2/reach_again/com"
     assert PATHS.hold_metric("drift") == "hold/drift"
     assert PATHS.walk_series("x", "zmp_reference") == "walk/x/zmp_reference"
 

@@ -107,14 +107,23 @@ def test_errors_are_the_task_reports_over_both_solves(recorded):
     assert res1.converged and res2.converged and n1 > 3 and n2 > 3
     # solve 1: start pose 0, iterations 1..n1, final pose n1 + 1 = start of solve 2
     ticks = {1: list(range(1, n1 + 1)), 2: list(range(n1 + 2, n1 + 2 + n2))}
-    for solve, capture in ((1, recorded["first_capture"]), (2, recorded["second_capture"])):
+    # each solve's series apart (its label in the path and the legend's name)
+    for solve, label, capture in (
+        (1, "reach", recorded["first_capture"]),
+        (2, "reach again", recorded["second_capture"]),
+    ):
         for key in capture.errors[0]:
-            times, values = rec[PATHS.task_error(*key)].series(SCALAR, "iteration")
-            mine = [(t, v[0]) for t, v in zip(times, values, strict=True) if t in ticks[solve]]
-            assert [t for t, _ in mine] == ticks[solve]
-            assert [v for _, v in mine] == [e[key] for e in capture.errors]
+            for log10 in (False, True) if key[0] else (False,):
+                series = rec[PATHS.task_error(*key, log10=log10, solve=label)]
+                assert series.static["SeriesLines:names"] == [f"{label}: {key[1]}"]
+            times, values = rec[PATHS.task_error(*key, solve=label)].series(SCALAR, "iteration")
+            assert times.tolist() == ticks[solve]
+            assert [v[0] for v in values] == [e[key] for e in capture.errors]
     final = {(t.level, t.name): t.error for t in res2.tasks}
-    last = {k: rec[PATHS.task_error(*k)].series(SCALAR, "iteration")[1][-1][0] for k in final}
+    last = {
+        k: rec[PATHS.task_error(*k, solve="reach again")].series(SCALAR, "iteration")[1][-1][0]
+        for k in final
+    }
     assert last == final
 
 
@@ -252,7 +261,8 @@ def test_hold_is_on_sim_time_every_nth_sample(recorded):
 def test_blueprint_covers_every_solve_and_the_hold(recorded):
     levels = {t.level for r in (recorded["first"], recorded["second"]) for t in r.tasks} - {0}
     logged = recorded["logged"]
-    assert {PATHS.level_errors(k) for k in levels} <= {p.rsplit("/", 1)[0] for p in logged}
+    parents = {p.rsplit("/", 2)[0] for p in logged}  # errors/level_<k>(/<solve>/<task>)
+    assert {PATHS.level_errors(k) for k in levels} <= parents
     assert logged[PATHS.hold_metric("drift")] == {"sim_time"}
     assert logged[PATHS.balance_metric("margin")] == {"iteration"}
     bp = read_recording(recorded["path"], blueprint=True)
@@ -373,8 +383,8 @@ def test_blueprint_opens_on_the_solve(recorded):
     errors = [v for v in views if "error" in v.name]
     assert [v.origin for v in errors] == [PATHS.level_errors(k, log10=True) for k in (1, 2, 3)]
     key = (2, "target:larm_end")
-    _, linear = rec[PATHS.task_error(*key)].series(SCALAR, "iteration")
-    _, log10 = rec[PATHS.task_error(*key, log10=True)].series(SCALAR, "iteration")
+    _, linear = rec[PATHS.task_error(*key, solve="reach")].series(SCALAR, "iteration")
+    _, log10 = rec[PATHS.task_error(*key, log10=True, solve="reach")].series(SCALAR, "iteration")
     np.testing.assert_allclose([v[0] for v in log10], np.log10([v[0] for v in linear]))
     assert min(v[0] for v in log10) < -3  # converged below 1 mm: visible on this scale
     # plots grouped by unit: no plot mixes metres with counts or newtons

@@ -152,7 +152,7 @@ def _check_iterations(rec: dict[str, EntityData], result: ScenarioResult) -> Non
         for t in s.tasks:
             if keys.count((t.level, t.name)) > 1:
                 continue
-            entity = rec[PATHS.task_error(t.level, t.name)]
+            entity = rec[PATHS.task_error(t.level, t.name, solve=label)]
             assert _at(entity, SCALAR, "iteration", last[label])[0] == pytest.approx(
                 t.error, rel=1e-9, abs=1e-12
             )
@@ -377,7 +377,9 @@ def test_recording_is_valid_when_the_scenario_raises(tmp_path, monkeypatch, caps
     verified = _verify(rrd)
     assert verified.returncode == 0, verified.stderr
     rec = read_recording(rrd)
-    times, _ = rec[PATHS.task_error(2, "target:larm_end")].series(SCALAR, "iteration")
+    times, _ = rec[PATHS.task_error(2, "target:larm_end", solve="reach")].series(
+        SCALAR, "iteration"
+    )
     assert times.tolist() == [1, 2, 3]
     assert rec[PATHS.balance_metric("feasible")].series(SCALAR, "iteration")[0].tolist() == [
         1,

@@ -142,8 +142,9 @@ class SolveLogger:
     * each :class:`~pik_mj.tasks.frame.FrameTask`'s target (when it changes;
       the first ones also at the start count, so they show from the start) and
       current frame (``world/tasks/<task>/target|current``);
-    * each task's error ``errors/level_<k>/<task>`` from ``info.tasks`` (the
-      solve loop's own evaluation: nothing is evaluated again);
+    * each task's error ``errors/level_<k>/<label>/<task>`` from ``info.tasks``
+      (the solve loop's own evaluation: nothing is evaluated again), named
+      ``"<label>: <task>"`` in the legends;
     * each :class:`~pik_mj.tasks.scfr.ScfrTask`'s region (``world/scfr``);
     * with ``checks`` (an object whose ``.reports`` list gets one static report
       per iteration, run before this logger): the last report's support
@@ -211,7 +212,7 @@ class SolveLogger:
                 v = np.column_stack([region.vertices, np.full(len(region.vertices), z)])
                 rec.log_polygon(v, path=rec.paths.scfr, color=style.SCFR)
         self._log_pose(data)
-        rec.log_task_errors({(r.level, r.name): r.error for r in info.tasks})
+        rec.log_task_errors({(r.level, r.name): r.error for r in info.tasks}, solve=self.label)
         if self.checks is not None and len(self.checks.reports) > self._reports_seen:
             self._reports_seen = len(self.checks.reports)
             self._log_static(self.checks.reports[-1])

@@ -48,9 +48,10 @@ class EntityPaths:
         contact_forces: Contact forces drawn as arrows (scaled, [m/N]).
         tasks: Parent of task frames: ``world/tasks/<task>/target|current``
             (a target also carries a labelled marker at its origin).
-        errors: Parent of task error series: ``errors/level_<k>/<task>``.
+        errors: Parent of task error series: ``errors/level_<k>/<solve>/<task>``
+            (``errors/level_<k>/<task>`` when logged without a solve's label).
         errors_log10: The same series as ``log10`` of the error (a log scale):
-            ``errors_log10/level_<k>/<task>``.
+            ``errors_log10/level_<k>/<solve>/<task>``.
         events: Text log of the run.
         hold: Parent of physics-hold metrics: ``hold/<metric>`` (e.g. ``hold/drift``).
         balance: Parent of per-iteration balance metrics of the simulated static
@@ -117,10 +118,18 @@ class EntityPaths:
         ``log10``)."""
         return f"{self.errors_log10 if log10 else self.errors}/level_{int(level)}"
 
-    def task_error(self, level: int, task: str, *, log10: bool = False) -> str:
+    def task_error(
+        self, level: int, task: str, *, log10: bool = False, solve: str | None = None
+    ) -> str:
         """Path of the scalar error series of ``task`` on priority level ``level``
-        (of its ``log10``)."""
-        return f"{self.level_errors(level, log10=log10)}/{path_part(task)}"
+        (of its ``log10``): ``errors/level_<k>/<task>``, or
+        ``errors/level_<k>/<solve>/<task>`` for a task of the solve labelled
+        ``solve`` (a recording of several solves, whose stacks put the same task
+        on different levels, keeps each solve's series apart)."""
+        parent = self.level_errors(level, log10=log10)
+        if solve is not None:
+            parent = f"{parent}/{path_part(solve)}"
+        return f"{parent}/{path_part(task)}"
 
     def hold_metric(self, name: str) -> str:
         """Path of a physics-hold metric series, e.g. ``hold/drift``."""

@@ -176,8 +176,9 @@ class Recorder:
         # (entity paths, timelines, style) -> their buffered rows
         self._blocks: dict[tuple[Any, ...], Block] = {}
         self._outbox = Outbox()
-        # task keys -> (their error paths, then the log10 ones; which are solved)
-        self._error_paths: dict[tuple[tuple[int, str], ...], tuple[tuple[str, ...], Any]] = {}
+        # (task keys, solve label) -> (their error paths, then the log10 ones;
+        # which are solved)
+        self._error_paths: dict[tuple[Any, ...], tuple[tuple[str, ...], Any]] = {}
         # What was logged: entity path -> timelines of its rows (the blueprint's input)
         self._logged: dict[str, set[str]] = {}
         # Solves: the last tick of the iteration timeline, and the fixed targets
@@ -952,7 +953,9 @@ class Recorder:
             raise InvalidInput(f"scalar {path!r} must be finite, got {value}")
         self._append((path,), np.array([[v]]), SCALAR)
 
-    def log_task_errors(self, errors: Mapping[tuple[int, str], float]) -> None:
+    def log_task_errors(
+        self, errors: Mapping[tuple[int, str], float], *, solve: str | None = None
+    ) -> None:
         """Log each task's error at ``errors/level_<k>/<task>`` and, for the
         solved levels (k >= 1; level 0 holds the hard rows), its ``log10`` at
         ``errors_log10/level_<k>/<task>`` (errors below 1e-16 count as 1e-16):
@@ -962,18 +965,29 @@ class Recorder:
             errors: ``{(level, task_name): error}``; the error is whatever scalar
                 the caller tracks (e.g. the squared error ``‖e‖²``). The same
                 keys every iteration keep the series in one buffer.
+            solve: The label of the solve these tasks belong to (what
+                :meth:`solve_logger` passes): the series then go one level
+                deeper, ``errors/level_<k>/<solve>/<task>``, and are named
+                ``"<solve>: <task>"`` in the plots' legends, so that the solves
+                of one recording (whose stacks may put the same task on
+                different levels) keep apart.
         """
         keys = tuple(errors)
-        plan = self._error_paths.get(keys)
+        plan = self._error_paths.get((keys, solve))
         if plan is None:
             solved = np.array([level >= 1 for level, _ in keys], dtype=bool)
-            paths = tuple(self.paths.task_error(level, name) for level, name in keys)
-            paths += tuple(
-                self.paths.task_error(level, name, log10=True)
-                for (level, name), s in zip(keys, solved, strict=True)
-                if s
+            named = [(level, name, False) for level, name in keys]
+            named += [
+                (level, name, True) for (level, name), s in zip(keys, solved, strict=True) if s
+            ]
+            paths = tuple(
+                self.paths.task_error(level, name, log10=log10, solve=solve)
+                for level, name, log10 in named
             )
-            plan = self._error_paths[keys] = (paths, solved)
+            if solve is not None:  # the legends' names, once per series
+                for path, (_, name, _) in zip(paths, named, strict=True):
+                    self._log_static(path, rr.SeriesLines(names=[f"{solve}: {name}"]))
+            plan = self._error_paths[(keys, solve)] = (paths, solved)
         paths, solved = plan
         values = np.fromiter(errors.values(), dtype=float, count=len(keys))
         if not np.isfinite(values).all():
