@@ -34,7 +34,9 @@ The whole pose in the move target's frame (all six rows, both frames
     \\qquad \\phi = \\log(R_{WT}^T R_{WM}),
 
 with ``J = J_r^{-1}(e) V`` where ``V`` is the body twist Jacobian (mink's
-``FrameTask``, or ``RelativeFrameTask`` for a robot-frame target, compute both).
+``FrameTask``, or ``RelativeFrameTask`` for a robot-frame target, compute both;
+for a fixed or callable target both come from one pass over the move target's
+pose with the compiled SE(3) operations mink's ``FrameTask`` calls).
 The motion of one revolute joint is a straight line in these coordinates, so
 Newton steps on them follow the arcs a limb makes: on the reference reaching
 stack (20 targets) they need 3.7 iterations on the CMU humanoid and 4.9 on
@@ -60,6 +62,11 @@ from typing import Any
 import mink
 import mujoco
 import numpy as np
+
+try:  # mink's compiled SE(3) operations, the ones its own FrameTask calls
+    from mink.lie import _lie_ops_c as _mink_lie
+except ImportError:  # (a mink built without them: its tasks' Python path)
+    _mink_lie = None
 
 from ..exceptions import InvalidInput
 from ..frames import Frame
@@ -468,7 +475,7 @@ class FrameTask(EqualityTask):
                 task.set_target(mink.SE3.identity())
                 self._mink_task, self._mink_target = task, self.target_frame
             return task
-        if task is None or isinstance(task, mink.RelativeFrameTask):
+        if task is None or type(task) is mink.RelativeFrameTask:
             task = mink.FrameTask(self.move_target.name, self.move_target.frame_type, 1.0, 1.0)
             self._mink_task, self._mink_target = task, None
         if self.target_fn is None:
@@ -493,6 +500,8 @@ class FrameTask(EqualityTask):
         frame as the target, root ``T``, target pose identity) has this one.
         """
         task = self._twist_task(configuration)
+        if _mink_lie is not None and self.target_frame is None:
+            return self._twist_one_pass(task, configuration, jacobian, negated)
         opposite = self.target_frame is None  # mink's error is -e
         e = task.compute_error(configuration)
         if opposite != negated:
@@ -503,6 +512,42 @@ class FrameTask(EqualityTask):
         if opposite:
             np.negative(J, out=J)
         return e, J
+
+    def _twist_one_pass(
+        self,
+        task: mink.FrameTask,
+        configuration: mink.Configuration,
+        jacobian: bool,
+        negated: bool,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """:meth:`_twist` for a fixed or callable target: mink ``FrameTask``'s
+        error and Jacobian from one pose of the move target, with the compiled
+        operations mink's task calls (``T_tb = T_WT⁻¹ T_WM``)::
+
+            e = log(T_tb),   J = jlog(T_tb) Ad(R_WM⁻¹) [J_p; J_ω]
+
+        where ``[J_p; J_ω]`` is MuJoCo's ``mj_jac`` at the frame's origin,
+        world-aligned (mink's ``get_frame_jacobian`` is ``Ad(R_WM⁻¹)`` times
+        it). mink's two calls read the pose twice and multiply two 6 x nv
+        products: this one reads it once and multiplies one, 7 µs instead of
+        14 µs on dm_control's humanoid.
+        """
+        model, data = configuration.model, configuration.data
+        frame = self.move_target
+        xpos, xmat = _POSE[frame.frame_type]
+        p_WM = getattr(data, xpos)[frame.id]
+        R_WM = getattr(data, xmat)[frame.id]
+        T_WM = _mink_lie.xmat_xpos_to_wxyz_xyz(R_WM, p_WM)
+        T_tb = _mink_lie.se3_inverse_multiply(task.transform_target_to_world.wxyz_xyz, T_WM)
+        e = _mink_lie.se3_log(T_tb)
+        if negated:
+            np.negative(e, out=e)
+        if not jacobian:
+            return e, None
+        jac = np.empty((6, model.nv))
+        mujoco.mj_jac(model, data, jac[:3], jac[3:], p_WM, self._body)
+        V = _mink_lie.se3_jlog(T_tb) @ _mink_lie.se3_rotation_adjoint_from_xmat(R_WM)
+        return e, V @ jac
 
     def error_and_jacobian(self, configuration: mink.Configuration):
         """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
