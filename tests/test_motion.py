@@ -125,6 +125,34 @@ def test_the_motion_is_recorded_on_sim_time(reach, tmp_path):
     assert f"{PATHS.reference}/bodies" in data
 
 
+def test_a_motion_in_parts_counts_its_waypoints_on(reach, tmp_path):
+    """A motion played in two parts, the second from the first's state, one
+    ``finish`` each: ``motion/waypoint`` runs 0..n-1 over both parts on one
+    ``sim_time``, the second part's waypoints after the first's, and the text
+    names each part's first segment with its index in the whole motion."""
+    robot, scene, path = reach
+    q = path.q
+    half = len(q) // 2
+    rec = Recorder.to_file(tmp_path / "parts.rrd", "test")
+    rec.log_model_geometry(robot.model, robot_root_body=robot.root_body)
+    log = rec.motion_logger(every=50)
+    first = scene.play(q[: half + 1], speed=0.5, callback=[log])
+    log.finish(first)
+    second = scene.play(q[half:], speed=0.5, start=first, callback=[log])
+    log.finish(second)
+    rec.close()
+    n1, n2 = len(first.waypoint_times), len(second.waypoint_times)
+    assert (n1, n2) == (half + 1, len(q) - half)
+    data = read_recording(tmp_path / "parts.rrd")
+    t, index = data[PATHS.motion_metric("waypoint")].series(SCALAR, "sim_time")
+    assert [i[0] for i in index] == list(range(n1 + n2))
+    assert np.all(np.diff(t) >= 0) and t[n1] >= t[n1 - 1]
+    texts = [batch[0] for _, batch in data[PATHS.events].temporal["TextLog:text"]]
+    starts = [line for line in texts if "starts segment" in line]
+    assert starts[0].startswith("motion: waypoint 0 ")
+    assert starts[-1].startswith(f"motion: waypoint {n1} ")
+
+
 def test_bad_input(reach):
     _, scene, path = reach
     with pytest.raises(InvalidInput, match="speed"):

@@ -460,7 +460,9 @@ class MotionLogger(HoldLogger):
     a grasp, played in the scene with the grasp) logs that scene's geometry.
     :meth:`finish` logs the last sample if it was skipped, each waypoint's
     index at its time (``motion/waypoint``: the iterates on ``sim_time``), the
-    start of each segment (solve) and the verdict.
+    start of each segment (solve) and the verdict. A motion played in parts
+    (one :meth:`finish` per part, each part from the last one's state) counts
+    its waypoints on: the first of a part follows the last of the part before.
     """
 
     def __init__(
@@ -486,6 +488,7 @@ class MotionLogger(HoldLogger):
         self._renderer: Any = None
         self._no_rendering: str | None = None
         self._next_image = -math.inf
+        self._waypoints = 0  # waypoints of the parts finished so far
 
     def _starts(self, sample: HoldSample) -> bool:
         """A sample of another model than the last starts a run (a new scene)."""
@@ -571,12 +574,16 @@ class MotionLogger(HoldLogger):
             return report
         path = self._metric("waypoint")
         last = None
-        for i, (t, label) in enumerate(zip(report.waypoint_times, report.segments, strict=True)):
+        first = self._waypoints
+        for i, (t, label) in enumerate(
+            zip(report.waypoint_times, report.segments, strict=True), start=first
+        ):
             rec.set_time("sim_time", rec.sim_clock(t))
             rec.log_scalar(path, float(i))
             if label != last:
                 rec.log_text(f"motion: waypoint {i} starts segment {label!r}")
                 last = label
+        self._waypoints = first + len(report.waypoint_times)
         rec.set_time("sim_time", rec.sim_clock(report.final_state.time))
         rec.log_text(
             "motion: "
