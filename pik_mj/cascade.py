@@ -178,31 +178,16 @@ twice the time of the factorization and solve on these sizes) decides the
 rank."""
 
 
-def _cholesky(G: np.ndarray) -> np.ndarray | None:
-    """Lower Cholesky factor ``L`` (``G = L Lᵀ``) of a small symmetric positive
-    definite ``G``, or None when a pivot is below :data:`CHOLESKY_PIVOT`
-    (``G`` singular or nearly so: then ``G⁺`` is not ``G⁻¹``). numpy's own
-    LAPACK: a second BLAS (scipy's) in the loop brings a second thread pool,
+def _cholesky_factor(G: np.ndarray) -> np.ndarray | None:
+    """MuJoCo's dense Cholesky factor (``mju_cholFactor``) of a small symmetric
+    ``G``, made in a copy of ``G``: ``L`` (``G = L Lᵀ``) in its lower triangle,
+    ``G``'s entries above. None when a pivot ``L_ii²`` is below
+    :data:`CHOLESKY_PIVOT` times ``G``'s largest diagonal entry (``G`` singular
+    or nearly so, or not positive definite: then ``G⁺`` is not ``G⁻¹``).
+    MuJoCo's calls, not numpy's: on a 12x12 ``G`` factor and solve take 2.4
+    µs, numpy's ``cholesky`` and ``solve`` 12.6 µs (their Python wrappers);
+    and a second BLAS (scipy's) in the loop would bring a second thread pool,
     which on a loaded machine made solves up to 8 times slower."""
-    if G.shape[0] == 0:
-        return None
-    try:
-        L = np.linalg.cholesky(G)
-    except np.linalg.LinAlgError:
-        return None
-    d = L.diagonal()
-    if float(d.min()) ** 2 <= CHOLESKY_PIVOT * float(G.diagonal().max()):
-        return None
-    return L
-
-
-def _chol_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    """``G⁻¹ r`` for a small symmetric ``G`` by MuJoCo's dense Cholesky
-    (``mju_cholFactor``, ``mju_cholSolve``), or None when a pivot ``L_ii²`` is
-    below :data:`CHOLESKY_PIVOT` times ``G``'s largest diagonal entry (``G``
-    singular or nearly so, or not positive definite): the test of
-    :func:`_cholesky`. On a 12x12 ``G`` the two MuJoCo calls take 2.4 µs,
-    numpy's ``cholesky`` and ``solve`` 12.6 µs (their Python wrappers)."""
     n = G.shape[0]
     top = float(G.diagonal().max()) if n else 0.0
     if top <= 0.0:  # (no rows, or no positive pivot; NaN goes on and comes out NaN)
@@ -210,7 +195,22 @@ def _chol_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray | None:
     L = np.array(G, dtype=float)  # factored in place
     if mujoco.mju_cholFactor(L, CHOLESKY_PIVOT * top) < n:
         return None
-    x = np.empty(n)
+    return L
+
+
+def _cholesky(G: np.ndarray) -> np.ndarray | None:
+    """Lower Cholesky factor ``L`` (``G = L Lᵀ``, zeros above the diagonal)
+    of :func:`_cholesky_factor`, or None."""
+    L = _cholesky_factor(G)
+    return None if L is None else np.tril(L)
+
+
+def _chol_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray | None:
+    """``G⁻¹ r`` with :func:`_cholesky_factor` (``mju_cholSolve``), or None."""
+    L = _cholesky_factor(G)
+    if L is None:
+        return None
+    x = np.empty(G.shape[0])
     mujoco.mju_cholSolve(x, L, np.ascontiguousarray(r, dtype=float))
     return x
 

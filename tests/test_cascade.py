@@ -20,6 +20,7 @@ import qpsolvers
 
 from pik_mj import InfeasibleHardConstraints, QPFailure, TaskRows
 from pik_mj.cascade import (
+    CHOLESKY_PIVOT,
     DEFAULT_RELAXATION,
     NullSpaceCascade,
     Regularization,
@@ -962,17 +963,32 @@ def test_a_correction_of_one_equality_level_is_its_closed_form(backend):
         np.testing.assert_allclose(fix.x, np.linalg.pinv(dependent.A) @ dependent.b, atol=1e-10)
 
 
+def _numpy_pivot_test(G: np.ndarray) -> bool:
+    """The pivot test on numpy's LAPACK factor: regular when every ``L_ii²``
+    exceeds ``CHOLESKY_PIVOT`` times ``G``'s largest diagonal entry."""
+    try:
+        L = np.linalg.cholesky(G)
+    except np.linalg.LinAlgError:
+        return False
+    return float(L.diagonal().min()) ** 2 > CHOLESKY_PIVOT * float(G.diagonal().max())
+
+
 @pytest.mark.parametrize("n", [1, 6, 12, 56])
-def test_mujoco_cholesky_solve_matches_numpy_and_the_pivot_test(n):
-    """``_chol_solve`` (MuJoCo's ``mju_cholFactor``/``mju_cholSolve``) against
-    ``np.linalg.solve`` on regular Gram matrices, and None exactly where
-    ``_cholesky`` (numpy's factor and the same pivot test) finds ``G``
-    singular or nearly so: dependent rows, a row scaled to 1e-6, no rows."""
+def test_mujoco_cholesky_matches_numpy_and_the_pivot_test(n):
+    """``_cholesky`` and ``_chol_solve`` (MuJoCo's ``mju_cholFactor`` and
+    ``mju_cholSolve``) against numpy's LAPACK ``cholesky`` and ``solve`` on
+    regular Gram matrices, and None exactly where the pivot test on numpy's
+    factor finds ``G`` singular or nearly so: dependent rows, a row scaled to
+    1e-6, no rows, a negative definite ``G``."""
     rng = np.random.default_rng(n)
     nv = 62
     B = rng.normal(size=(n, nv))
     G = B @ B.T
     r = rng.normal(size=n)
+    assert _numpy_pivot_test(G)
+    L = _cholesky(G)
+    np.testing.assert_allclose(L, np.linalg.cholesky(G), rtol=1e-12, atol=1e-12)
+    assert np.all(np.triu(L, 1) == 0.0)
     y = _chol_solve(G, r)
     np.testing.assert_allclose(y, np.linalg.solve(G, r), rtol=1e-12, atol=1e-14)
     np.testing.assert_array_equal(G, B @ B.T)  # G itself untouched
@@ -981,7 +997,9 @@ def test_mujoco_cholesky_solve_matches_numpy_and_the_pivot_test(n):
         tiny = np.vstack([B[:-1], 1e-6 * B[-1]])
         for singular in (dependent, tiny):
             S = singular @ singular.T
+            assert not _numpy_pivot_test(S)
             assert _cholesky(S) is None and _chol_solve(S, r) is None
-    assert _chol_solve(np.zeros((n, n)), r) is None
-    assert _chol_solve(-G, r) is None
+    for singular in (np.zeros((n, n)), -G):
+        assert not _numpy_pivot_test(singular)
+        assert _cholesky(singular) is None and _chol_solve(singular, r) is None
     assert _chol_solve(np.zeros((0, 0)), np.zeros(0)) is None
