@@ -13,6 +13,7 @@ the balance series and the hold.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import subprocess
 import sys
 import time
@@ -513,3 +514,39 @@ def test_screenshot_shows_the_zmp_inside_the_polygon(walked, tmp_path):
     assert len(polygon) > 50 and len(zmp) > 10  # both visible, not hidden by the soles
     centre = zmp.mean(axis=0)
     assert (polygon.min(axis=0) < centre).all() and (centre < polygon.max(axis=0)).all()
+
+
+def _active_tab_name(layout: dict) -> str:
+    (tabs,) = [
+        v["ContainerBlueprint"]
+        for v in layout.values()
+        if v.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"
+    ]
+    return layout[f"/{tabs['active_tab']}"]["ContainerBlueprint"]["display_name"]
+
+
+def test_screenshot_tabs_are_chosen_by_name(recorded, walked):
+    """``--tab`` switches a layout of several tabs, accepts the only tab of a
+    layout of one (which has no tab container), and names the tabs there are
+    when none matches."""
+    from pik_mj.record import screenshot
+
+    with contextlib.ExitStack() as stack:
+        try:
+            client = stack.enter_context(screenshot.headless_viewer((800, 600)))
+        except Exception as exc:  # the viewer needs a Vulkan adapter (a GPU, or Mesa's lavapipe)
+            if "adapter" in str(exc).lower() or "vulkan" in str(exc).lower():
+                pytest.skip(f"no graphics adapter for rerun's headless viewer: {exc}")
+            raise
+        screenshot._open(client, recorded["path"])
+        screenshot._arrange(client, "physics", None, panels=True)
+        layout = client.get_blueprint(of="recording").blueprint
+        assert _active_tab_name(layout).startswith("physics hold")
+        with pytest.raises(InvalidInput, match=r"no tab named 'walk'; there are \['physics hold"):
+            screenshot._arrange(client, "walk", None, panels=True)
+
+        screenshot._open(client, walked["path"])
+        screenshot._arrange(client, "walking", None, panels=True)  # the only one
+        only = r"no tab named 'solve'; there are \['walking \(timeline: sim_time\)'\]"
+        with pytest.raises(InvalidInput, match=only):
+            screenshot._arrange(client, "solve", None, panels=True)

@@ -191,34 +191,12 @@ def _arrange(client: Any, tab: str | None, view: str | None, panels: bool) -> st
         }
         view_id = _find(names, view, "view")
         # the viewport (absent from what the viewer reads out) keeps its root
-        children = {
-            child
-            for v in layout.values()
-            for child in v.get("ContainerBlueprint", {}).get("contents", [])
-        }
-        roots = [
-            key.rsplit("/", 1)[1]
-            for key, v in layout.items()
-            if "ContainerBlueprint" in v and key.lstrip("/") not in children
-        ]
+        root = next(iter(_roots(_containers(layout))))
         layout["/viewport"] = {
-            "ViewportBlueprint": {"root_container": roots[0], "maximized": view_id}
+            "ViewportBlueprint": {"root_container": root.rsplit("/", 1)[1], "maximized": view_id}
         }
     if tab is not None:
-        tabs = [
-            c["ContainerBlueprint"]
-            for c in layout.values()
-            if c.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"
-        ]
-        if not tabs:
-            raise InvalidInput("the recording's blueprint has no tabs")
-        names = {
-            child: str(
-                layout.get(f"/{child}", {}).get("ContainerBlueprint", {}).get("display_name", child)
-            )
-            for child in tabs[0].get("contents", [])
-        }
-        tabs[0]["active_tab"] = _find(names, tab, "tab")
+        _show_tab(layout, tab)
     if not panels:
         for panel in ("blueprint_panel", "selection_panel", "top_panel"):
             layout[f"/{panel}"] = {"PanelBlueprint": {"state": "Hidden"}}
@@ -226,6 +204,39 @@ def _arrange(client: Any, tab: str | None, view: str | None, panels: bool) -> st
         time_panel["state"] = "Collapsed"
     client.set_blueprint(layout, of="recording")
     return view_id
+
+
+def _containers(layout: dict) -> dict[str, dict]:
+    """The layout's containers by the id their parents list (``container/<id>``)."""
+    return {
+        key.lstrip("/"): v["ContainerBlueprint"]
+        for key, v in layout.items()
+        if "ContainerBlueprint" in v
+    }
+
+
+def _roots(containers: dict[str, dict]) -> dict[str, str]:
+    """The containers no container holds (the layout's root), with their names."""
+    children = {child for c in containers.values() for child in c.get("contents", [])}
+    return {
+        key: str(c.get("display_name", key)) for key, c in containers.items() if key not in children
+    }
+
+
+def _show_tab(layout: dict, tab: str) -> None:
+    """Make the tab whose name starts with ``tab`` the active one. A layout of
+    one tab has no tab container (:func:`pik_mj.record.blueprint.blueprint_for`):
+    its root's name must match, and there is nothing to switch."""
+    containers = _containers(layout)
+    tabs = [c for c in containers.values() if c.get("container_kind") == "Tabs"]
+    if not tabs:
+        _find(_roots(containers), tab, "tab")
+        return
+    names = {
+        child: str(containers.get(child, {}).get("display_name", child))
+        for child in tabs[0].get("contents", [])
+    }
+    tabs[0]["active_tab"] = _find(names, tab, "tab")
 
 
 def screenshots(recording: str | Path, shots: Sequence[Shot], *, size=(1600, 900)) -> list[Path]:
