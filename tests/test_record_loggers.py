@@ -108,18 +108,26 @@ def test_errors_are_the_task_reports_over_both_solves(recorded):
     assert res1.converged and res2.converged and n1 > 3 and n2 > 3
     # solve 1: start pose 0, iterations 1..n1, final pose n1 + 1 = start of solve 2
     ticks = {1: list(range(1, n1 + 1)), 2: list(range(n1 + 2, n1 + 2 + n2))}
-    # each solve's series apart (its label in the path and the legend's name)
+    # each solve's series apart (its label in the path and the legend's name),
+    # in a colour of its own in its level's plot (its log10 series alike)
+    colors: dict[int, list] = {}
     for solve, label, capture in (
         (1, "reach", recorded["first_capture"]),
         (2, "reach again", recorded["second_capture"]),
     ):
         for key in capture.errors[0]:
+            shown = []
             for log10 in (False, True) if key[0] else (False,):
                 series = rec[PATHS.task_error(*key, log10=log10, solve=label)]
                 assert series.static["SeriesLines:names"] == [f"{label}: {key[1]}"]
+                shown.append(series.static["SeriesLines:colors"])
+            assert all(c == shown[0] for c in shown)
+            colors.setdefault(key[0], []).append(shown[0])
             times, values = rec[PATHS.task_error(*key, solve=label)].series(SCALAR, "iteration")
             assert times.tolist() == ticks[solve]
             assert [v[0] for v in values] == [e[key] for e in capture.errors]
+    assert all(len({str(c) for c in level}) == len(level) for level in colors.values())
+    assert max(len(level) for level in colors.values()) > 1
     final = {(t.level, t.name): t.error for t in res2.tasks}
     last = {
         k: rec[PATHS.task_error(*k, solve="reach again")].series(SCALAR, "iteration")[1][-1][0]

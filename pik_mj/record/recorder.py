@@ -179,6 +179,8 @@ class Recorder:
         # (task keys, solve label) -> (their error paths, then the log10 ones;
         # which are solved)
         self._error_paths: dict[tuple[Any, ...], tuple[tuple[str, ...], Any]] = {}
+        # level -> (solve, task) -> its series' colour (style.SERIES, in order)
+        self._series_colors: dict[int, dict[tuple[str | None, str], tuple[int, int, int]]] = {}
         # What was logged: entity path -> timelines of its rows (the blueprint's input)
         self._logged: dict[str, set[str]] = {}
         # Solves: the last tick of the iteration timeline, and the fixed targets
@@ -971,6 +973,9 @@ class Recorder:
                 ``"<solve>: <task>"`` in the plots' legends, so that the solves
                 of one recording (whose stacks may put the same task on
                 different levels) keep apart.
+
+        Each task's series (linear and log10) gets a colour of
+        :data:`~pik_mj.record.style.SERIES`, the next one in its level's plot.
         """
         keys = tuple(errors)
         plan = self._error_paths.get((keys, solve))
@@ -984,9 +989,15 @@ class Recorder:
                 self.paths.task_error(level, name, log10=log10, solve=solve)
                 for level, name, log10 in named
             )
-            if solve is not None:  # the legends' names, once per series
-                for path, (_, name, _) in zip(paths, named, strict=True):
-                    self._log_static(path, rr.SeriesLines(names=[f"{solve}: {name}"]))
+            # the legends' names and colours, once per series: a task's linear
+            # and log10 series alike, tasks of one level's plot apart
+            for path, (level, name, _) in zip(paths, named, strict=True):
+                colors = self._series_colors.setdefault(level, {})
+                color = colors.setdefault(
+                    (solve, name), style.SERIES[len(colors) % len(style.SERIES)]
+                )
+                label = name if solve is None else f"{solve}: {name}"
+                self._log_static(path, rr.SeriesLines(colors=[color], names=[label]))
             plan = self._error_paths[(keys, solve)] = (paths, solved)
         paths, solved = plan
         values = np.fromiter(errors.values(), dtype=float, count=len(keys))

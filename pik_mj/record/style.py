@@ -51,3 +51,19 @@ DEFAULT_FORCE_SCALE = 1e-3
 #: The reference pose of a motion, drawn as a second robot: translucent, with
 #: its primitives' major wireframe (RGBA).
 REFERENCE = (80, 160, 255, 90)
+
+#: Colours of the task-error series of one level's plot, in the order the
+#: tasks first appear in it (Tableau 10: apart from each other on the viewer's
+#: dark background); more tasks than colours start again at the first.
+SERIES = (
+    (78, 121, 167),
+    (242, 142, 43),
+    (225, 87, 89),
+    (118, 183, 178),
+    (89, 161, 79),
+    (237, 201, 72),
+    (176, 122, 161),
+    (255, 157, 167),
+    (156, 117, 95),
+    (186, 176, 172),
+)
