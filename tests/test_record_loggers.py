@@ -487,6 +487,13 @@ def test_walk_blueprint_opens_on_the_walk(walked):
     assert {f"{PATHS.walk}/x", f"{PATHS.walk}/y", f"{PATHS.walk}/margin"} <= origins
 
 
+def _skip_without_adapter(exc: Exception) -> None:
+    """Skip the test if ``exc`` says the viewer found no graphics adapter (it
+    needs Vulkan: a GPU, or Mesa's lavapipe)."""
+    if "adapter" in str(exc).lower() or "vulkan" in str(exc).lower():
+        pytest.skip(f"no graphics adapter for rerun's headless viewer: {exc}")
+
+
 def test_screenshot_shows_the_zmp_inside_the_polygon(walked, tmp_path):
     """rerun's headless viewer renders the walk's 3D view: the cyan support
     polygon and the ZMP markers inside it are on the picture."""
@@ -504,9 +511,8 @@ def test_screenshot_shows_the_zmp_inside_the_polygon(walked, tmp_path):
     shot = screenshot.Shot(tmp_path / "walk.png", "sim_time", t, view="walking")
     try:
         (png,) = screenshot.screenshots(walked["path"], [shot], size=(800, 600))
-    except Exception as exc:  # the viewer needs a Vulkan adapter (a GPU, or Mesa's lavapipe)
-        if "adapter" in str(exc).lower() or "vulkan" in str(exc).lower():
-            pytest.skip(f"no graphics adapter for rerun's headless viewer: {exc}")
+    except Exception as exc:
+        _skip_without_adapter(exc)
         raise
     image = np.asarray(Image.open(png).convert("RGB")).astype(int)
     assert image.shape == (600, 800, 3)
@@ -524,15 +530,6 @@ def test_screenshot_shows_the_zmp_inside_the_polygon(walked, tmp_path):
     assert (polygon.min(axis=0) < centre).all() and (centre < polygon.max(axis=0)).all()
 
 
-def _active_tab_name(layout: dict) -> str:
-    (tabs,) = [
-        v["ContainerBlueprint"]
-        for v in layout.values()
-        if v.get("ContainerBlueprint", {}).get("container_kind") == "Tabs"
-    ]
-    return layout[f"/{tabs['active_tab']}"]["ContainerBlueprint"]["display_name"]
-
-
 def test_screenshot_tabs_are_chosen_by_name(recorded, walked):
     """``--tab`` switches a layout of several tabs, accepts the only tab of a
     layout of one (which has no tab container), and names the tabs there are
@@ -542,14 +539,14 @@ def test_screenshot_tabs_are_chosen_by_name(recorded, walked):
     with contextlib.ExitStack() as stack:
         try:
             client = stack.enter_context(screenshot.headless_viewer((800, 600)))
-        except Exception as exc:  # the viewer needs a Vulkan adapter (a GPU, or Mesa's lavapipe)
-            if "adapter" in str(exc).lower() or "vulkan" in str(exc).lower():
-                pytest.skip(f"no graphics adapter for rerun's headless viewer: {exc}")
+        except Exception as exc:
+            _skip_without_adapter(exc)
             raise
         screenshot._open(client, recorded["path"])
         screenshot._arrange(client, "physics", None, panels=True)
-        layout = client.get_blueprint(of="recording").blueprint
-        assert _active_tab_name(layout).startswith("physics hold")
+        containers = screenshot._containers(client.get_blueprint(of="recording").blueprint)
+        (tabs,) = [c for c in containers.values() if c.get("container_kind") == "Tabs"]
+        assert containers[tabs["active_tab"]]["display_name"].startswith("physics hold")
         with pytest.raises(InvalidInput, match=r"no tab named 'walk'; there are \['physics hold"):
             screenshot._arrange(client, "walk", None, panels=True)
 
