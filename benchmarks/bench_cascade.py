@@ -6,13 +6,15 @@ level 2; posture at level 3. mink gets the same tasks in one QP
 (``mink.solve_ik``) with the same limits, the feet at cost 10 (``--feet-cost``),
 hand 1, posture 1e-2.
 
-Four solvers in the same run, on the same FK-reachable hand targets, every one
+Five solvers in the same run, on the same FK-reachable hand targets, every one
 starting from the same stance and stopping when both feet and the hand are
 within 1 mm / 1 degree (at most 50 iterations):
 
 * ``pik osqp``: ``pik_mj.solve`` with the default backend (one OSQP QP per level);
 * ``pik daqp-hqp``: ``pik_mj.solve(qp_solver="daqp-hqp")`` (the whole
   hierarchy in one DAQP call);
+* ``hqp no bound``: ``daqp-hqp`` without the bound on the feet's drift
+  (``correct=False``, ``TrustRegion(drift=1.0)``): what the guarantee costs;
 * ``mink osqp`` and ``mink daqp``: ``mink.solve_ik`` + ``integrate_inplace`` +
   the same stop test, per iteration.
 
@@ -22,9 +24,11 @@ median over targets in one round; the table shows the median over ``--rounds``
 rounds, and each ratio is the median of the ratios measured within a round
 (their range over the rounds is printed too).
 
-Also measured: the worst foot drift over 50 iterations when the hand target is
-2 m out of reach, with pik_mj's FrameTasks and with raw ``mink.FrameTask``s in
-the cascade.
+Also measured, in a separate untimed pass: how far each solver moves the feet
+on the way, the largest distance of a foot from its start position over every
+iterate of every target (:func:`path_drift`); and the worst foot drift over 50
+iterations when the hand target is 2 m out of reach, with pik_mj's FrameTasks
+and with raw ``mink.FrameTask``s in the cascade.
 
 Run: ``python benchmarks/bench_cascade.py [--targets 20] [--rounds 5]``
 """
@@ -43,10 +47,15 @@ import numpy as np
 from qpsolvers.warnings import SparseConversionWarning
 
 import pik_mj
+from pik_mj.solve import TrustRegion
 
 THRE, RTHRE = 1e-3, np.deg2rad(1.0)
 STOP = 50
-SOLVERS = ("pik osqp", "pik daqp-hqp", "mink osqp", "mink daqp")
+SOLVERS = ("pik osqp", "pik daqp-hqp", "hqp no bound", "mink osqp", "mink daqp")
+PIK_SOLVERS = SOLVERS[:3]
+UNBOUNDED = {"correct": False, "trust_region": TrustRegion(drift=1.0)}
+"""``hqp no bound``'s options: no correction, and a trust region that accepts
+any drift of the levels above (1 m or 1 rad) but still adapts the step."""
 MODELS = {"dm_control humanoid (27 DoF)": cases.DM, "CMU humanoid (62 DoF)": cases.CMU}
 
 
@@ -66,13 +75,22 @@ def satisfied(task, cfg) -> bool:
     return bool(np.linalg.norm(e[:3]) <= THRE and np.linalg.norm(e[3:]) <= RTHRE)
 
 
-def run_cascade(model, target, qp_solver="osqp", stop=STOP, callback=None) -> Run:
+def run_cascade(
+    model, target, qp_solver="osqp", stop=STOP, callback=None, options: dict | None = None
+) -> Run:
+    """``pik_mj.solve`` on the reference stack (``options``: more of its keywords)."""
     cfg = mink.Configuration(model)
     cfg.update(cases.stance(model))
     stack = cases.reach_stack(cfg, target)
     t0 = time.perf_counter()
     result = pik_mj.solve(
-        cfg, stack.levels, stop=stop, revert_if_fail=False, callback=callback, qp_solver=qp_solver
+        cfg,
+        stack.levels,
+        stop=stop,
+        revert_if_fail=False,
+        callback=callback,
+        qp_solver=qp_solver,
+        **(options or {}),
     )
     seconds = time.perf_counter() - t0
     return Run(result.converged, result.iterations, seconds, result.evaluations, result.corrections)
@@ -109,9 +127,41 @@ def one_round(model, targets, feet_cost: float) -> dict[str, list[Run]]:
     for target in targets:
         runs["pik osqp"].append(run_cascade(model, target))
         runs["pik daqp-hqp"].append(run_cascade(model, target, qp_solver="daqp-hqp"))
+        runs["hqp no bound"].append(run_cascade(model, target, "daqp-hqp", options=UNBOUNDED))
         runs["mink osqp"].append(run_mink(model, target, "osqp", feet_cost))
         runs["mink daqp"].append(run_mink(model, target, "daqp", feet_cost))
     return runs
+
+
+def path_drift(model, targets, feet_cost: float) -> dict[str, float]:
+    """Per solver, the largest distance [m] of a foot from its start position
+    over every iterate of every target (untimed: the callbacks read poses)."""
+    feet = [model.body(f).id for f in cases.humanoid_of(model).feet]
+    start = mink.Configuration(model)
+    start.update(cases.stance(model))
+    p0 = start.data.xpos[feet].copy()
+    worst = {s: 0.0 for s in SOLVERS}
+
+    def watcher(solver: str) -> Callable:
+        def watch(cfg: mink.Configuration) -> None:
+            moved = float(np.linalg.norm(cfg.data.xpos[feet] - p0, axis=1).max())
+            worst[solver] = max(worst[solver], moved)
+
+        return watch
+
+    for target in targets:
+        for solver, (qp, options) in {
+            "pik osqp": ("osqp", None),
+            "pik daqp-hqp": ("daqp-hqp", None),
+            "hqp no bound": ("daqp-hqp", UNBOUNDED),
+        }.items():
+            watch = watcher(solver)
+            run_cascade(
+                model, target, qp, callback=lambda i, w=watch: w(i.configuration), options=options
+            )
+        for solver in ("mink osqp", "mink daqp"):
+            run_mink(model, target, solver.split()[1], feet_cost, callback=watcher(solver))
+    return worst
 
 
 def foot_drift(model, raw_mink: bool) -> float:
@@ -165,8 +215,9 @@ def summarize(rounds: list[dict[str, list[Run]]]) -> dict[str, dict[str, float]]
     pairs = {
         "pik osqp / mink osqp": ("pik osqp", "mink osqp"),
         "pik daqp-hqp / mink daqp": ("pik daqp-hqp", "mink daqp"),
+        "hqp no bound / mink daqp": ("hqp no bound", "mink daqp"),
     }
-    for s in ("pik osqp", "pik daqp-hqp"):
+    for s in PIK_SOLVERS:
         runs = [r for rnd in rounds for r in rnd[s]]
         its = sum(r.iterations for r in runs)
         out[s]["evaluations_per_iteration"] = [
@@ -188,7 +239,9 @@ def print_table(name: str, n: int, rounds: int, s: dict) -> None:
         ("ms_to_solution", "ms to solution", "{:>14.3f}"),
     ):
         print(f"{label:26}" + "".join(fmt.format(s[k][key]) for k in SOLVERS))
-    for k in ("pik osqp", "pik daqp-hqp"):
+    drift = s["path_drift_m"]
+    print(f"{'feet moved on the way [m]':26}" + "".join(f"{drift[k]:>14.1e}" for k in SOLVERS))
+    for k in PIK_SOLVERS:
         evals = ", ".join(f"{v:.2f}" for v in s[k]["evaluations_per_iteration"])
         print(
             f"  {k}, per iteration: evaluations of levels 0..3 {evals}; "
@@ -215,6 +268,7 @@ def main(argv=None) -> dict:
         one_round(model, targets[:2], args.feet_cost)  # warm-up: imports, caches
         rounds = [one_round(model, targets, args.feet_cost) for _ in range(args.rounds)]
         s = summarize(rounds)
+        s["path_drift_m"] = path_drift(model, targets, args.feet_cost)
         s["foot_drift_m"] = foot_drift(model, raw_mink=False)
         s["foot_drift_raw_mink_m"] = foot_drift(model, raw_mink=True)
         print_table(name, len(targets), args.rounds, s)

@@ -153,7 +153,13 @@ def test_bench_cascade_small(capsys):
         assert 0.0 <= f[solver]["success"] <= 1.0 and f[solver]["ms_to_solution"] > 0.0
     assert f["pik osqp"]["success"] == f["pik daqp-hqp"]["success"] == 1.0
     assert all(r > 0 for r in f["ratios"].values())
-    for solver in ("pik osqp", "pik daqp-hqp"):
+    assert f["hqp no bound"]["corrections_per_iteration"] == 0.0
+    # on the way to the targets, the feet stay within the step rule's 1e-4 m;
+    # without the bound they move by centimetres, and so do mink's
+    drift = f["path_drift_m"]
+    assert drift["pik osqp"] <= 1e-4 and drift["pik daqp-hqp"] <= 1e-4
+    assert drift["hqp no bound"] > 1e-2 and drift["mink daqp"] > 1e-2
+    for solver in bench.PIK_SOLVERS:
         # levels below the feet once per accepted configuration; the hard rows
         # and the feet also at every trial step and correction
         e, c = f[solver]["evaluations_per_iteration"], f[solver]["corrections_per_iteration"]
