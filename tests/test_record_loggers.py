@@ -199,6 +199,17 @@ def test_static_checks_are_the_reports(recorded):
     assert [v[0] for v in margins] == [r.margin for r in reports]
     _, contacts = rec[PATHS.balance_metric("contacts")].series(SCALAR, "iteration")
     assert [v[0] for v in contacts] == [len(r.environment_contacts) for r in reports]
+    # named, and the two series of one plot in colours apart
+    styles = {
+        name: (
+            rec[PATHS.balance_metric(name)].static["SeriesLines:names"],
+            str(rec[PATHS.balance_metric(name)].static["SeriesLines:colors"]),
+        )
+        for name in ("margin", "contacts", "feasible")
+    }
+    assert styles["contacts"][0] == ["contacts"]
+    assert styles["feasible"][0] == ["equilibrium (1 = yes)"]
+    assert styles["contacts"][1] != styles["feasible"][1]
     # the last polygon and margin outline are the last report's
     last = reports[-1]
     times, strips = rec[PATHS.support_polygon].series("LineStrips3D:strips", "iteration")

@@ -318,6 +318,11 @@ class SolveLogger:
         forces = np.zeros((len(env), 3)) if report.forces is None else report.forces
         rec.log_contacts(np.array([c.position for c in env]).reshape(-1, 3), forces)
         paths = rec.paths
+        if self._feasible is None:  # this solve's first report: the series' styles
+            for name, color, label in _BALANCE_SERIES:
+                rec._log_static(
+                    paths.balance_metric(name), rr.SeriesLines(colors=[color], names=[label])
+                )
         if math.isfinite(report.margin):
             rec.log_scalar(paths.balance_metric("margin"), report.margin)
         rec.log_scalar(paths.balance_metric("feasible"), float(report.feasible))
@@ -596,6 +601,15 @@ class MotionLogger(HoldLogger):
 
 #: The walking series: (plot group, name, colour, legend), the colours those of
 #: the 3D overlays.
+_BALANCE_SERIES = (
+    ("margin", style.MARGIN, "CoM margin [m]"),
+    ("contacts", style.CONTACT, "contacts"),
+    ("feasible", style.FEASIBLE, "equilibrium (1 = yes)"),
+)
+"""The static check's series: name under ``balance/``, colour, legend label
+(the contact count and the equilibrium flag share a plot, so they get colours
+apart rather than rerun's hashed ones, which drew both purple)."""
+
 _WALK_SERIES = [
     (axis, name, color, f"{label} {axis} [m]")
     for axis in "xy"
