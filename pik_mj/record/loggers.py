@@ -599,8 +599,6 @@ class MotionLogger(HoldLogger):
         return report
 
 
-#: The walking series: (plot group, name, colour, legend), the colours those of
-#: the 3D overlays.
 _BALANCE_SERIES = (
     ("margin", style.MARGIN, "CoM margin [m]"),
     ("contacts", style.CONTACT, "contacts"),
@@ -610,6 +608,8 @@ _BALANCE_SERIES = (
 (the contact count and the equilibrium flag share a plot, so they get colours
 apart rather than rerun's hashed ones, which drew both purple)."""
 
+#: The walking series: (plot group, name, colour, legend), the colours those of
+#: the 3D overlays.
 _WALK_SERIES = [
     (axis, name, color, f"{label} {axis} [m]")
     for axis in "xy"

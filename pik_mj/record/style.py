@@ -40,8 +40,8 @@ TARGET_RADIUS = 0.03
 FRAME_AXIS = 0.15
 
 CONTACT = (255, 0, 255)
-FEASIBLE = (89, 161, 79)  # the static check's equilibrium flag (1 = yes)
 CONTACT_RADIUS = 0.012
+FEASIBLE = (89, 161, 79)  # the static check's equilibrium flag (1 = yes)
 #: Length of the arrow of a force equal to the robot's weight, as a fraction of
 #: the robot's height: contact forces are drawn at ``FORCE_PER_WEIGHT * h / (m g)``
 #: [m/N].
