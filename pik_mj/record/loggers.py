@@ -320,9 +320,7 @@ class SolveLogger:
         paths = rec.paths
         if self._feasible is None:  # this solve's first report: the series' styles
             for name, color, label in _BALANCE_SERIES:
-                rec._log_static(
-                    paths.balance_metric(name), rr.SeriesLines(colors=[color], names=[label])
-                )
+                rec.log_series_style(paths.balance_metric(name), color, label)
         if math.isfinite(report.margin):
             rec.log_scalar(paths.balance_metric("margin"), report.margin)
         rec.log_scalar(paths.balance_metric("feasible"), float(report.feasible))
@@ -674,9 +672,7 @@ def log_walk(recorder: Recorder, pattern: Any, report: Any) -> None:
         ),
     )
     for group, name, color, label in _WALK_SERIES:
-        rec._log_static(
-            paths.walk_series(group, name), rr.SeriesLines(colors=[color], names=[label])
-        )
+        rec.log_series_style(paths.walk_series(group, name), color, label)
     K, N = len(pattern.t), len(report.t)
     measured = np.asarray(report.zmp, dtype=float)
     seen = np.all(np.isfinite(measured), axis=1)

@@ -569,6 +569,10 @@ class Recorder:
         else:
             self._outbox.add_static(path, *archetypes)
 
+    def log_series_style(self, path: str, color: tuple[int, ...], name: str) -> None:
+        """A plotted series' line colour (RGB) and legend name, static."""
+        self._log_static(path, rr.SeriesLines(colors=[color], names=[name]))
+
     def _append(
         self,
         paths: tuple[str, ...],
@@ -997,7 +1001,7 @@ class Recorder:
                     (solve, name), style.SERIES[len(colors) % len(style.SERIES)]
                 )
                 label = name if solve is None else f"{solve}: {name}"
-                self._log_static(path, rr.SeriesLines(colors=[color], names=[label]))
+                self.log_series_style(path, color, label)
             plan = self._error_paths[(keys, solve)] = (paths, solved)
         paths, solved = plan
         values = np.fromiter(errors.values(), dtype=float, count=len(keys))
