@@ -51,11 +51,19 @@ from pik_mj.solve import TrustRegion
 
 THRE, RTHRE = 1e-3, np.deg2rad(1.0)
 STOP = 50
-SOLVERS = ("pik osqp", "pik daqp-hqp", "hqp no bound", "mink osqp", "mink daqp")
-PIK_SOLVERS = SOLVERS[:3]
 UNBOUNDED = {"correct": False, "trust_region": TrustRegion(drift=1.0)}
 """``hqp no bound``'s options: no correction, and a trust region that accepts
 any drift of the levels above (1 m or 1 rad) but still adapts the step."""
+PIK_RUNS = {
+    "pik osqp": ("osqp", None),
+    "pik daqp-hqp": ("daqp-hqp", None),
+    "hqp no bound": ("daqp-hqp", UNBOUNDED),
+}
+"""The cascade's solvers: backend and more options of ``pik_mj.solve``."""
+MINK_RUNS = {"mink osqp": "osqp", "mink daqp": "daqp"}
+"""mink's solvers: the ``qpsolvers`` name handed to ``mink.solve_ik``."""
+PIK_SOLVERS = tuple(PIK_RUNS)
+SOLVERS = (*PIK_RUNS, *MINK_RUNS)
 MODELS = {"dm_control humanoid (27 DoF)": cases.DM, "CMU humanoid (62 DoF)": cases.CMU}
 
 
@@ -125,11 +133,10 @@ def run_mink(
 def one_round(model, targets, feet_cost: float) -> dict[str, list[Run]]:
     runs: dict[str, list[Run]] = {s: [] for s in SOLVERS}
     for target in targets:
-        runs["pik osqp"].append(run_cascade(model, target))
-        runs["pik daqp-hqp"].append(run_cascade(model, target, qp_solver="daqp-hqp"))
-        runs["hqp no bound"].append(run_cascade(model, target, "daqp-hqp", options=UNBOUNDED))
-        runs["mink osqp"].append(run_mink(model, target, "osqp", feet_cost))
-        runs["mink daqp"].append(run_mink(model, target, "daqp", feet_cost))
+        for s, (qp_solver, options) in PIK_RUNS.items():
+            runs[s].append(run_cascade(model, target, qp_solver, options=options))
+        for s, solver in MINK_RUNS.items():
+            runs[s].append(run_mink(model, target, solver, feet_cost))
     return runs
 
 
@@ -150,17 +157,17 @@ def path_drift(model, targets, feet_cost: float) -> dict[str, float]:
         return watch
 
     for target in targets:
-        for solver, (qp, options) in {
-            "pik osqp": ("osqp", None),
-            "pik daqp-hqp": ("daqp-hqp", None),
-            "hqp no bound": ("daqp-hqp", UNBOUNDED),
-        }.items():
-            watch = watcher(solver)
+        for s, (qp_solver, options) in PIK_RUNS.items():
+            watch = watcher(s)
             run_cascade(
-                model, target, qp, callback=lambda i, w=watch: w(i.configuration), options=options
+                model,
+                target,
+                qp_solver,
+                callback=lambda i, w=watch: w(i.configuration),
+                options=options,
             )
-        for solver in ("mink osqp", "mink daqp"):
-            run_mink(model, target, solver.split()[1], feet_cost, callback=watcher(solver))
+        for s, solver in MINK_RUNS.items():
+            run_mink(model, target, solver, feet_cost, callback=watcher(s))
     return worst
 
 
