@@ -44,9 +44,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pik_mj.ground import sole_polygons
 from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.robot import Robot
+from pik_mj.robot.ground import sole_polygons
 from pik_mj.scenario import com_margin
 from pik_mj.sim import HoldReport, Scene, floor_environment
 from pik_mj.tasks.collision import CollisionAvoidanceTask, GeomPair, collision_pairs

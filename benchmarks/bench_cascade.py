@@ -270,7 +270,7 @@ def main(argv=None) -> dict:
     args = parser.parse_args(argv)
     figures: dict = {}
     for name in args.models:
-        model = pik_mj.models.load_model(MODELS[name].model)
+        model = pik_mj.robot.loading.load_model(MODELS[name].model)
         targets = cases.reachable_hand_targets(model, args.targets, seed=0)
         one_round(model, targets[:2], args.feet_cost)  # warm-up: imports, caches
         rounds = [one_round(model, targets, args.feet_cost) for _ in range(args.rounds)]

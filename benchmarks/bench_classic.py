@@ -23,8 +23,8 @@ import mink
 import numpy as np
 
 from pik_mj import FrameTask, solve
-from pik_mj.classic_ik import classic_inverse_kinematics
-from pik_mj.models import load_model
+from pik_mj.ik.classic import classic_inverse_kinematics
+from pik_mj.robot.loading import load_model
 
 THRE, RTHRE = 1e-3, np.deg2rad(1.0)
 

@@ -20,7 +20,7 @@ right-hand (``rarm`` end frame) targets, seeded:
   converged figure measures the solver, not the sampling;
 * :func:`pik_mj.ik.fullbody_inverse_kinematics` (root bounds, posture as its
   defaults, ``stop=100``): level 1 = both feet fixed + the CoM inside the
-  soles' support polygon (collision geometry, :func:`pik_mj.ground.sole_polygons`)
+  soles' support polygon (collision geometry, :func:`pik_mj.robot.ground.sole_polygons`)
   shrunk by ``MARGIN`` (:class:`~pik_mj.tasks.support_polygon.SupportPolygonTask`)
   + self-collision avoidance (:class:`~pik_mj.tasks.collision.CollisionAvoidanceTask`,
   yellow zone 10 cm, orange zone 1 cm, every pair of the robot's bodies less
@@ -51,9 +51,9 @@ import numpy as np
 
 from pik_mj import HoldCriteria, Robot, Scene
 from pik_mj.balance import support_polygon
-from pik_mj.ground import foot_geoms, geom_heights, sole_polygons, subtree_bodies
 from pik_mj.ik import fullbody_inverse_kinematics
-from pik_mj.models import menagerie_available, menagerie_models
+from pik_mj.robot.ground import foot_geoms, geom_heights, sole_polygons, subtree_bodies
+from pik_mj.robot.loading import menagerie_available, menagerie_models
 from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs, moving_pairs
 from pik_mj.tasks.support_polygon import SupportPolygonTask
 

@@ -22,7 +22,7 @@ import mink
 import mujoco
 import numpy as np
 
-from pik_mj.models import load_model
+from pik_mj.robot.loading import load_model
 from pik_mj.solve import solve
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import MinkTask
@@ -35,7 +35,7 @@ class Humanoid:
     """A humanoid of the reference stack: its model name, feet, hand and stance.
 
     Attributes:
-        model: Name for :func:`pik_mj.models.load_model`.
+        model: Name for :func:`pik_mj.robot.loading.load_model`.
         feet: Body names of the feet (level 1).
         hand: Body name of the reaching hand (level 2).
         stance: Joint angles [rad] set over ``qpos0`` for the start pose.

@@ -11,10 +11,10 @@ What a script needs is here::
     hold = scene.hold(robot.configuration.q, criteria=HoldCriteria())
 
 Internals (the cascade's QP problems and backends, the virtual root) are one
-import deeper: :mod:`pik_mj.cascade`, :mod:`pik_mj.qp`, :mod:`pik_mj.virtual_root`.
+import deeper: :mod:`pik_mj.cascade`, :mod:`pik_mj.qp`, :mod:`pik_mj.ik.virtual_root`.
 """
 
-from .exceptions import (
+from pik_mj.exceptions import (
     InfeasibleHardConstraints,
     InvalidInput,
     PikError,
@@ -22,12 +22,12 @@ from .exceptions import (
     SimulationUnstable,
     UnknownName,
 )
-from .ik import fullbody_inverse_kinematics, inverse_kinematics
-from .models import load_model
-from .progress import Progress
-from .record import Recorder, read_recording
-from .robot import Limb, Robot, RobotSource
-from .sim import (
+from pik_mj.ik import fullbody_inverse_kinematics, inverse_kinematics
+from pik_mj.progress import Progress
+from pik_mj.record import Recorder, read_recording
+from pik_mj.robot import Limb, Robot, RobotSource
+from pik_mj.robot.loading import load_model
+from pik_mj.sim import (
     ContactParams,
     HoldCriteria,
     HoldReport,
@@ -42,8 +42,8 @@ from .sim import (
     floor_environment,
     validate_pose,
 )
-from .solve import IterationInfo, SolveResult, TaskReport, solve
-from .tasks import (
+from pik_mj.solve import IterationInfo, SolveResult, TaskReport, solve
+from pik_mj.tasks import (
     AttachedContact,
     CentroidTask,
     CollisionAvoidanceTask,

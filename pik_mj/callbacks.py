@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from .exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput
 
 Callback = Callable[[Any], None]
 

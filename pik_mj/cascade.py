@@ -60,10 +60,10 @@ from typing import NamedTuple
 import mujoco
 import numpy as np
 
-from .exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
-from .qp import LevelProblem, OSQPBackend, QPBackend, QPSolution, QpsolversBackend
-from .qp_daqp import DAQPBackend, HierarchicalProblem
-from .tasks.task import TaskRows
+from pik_mj.exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
+from pik_mj.qp import LevelProblem, OSQPBackend, QPBackend, QPSolution, QpsolversBackend
+from pik_mj.qp_daqp import DAQPBackend, HierarchicalProblem
+from pik_mj.tasks.task import TaskRows
 
 DEFAULT_RELAXATION = 1e-5
 """τ [row units: m, rad], ten times the absolute tolerance of the default OSQP

@@ -16,10 +16,10 @@ import mink
 import mujoco
 import numpy as np
 
-from .exceptions import InvalidInput
-from .inputs import Q_LIMIT, joint_name
-from .tasks.mink_adapter import as_task
-from .tasks.task import Task
+from pik_mj.exceptions import InvalidInput
+from pik_mj.inputs import Q_LIMIT, joint_name
+from pik_mj.tasks.mink_adapter import as_task
+from pik_mj.tasks.task import Task
 
 _FREE, _SLIDE = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 

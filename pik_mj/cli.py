@@ -58,8 +58,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from . import inputs
-from .exceptions import InvalidInput, PikError, SimulationUnstable, UnknownName
+from pik_mj import inputs
+from pik_mj.exceptions import InvalidInput, PikError, SimulationUnstable, UnknownName
 
 EXIT_PASSED, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 _RECORDING_OPTIONS = ("--save", "--connect", "--serve", "--stdout", "--headless")
@@ -128,7 +128,7 @@ def _list() -> int:
 def _run(name: str | None, argv: list[str]) -> int:
     name = _scenarios().DEFAULT if name is None else name
     module = load_scenario(name)  # usage errors: exit 2
-    from .scenario import OptionError
+    from pik_mj.scenario import OptionError
 
     if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
         argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
@@ -210,7 +210,7 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
     Raises:
         InvalidInput: Missing or unreadable file, or no pose in it.
     """
-    from .robot import RobotSource
+    from pik_mj.robot import RobotSource
 
     p = Path(path)
     try:
@@ -282,10 +282,10 @@ def _validate_parser() -> argparse.ArgumentParser:
 def _validate(argv: list[str]) -> int:
     from dataclasses import replace
 
-    from .record import Recorder
-    from .robot import Robot
-    from .scenario import balance_summary, jsonable, positive
-    from .sim import validate_pose
+    from pik_mj.record import Recorder
+    from pik_mj.robot import Robot
+    from pik_mj.scenario import balance_summary, jsonable, positive
+    from pik_mj.sim import validate_pose
 
     args = _validate_parser().parse_args(argv)
     try:
@@ -386,13 +386,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if command == "validate":
             return _validate(rest)
         if command == "screenshot":
-            from .record import screenshot
+            from pik_mj.record import screenshot
 
             shot = argparse.ArgumentParser(prog="pik-mj screenshot")
             screenshot.add_arguments(shot)
             return screenshot.run(shot.parse_args(rest))
         if command == "sweep":
-            from .sweep import cli as sweep_cli
+            from pik_mj.sweep import cli as sweep_cli
 
             return sweep_cli.main(rest)
         name = rest[0] if rest and not rest[0].startswith("-") else None

@@ -32,11 +32,11 @@ import mujoco
 import numpy as np
 import qpsolvers
 
-from . import inputs
-from .balance import ContactConstraint, wrench_constraints
-from .exceptions import InvalidInput, PikError, UnknownName
-from .frames import Frame, robot_root_body
-from .spatial import STANDARD_GRAVITY, skew
+from pik_mj import inputs
+from pik_mj.balance import ContactConstraint, wrench_constraints
+from pik_mj.exceptions import InvalidInput, PikError, UnknownName
+from pik_mj.frames import Frame, robot_root_body
+from pik_mj.spatial import STANDARD_GRAVITY, skew
 
 _ANGLE_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from .exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, UnknownName
 
 FRAME_TYPES = ("site", "body", "geom")
 

@@ -25,7 +25,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from .exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, UnknownName
 
 __all__ = [
     "Q_LIMIT",

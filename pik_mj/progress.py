@@ -16,7 +16,7 @@ from __future__ import annotations
 import sys
 from typing import Any, TextIO
 
-from .exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput
 
 __all__ = ["Progress"]
 

@@ -44,7 +44,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-from .exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput
 
 OSQP_DEFAULTS: dict[str, Any] = {
     "eps_abs": 1e-6,
@@ -542,7 +542,7 @@ def _new_backend(name: str, args: dict[str, Any]) -> Any:
         _probe_osqp(backend.settings)
         return backend
     if name in ("daqp", "daqp-hqp"):
-        from .qp_daqp import DAQPBackend, HierarchicalBackend
+        from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend
 
         return DAQPBackend(args) if name == "daqp" else HierarchicalBackend(args)
     import qpsolvers

@@ -15,9 +15,9 @@ from typing import Any
 import daqp
 import numpy as np
 
-from .exceptions import InvalidInput
-from .qp import LevelProblem, QPSolution
-from .tasks.task import TaskRows, frozen
+from pik_mj.exceptions import InvalidInput
+from pik_mj.qp import LevelProblem, QPSolution
+from pik_mj.tasks.task import TaskRows, frozen
 
 DAQP_SETTINGS = (
     "primal_tol",

@@ -34,13 +34,13 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
-from . import inputs
-from .balance import support_polygon
-from .exceptions import InvalidInput, PikError
-from .ground import sole_polygons
-from .record import Recorder
-from .robot import Robot
-from .sim import (
+from pik_mj import inputs
+from pik_mj.balance import support_polygon
+from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.record import Recorder
+from pik_mj.robot import Robot
+from pik_mj.robot.ground import sole_polygons
+from pik_mj.sim import (
     HoldCriteria,
     HoldReport,
     MotionReport,
@@ -49,9 +49,9 @@ from .sim import (
     StaticReport,
     balance_report,
 )
-from .sim.motion import DEFAULT_SPEED
-from .sim.validate import describe_violation
-from .solve import SolveResult
+from pik_mj.sim.motion import DEFAULT_SPEED
+from pik_mj.sim.validate import describe_violation
+from pik_mj.solve import SolveResult
 
 __all__ = [
     "DEFAULT_HOLD",
@@ -108,7 +108,7 @@ def jsonable(value: Any, where: str = "value") -> Any:
 
 def com_margin(robot: Robot, point: np.ndarray | None = None) -> float:
     """Signed distance [m] of the CoM's (or ``point``'s) ground projection to the edges
-    of the support polygon of both soles (:func:`pik_mj.ground.sole_polygons`),
+    of the support polygon of both soles (:func:`pik_mj.robot.ground.sole_polygons`),
     positive inside."""
     region = support_polygon(sole_polygons(robot))
     return float(region.signed_distance(robot.com() if point is None else np.asarray(point)))
@@ -533,7 +533,7 @@ def parser(
         limbs: Limbs the scenario moves (checked on ``--model``).
         floating_base: The scenario needs a floating base (checked on ``--model``).
         description: With ``model``, add ``--description FILE`` (a robot description,
-            :mod:`pik_mj.description`), checked with ``--model``; ``--model``'s
+            :mod:`pik_mj.robot.description`), checked with ``--model``; ``--model``'s
             default then applies when neither is given.
     """
     p = ScenarioParser(description=(doc or "").strip().splitlines()[0])

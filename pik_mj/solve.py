@@ -37,22 +37,13 @@ import mink
 import mujoco
 import numpy as np
 
-from . import inputs
-from .callbacks import Callback, as_callbacks
-from .cascade import (
-    DEFAULT_RELAXATION,
-    CascadeStep,
-    Regularization,
-    per_level,
-    solve_cascade,
-)
-from .checks import (
-    check_configuration,
-    normalize_levels,
-)
-from .exceptions import InvalidInput, QPFailure
-from .qp import make_backend
-from .tasks.task import Task, TaskRows, frozen
+from pik_mj import inputs
+from pik_mj.callbacks import Callback, as_callbacks
+from pik_mj.cascade import DEFAULT_RELAXATION, CascadeStep, Regularization, per_level, solve_cascade
+from pik_mj.checks import check_configuration, normalize_levels
+from pik_mj.exceptions import InvalidInput, QPFailure
+from pik_mj.qp import make_backend
+from pik_mj.tasks.task import Task, TaskRows, frozen
 
 MAX_CORRECTIONS = 3
 """Newton projections per trial step (each one re-solves the satisfied levels)."""

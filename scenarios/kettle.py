@@ -62,8 +62,8 @@ from pik_mj import (
     Waypoints,
     inverse_kinematics,
 )
-from pik_mj.camera import Camera
 from pik_mj.ik import gaze_angle
+from pik_mj.robot.camera import Camera
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,

@@ -31,9 +31,9 @@ from pik_mj import (
     Waypoints,
     fullbody_inverse_kinematics,
 )
-from pik_mj.camera import Camera
-from pik_mj.models import MODELS_DIR
 from pik_mj.record.loggers import SolveLogger
+from pik_mj.robot.camera import Camera
+from pik_mj.robot.loading import MODELS_DIR
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,

@@ -32,7 +32,8 @@ from pik_mj import (
     fullbody_inverse_kinematics,
 )
 from pik_mj.balance import contact_from_normal, foot_contact, static_equilibrium
-from pik_mj.ground import sole_size
+from pik_mj.robot.ground import sole_size
+from pik_mj.robot.sensors import SensorTrace
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
@@ -42,7 +43,6 @@ from pik_mj.scenario import (
     parser,
     report,
 )
-from pik_mj.sensors import SensorTrace
 from pik_mj.solve import TrustRegion
 from pik_mj.spatial import yaw_of
 from pik_mj.tasks.collision import collision_pairs

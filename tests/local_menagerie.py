@@ -8,7 +8,7 @@ import functools
 import mujoco
 import pytest
 
-from pik_mj.models import load_model, menagerie_available
+from pik_mj.robot.loading import load_model, menagerie_available
 
 
 def requires_menagerie(name: str) -> None:

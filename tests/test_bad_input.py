@@ -42,8 +42,9 @@ from pik_mj import (
     fullbody_inverse_kinematics,
     inverse_kinematics,
 )
-from pik_mj.ik import gaze_angle, sole_polygons, static_balance_point
+from pik_mj.ik import gaze_angle, static_balance_point
 from pik_mj.robot import RobotSource
+from pik_mj.robot.ground import sole_polygons
 from pik_mj.scenario import ScenarioResult, jsonable
 from pik_mj.sim import validate_pose
 from pik_mj.sim.scene import ContactParams

@@ -20,7 +20,7 @@ from fd import fd_jacobian
 import pik_mj
 from pik_mj.balance import ContactConstraint, contact_from_normal, foot_contact, support_polygon
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
-from pik_mj.models import load_model
+from pik_mj.robot.loading import load_model
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.joint_limit import JointLimitTask

@@ -1,4 +1,4 @@
-"""Tests of pik_mj.camera: intrinsics, projection, visibility, rendering, logging.
+"""Tests of pik_mj.robot.camera: intrinsics, projection, visibility, rendering, logging.
 
 References: a hand computation of the pinhole model, MuJoCo's own
 ``camprojection`` sensor (MuJoCo projects a site into a camera), MuJoCo's
@@ -15,7 +15,9 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from pik_mj.camera import (
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.record import read_recording
+from pik_mj.robot.camera import (
     DEFAULT_SIZE,
     Camera,
     CameraRenderer,
@@ -23,9 +25,7 @@ from pik_mj.camera import (
     RenderingUnavailable,
     log_camera,
 )
-from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import load_model
-from pik_mj.record import read_recording
+from pik_mj.robot.loading import load_model
 
 # Camera "tilted" looks down at the table from the side; "sensor" has a physical
 # sensor (focal, principal offset) instead of fovy; "plain" is MuJoCo's default

@@ -13,7 +13,8 @@ import pytest
 from fd import fd_jacobian
 
 from pik_mj import FrameTask, solve
-from pik_mj.classic_ik import (
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.ik.classic import (
     classic_inverse_kinematics,
     joint_limit_gradient,
     joint_limit_weights,
@@ -21,9 +22,8 @@ from pik_mj.classic_ik import (
     sr_damping,
     sr_inverse,
 )
-from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import load_model
 from pik_mj.robot import Robot
+from pik_mj.robot.loading import load_model
 from pik_mj.tasks.look_at import LookAtTask
 
 

@@ -15,8 +15,8 @@ import pytest
 
 from pik_mj import FrameTask, solve
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import load_spec
 from pik_mj.robot import Robot
+from pik_mj.robot.loading import load_spec
 from pik_mj.tasks.collision import (
     CollisionAvoidanceTask,
     collision_pairs,

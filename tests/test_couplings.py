@@ -1,4 +1,4 @@
-"""MJCF joint and fixed-tendon equalities as level-0 rows (pik_mj.couplings),
+"""MJCF joint and fixed-tendon equalities as level-0 rows (pik_mj.robot.couplings),
 against MuJoCo's own equality constraint rows (efc_pos, efc_J)."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from fd import fd_jacobian
 
-from pik_mj.couplings import CouplingTask, find_couplings
 from pik_mj.exceptions import InvalidInput
+from pik_mj.robot.couplings import CouplingTask, find_couplings
 from pik_mj.solve import CORRECT_ABOVE, TrustRegion, solve
 from pik_mj.tasks.frame import FrameTask
 

@@ -16,8 +16,8 @@ import pytest
 
 from pik_mj import dynamics as dy
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
-from pik_mj.models import load_model, load_spec
 from pik_mj.robot import Robot
+from pik_mj.robot.loading import load_model, load_spec
 
 G = 9.81
 SOLES = [dy.SoleContact("rleg_end", 0.11, 0.06), dy.SoleContact("lleg_end", 0.11, 0.06)]

@@ -12,7 +12,7 @@ import pytest
 from fd import fd_jacobian
 
 from pik_mj import FrameTask, InvalidInput
-from pik_mj.models import load_model
+from pik_mj.robot.loading import load_model
 from pik_mj.tasks import frame as frame_module
 from pik_mj.tasks.frame import _twist_distances, constrained_axes, ljacinv
 

@@ -9,13 +9,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.walking import (
-    Footstep,
-    GaitParameters,
-    go_pos,
-    plan_gait,
-    straight_steps,
-)
+from pik_mj.walking import Footstep, GaitParameters, go_pos, plan_gait, straight_steps
 
 FEET = {
     "rleg": (np.array([0.0, -0.1, 0.0]), 0.0),

@@ -1,4 +1,4 @@
-"""pik_mj.ground: lowest points, floor gap and sole polygons of collision geometry,
+"""pik_mj.robot.ground: lowest points, floor gap and sole polygons of collision geometry,
 checked against MuJoCo's own distances (mj_geomDistance) and contacts on a floor."""
 
 from __future__ import annotations
@@ -8,14 +8,13 @@ import numpy as np
 import pytest
 from local_menagerie import menagerie_model
 
-from pik_mj import ground
 from pik_mj.balance import convex_hull_2d, polygon_area
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import Frame
-from pik_mj.keyframes import standing_pose
-from pik_mj.limbs import find_limbs
-from pik_mj.models import load_model, load_spec
-from pik_mj.robot import Limb, Robot
+from pik_mj.robot import Limb, Robot, ground
+from pik_mj.robot.keyframes import standing_pose
+from pik_mj.robot.limbs import find_limbs
+from pik_mj.robot.loading import load_model, load_spec
 
 # A free body carrying one geom of each kind (and a mesh box), visual geoms
 # larger than the collision ones, plus a plane: the floor z = 0.

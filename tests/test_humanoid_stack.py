@@ -297,7 +297,7 @@ def test_raw_mink_frame_tasks_keep_the_feet_within_1e4_every_iteration(humanoid)
     """mink.FrameTasks have no step limit of their own: the trust region bounds
     every step, so with the hand 2 m out of reach the feet (level 1) stay within
     1e-4 m (and 1e-4 rad) of their pose at every iteration."""
-    model = pik_mj.models.load_model(humanoid.model)
+    model = pik_mj.robot.loading.load_model(humanoid.model)
     cfg = mink.Configuration(model)
     cfg.update(cases.stance(model))
     feet = [

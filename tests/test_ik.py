@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.ground import sole_polygons
 from pik_mj.ik import (
     fullbody_inverse_kinematics,
     gaze_angle,
@@ -16,6 +15,7 @@ from pik_mj.ik import (
     static_balance_point,
 )
 from pik_mj.robot import Robot
+from pik_mj.robot.ground import sole_polygons
 from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs
 
 TIP_DOWN = np.array([0.0, 0.0, 1.0, 0.0])  # rotation by pi about y (w, x, y, z)

@@ -1,5 +1,5 @@
-"""Limbs from the kinematic tree (pik_mj.limbs), the keyframe rule
-(pik_mj.keyframes) and robot description files (pik_mj.description)."""
+"""Limbs from the kinematic tree (pik_mj.robot.limbs), the keyframe rule
+(pik_mj.robot.keyframes) and robot description files (pik_mj.robot.description)."""
 
 from __future__ import annotations
 
@@ -11,17 +11,17 @@ import numpy as np
 import pytest
 from local_menagerie import menagerie_model
 
-from pik_mj.description import (
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.robot import Limb, Robot
+from pik_mj.robot.description import (
     LimbDescription,
     RobotDescription,
     load_description,
     robot_limbs,
 )
-from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.keyframes import standing_pose
-from pik_mj.limbs import LimbsNotFound, find_limbs, limb_from_end
-from pik_mj.models import load_model, load_spec
-from pik_mj.robot import Limb, Robot
+from pik_mj.robot.keyframes import standing_pose
+from pik_mj.robot.limbs import LimbsNotFound, find_limbs, limb_from_end
+from pik_mj.robot.loading import load_model, load_spec
 
 
 # ------------------------------------------------------- the project's own robots

@@ -1,4 +1,4 @@
-"""Menagerie robots by name (pik_mj.models): a fake Menagerie tree and cache, then the
+"""Menagerie robots by name (pik_mj.robot.loading): a fake Menagerie tree and cache, then the
 real robots when this machine has them (MENAGERIE_ROOT or the package's cache)."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from local_menagerie import menagerie_model, requires_menagerie
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import (
+from pik_mj.robot.loading import (
     load_model,
     load_spec,
     menagerie_available,

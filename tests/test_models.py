@@ -11,14 +11,8 @@ import numpy as np
 import pytest
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import (
-    MODELS_DIR,
-    available_models,
-    load_model,
-    load_spec,
-    model_path,
-)
 from pik_mj.robot import Robot, RobotSource
+from pik_mj.robot.loading import MODELS_DIR, available_models, load_model, load_spec, model_path
 
 HUMANOID_JOINTS = [
     *(

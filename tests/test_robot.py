@@ -8,8 +8,8 @@ import pytest
 from fd import fd_jacobian
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import load_model
 from pik_mj.robot import Limb, Robot
+from pik_mj.robot.loading import load_model
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Tests of pik_mj.sensors: force/torque sensors, the ZMP from them, IMUs, bumpers.
+"""Tests of pik_mj.robot.sensors: force/torque sensors, the ZMP from them, IMUs, bumpers.
 
 The physics scenes are built here with MjSpec (sample humanoid + floor plane +
 a position servo per hinge), independent of pik_mj.sim. References: the
@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import load_model, load_spec
 from pik_mj.robot import Robot
-from pik_mj.sensors import (
+from pik_mj.robot.loading import load_model, load_spec
+from pik_mj.robot.sensors import (
     FORCE_TORQUE,
     IMU,
     ContactWrench,

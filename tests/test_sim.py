@@ -18,10 +18,10 @@ import pytest
 import pik_mj
 from pik_mj import HoldCriteria, Recorder, balance
 from pik_mj.exceptions import InvalidInput, SimulationUnstable, UnknownName
-from pik_mj.ground import sole_polygons
 from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.record import PATHS, read_recording
 from pik_mj.robot import Robot
+from pik_mj.robot.ground import sole_polygons
 from pik_mj.sim import ContactParams, Scene, add_wall, floor_environment, validate_pose
 from pik_mj.sim.motion import Clearance, min_distance
 from pik_mj.tasks.frame import FrameTask
@@ -450,7 +450,7 @@ def test_degenerate_support_is_a_negative_distance():
 
 
 def test_robot_actuators_and_keyframe_ctrl_are_kept():
-    from pik_mj.models import load_spec
+    from pik_mj.robot.loading import load_spec
 
     spec = load_spec("sample_humanoid")
     spec.add_actuator(name="knee_motor", target="rleg_knee_p", trntype=mujoco.mjtTrn.mjTRN_JOINT)
@@ -661,7 +661,7 @@ def test_scene_needs_a_robot_that_knows_its_world():
 
 
 def _model_file():
-    from pik_mj.models import model_path
+    from pik_mj.robot.loading import model_path
 
     return model_path("sample_humanoid")
 

@@ -15,9 +15,10 @@ from fd import fd_jacobian
 
 import pik_mj
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.models import load_model
+from pik_mj.ik.virtual_root import solve_with_virtual_root, with_virtual_root
 from pik_mj.qp import OSQP_DEFAULTS
 from pik_mj.robot import Robot
+from pik_mj.robot.loading import load_model
 from pik_mj.tasks.com import CentroidTask, robot_root_body
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.joint_coupling import JointCouplingTask
@@ -25,7 +26,6 @@ from pik_mj.tasks.joint_limit import JointLimitTask
 from pik_mj.tasks.joint_velocity import JointVelocityTask
 from pik_mj.tasks.mink_adapter import MinkLimit, _BoxRows
 from pik_mj.tasks.task import EqualityTask
-from pik_mj.virtual_root import solve_with_virtual_root, with_virtual_root
 
 EPS = 1e-6
 TOL = 1e-6

@@ -20,10 +20,16 @@ logged. Modules:
   headless viewer (``pik-mj screenshot``).
 """
 
-from .blueprint import blueprint
-from .paths import PATHS, TIMELINES, EntityPaths
-from .reader import BlueprintLayout, EntityData, ViewLayout, read_blueprint, read_recording
-from .recorder import Recorder
+from pik_mj.record.blueprint import blueprint
+from pik_mj.record.paths import PATHS, TIMELINES, EntityPaths
+from pik_mj.record.reader import (
+    BlueprintLayout,
+    EntityData,
+    ViewLayout,
+    read_blueprint,
+    read_recording,
+)
+from pik_mj.record.recorder import Recorder
 
 __all__ = [
     "PATHS",

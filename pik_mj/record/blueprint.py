@@ -44,9 +44,9 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from ..exceptions import PikError
-from .columns import blueprint_entities, components_of, send_blueprint_entities
-from .paths import PATHS, EntityPaths
+from pik_mj.exceptions import PikError
+from pik_mj.record.columns import blueprint_entities, components_of, send_blueprint_entities
+from pik_mj.record.paths import PATHS, EntityPaths
 
 __all__ = [
     "Framing",

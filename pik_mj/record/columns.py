@@ -33,10 +33,10 @@ from rerun import bindings
 from rerun.chunk import Chunk
 from rerun.recording_stream import RecordingStream, get_application_id
 
-from ..exceptions import PikError
+from pik_mj.exceptions import PikError
 
 if TYPE_CHECKING:
-    from .geometry import BodyFrames, GeomGroup
+    from pik_mj.record.geometry import BodyFrames, GeomGroup
 
 __all__ = [
     "ARROW",

@@ -36,8 +36,8 @@ import numpy as np
 import numpy.typing as npt
 import rerun as rr
 
-from . import style
-from .paths import path_part
+from pik_mj.record import style
+from pik_mj.record.paths import path_part
 
 __all__ = [
     "BODY_MARKER_RADIUS",

@@ -28,16 +28,16 @@ import mujoco
 import numpy as np
 import rerun as rr
 
-from ..balance import halfplanes_from_polygon, inset_vertices
-from ..exceptions import InvalidInput
-from ..tasks.com import CentroidTask, robot_root_body
-from ..tasks.frame import FrameTask
-from ..tasks.scfr import ScfrTask
-from . import style
+from pik_mj.balance import halfplanes_from_polygon, inset_vertices
+from pik_mj.exceptions import InvalidInput
+from pik_mj.record import style
+from pik_mj.tasks.com import CentroidTask, robot_root_body
+from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.scfr import ScfrTask
 
 if TYPE_CHECKING:
-    from ..solve import IterationInfo, SolveResult
-    from .recorder import Recorder
+    from pik_mj.record.recorder import Recorder
+    from pik_mj.solve import IterationInfo, SolveResult
 
 __all__ = [
     "HoldLogger",
@@ -409,13 +409,13 @@ class HoldLogger:
 
 
 def log_sensors(recorder: Recorder, sensors: Any, model: Any, data: Any) -> None:
-    """Log the readings of :class:`pik_mj.sensors.RobotSensors` in ``data`` at
+    """Log the readings of :class:`pik_mj.robot.sensors.RobotSensors` in ``data`` at
     the current time (MuJoCo's ``sensordata``: computed in the last
     ``mj_step``/``mj_forward``):
 
     * each force sensor's contact force ``|f|`` [N] (the wrench the environment
       applies behind it, its distal part's weight compensated:
-      :meth:`~pik_mj.sensors.ForceSensor.contact_wrench`) at
+      :meth:`~pik_mj.robot.sensors.ForceSensor.contact_wrench`) at
       ``sensors/force/<site>``;
     * each bumper's touch force [N] at ``sensors/touch/<site>`` and its state
       (1 = on, the seed's reading) at ``sensors/bumper/<site>``;
@@ -455,7 +455,7 @@ class MotionLogger(HoldLogger):
       reference), ``motion/slip``, ``motion/margin`` and
       ``motion/frame_error/<frame>`` [m];
     * with ``sensors``, the robot's sensors (:func:`log_sensors`);
-    * each of ``cameras`` (:class:`pik_mj.camera.Camera` of the robot) as a
+    * each of ``cameras`` (:class:`pik_mj.robot.camera.Camera` of the robot) as a
       pinhole at its pose, and every ``image_every`` seconds its image rendered
       by MuJoCo; where rendering is unavailable a text line says why, once.
 
@@ -498,7 +498,7 @@ class MotionLogger(HoldLogger):
         return sample.model is not self._model
 
     def _begin(self, sample: HoldSample) -> None:
-        from ..sensors import RobotSensors
+        from pik_mj.robot.sensors import RobotSensors
 
         rec = self.recorder
         rec._begin_sim(sample.model, sample.data, float(sample.time))
@@ -542,7 +542,7 @@ class MotionLogger(HoldLogger):
             rec.log_camera(camera, sample.data, image)
 
     def _render(self, sample: HoldSample, camera: Any) -> np.ndarray | None:
-        from ..camera import CameraRenderer, RenderingUnavailable
+        from pik_mj.robot.camera import CameraRenderer, RenderingUnavailable
 
         if self._no_rendering is not None:
             return None
@@ -654,9 +654,9 @@ def log_walk(recorder: Recorder, pattern: Any, report: Any) -> None:
     Ground overlays are drawn :attr:`Recorder.lift` above the plan's ground
     plane.
     """
-    from ..balance import convex_hull_2d
-    from ..walking.gait import DOUBLE_SUPPORT
-    from ..walking.wholebody import sole_corners, support_margin
+    from pik_mj.balance import convex_hull_2d
+    from pik_mj.walking.gait import DOUBLE_SUPPORT
+    from pik_mj.walking.wholebody import sole_corners, support_margin
 
     rec, paths, plan = recorder, recorder.paths, pattern.plan
     z = float(plan.ground_z) + rec.lift

@@ -13,7 +13,7 @@ import numpy as np
 import pyarrow as pa
 from rerun.chunk import RrdReader
 
-from ..exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, UnknownName
 
 __all__ = ["BlueprintLayout", "EntityData", "ViewLayout", "read_blueprint", "read_recording"]
 

@@ -49,11 +49,11 @@ import numpy.typing as npt
 import rerun as rr
 import rerun.blueprint as rrb
 
-from .. import inputs
-from ..exceptions import InvalidInput, PikError, UnknownName
-from . import geometry, style
-from .blueprint import Framing, blueprint, blueprint_for, send_blueprint_for
-from .columns import (
+from pik_mj import inputs
+from pik_mj.exceptions import InvalidInput, PikError, UnknownName
+from pik_mj.record import geometry, style
+from pik_mj.record.blueprint import Framing, blueprint, blueprint_for, send_blueprint_for
+from pik_mj.record.columns import (
     ARROW,
     BODY_FRAME,
     INSTANCE_POSES,
@@ -65,9 +65,9 @@ from .columns import (
     RowKind,
     pose_batches_of,
 )
-from .geometry import BodyFrames, InstancePoses
-from .loggers import HoldLogger, MotionLogger, SolveLogger, log_walk
-from .paths import PATHS, TIMELINES, EntityPaths
+from pik_mj.record.geometry import BodyFrames, InstancePoses
+from pik_mj.record.loggers import HoldLogger, MotionLogger, SolveLogger, log_walk
+from pik_mj.record.paths import PATHS, TIMELINES, EntityPaths
 
 __all__ = ["Recorder"]
 
@@ -267,7 +267,7 @@ class Recorder:
         """A callback for ``scene.play(..., callback=...)`` that logs every
         ``every``-th sample on ``sim_time``: the physical robot, the IK
         reference beside it (``reference``), the tracking series, the sensors
-        (``sensors``), the ``cameras`` (:class:`pik_mj.camera.Camera`) as
+        (``sensors``), the ``cameras`` (:class:`pik_mj.robot.camera.Camera`) as
         pinholes with an image every ``image_every`` seconds where MuJoCo can
         render; its ``finish(report)`` logs the waypoints' times. See
         :class:`~pik_mj.record.loggers.MotionLogger`."""
@@ -374,11 +374,11 @@ class Recorder:
                 self._append((group.path,), instances[0], INSTANCE_POSES[group.archetype])
 
     def log_camera(self, camera: Any, data: mujoco.MjData, image: np.ndarray | None = None) -> str:
-        """Log ``camera`` (:class:`pik_mj.camera.Camera`) as a pinhole at its pose
+        """Log ``camera`` (:class:`pik_mj.robot.camera.Camera`) as a pinhole at its pose
         in ``data`` (kinematics and ``mj_camlight`` current) at the current
-        time, with ``image`` (RGB uint8) if given (:func:`pik_mj.camera.log_camera`).
+        time, with ``image`` (RGB uint8) if given (:func:`pik_mj.robot.camera.log_camera`).
         Returns the pinhole's path."""
-        from ..camera import log_camera
+        from pik_mj.robot.camera import log_camera
 
         self._check_open()
         self._sync_stream_time()

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..exceptions import InvalidInput, PikError
+from pik_mj.exceptions import InvalidInput, PikError
 
 __all__ = ["Shot", "main", "screenshots"]
 

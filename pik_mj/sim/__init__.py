@@ -13,13 +13,13 @@ the static check, the physics hold, and the guard around MuJoCo's steps.
 * :mod:`.validate` — :func:`validate_pose` (``pik-mj validate``).
 """
 
-from .environment import add_box, add_wall, floor_environment
-from .guard import StateGuard, mujoco_warnings
-from .hold import HoldCriteria, HoldReport, HoldSample
-from .motion import MotionReport, Waypoints
-from .scene import DEFAULT_CONTACT, ContactParams, Grasp, Scene
-from .static import ContactInfo, StaticChecks, StaticReport
-from .validate import balance_report, validate_pose
+from pik_mj.robot.world import add_box, add_wall, floor_environment
+from pik_mj.sim.guard import StateGuard, mujoco_warnings
+from pik_mj.sim.hold import HoldCriteria, HoldReport, HoldSample
+from pik_mj.sim.motion import MotionReport, Waypoints
+from pik_mj.sim.scene import DEFAULT_CONTACT, ContactParams, Grasp, Scene
+from pik_mj.sim.static import ContactInfo, StaticChecks, StaticReport
+from pik_mj.sim.validate import balance_report, validate_pose
 
 __all__ = [
     "DEFAULT_CONTACT",

@@ -33,11 +33,10 @@ from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.dynamics import contact_wrenches
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
-
-from .static import finite_or_none, point_contacts
+from pik_mj.sim.static import finite_or_none, point_contacts
 
 if TYPE_CHECKING:
-    from .scene import External, Scene
+    from pik_mj.sim.scene import External, Scene
 
 __all__ = [
     "HeldPose",

@@ -83,14 +83,12 @@ from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import Frame, names_of
-
-from .hold import HoldCriteria, check_options, holding_torques, track
-from .static import finite_or_none
+from pik_mj.sim.hold import HoldCriteria, check_options, holding_torques, track
+from pik_mj.sim.static import finite_or_none
 
 if TYPE_CHECKING:
+    from pik_mj.sim.scene import External, Scene
     from pik_mj.solve import IterationInfo, SolveResult
-
-    from .scene import External, Scene
 
 __all__ = [
     "DEFAULT_SETTLE",

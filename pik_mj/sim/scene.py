@@ -65,12 +65,10 @@ from numpy.typing import ArrayLike
 from pik_mj import balance, inputs
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.frames import Frame
-from pik_mj.ground import foot_geoms
-from pik_mj.spatial import matrix_to_quat, quat_to_matrix
-
-from .environment import EnvironmentLike, add_floor, attach_environment, has_plane
-from .guard import StateGuard
-from .servos import (
+from pik_mj.robot.ground import foot_geoms
+from pik_mj.robot.world import EnvironmentLike, add_floor, attach_environment, has_plane
+from pik_mj.sim.guard import StateGuard
+from pik_mj.sim.servos import (
     DEFAULT_BANDWIDTH,
     DEFAULT_DAMPING_RATIO,
     position_actuators,
@@ -78,14 +76,14 @@ from .servos import (
     rest_controls,
     servo_gains,
 )
-from .static import ContactInfo, StaticChecks, StaticReport
-from .static import static_check as _static_check
+from pik_mj.sim.static import ContactInfo, StaticChecks, StaticReport
+from pik_mj.sim.static import static_check as _static_check
+from pik_mj.spatial import matrix_to_quat, quat_to_matrix
 
 if TYPE_CHECKING:
     from pik_mj.robot import Robot
-
-    from .hold import HoldCriteria, HoldReport
-    from .motion import MotionReport, PhysicsState, Waypoints
+    from pik_mj.sim.hold import HoldCriteria, HoldReport
+    from pik_mj.sim.motion import MotionReport, PhysicsState, Waypoints
 
 __all__ = ["DEFAULT_CONTACT", "ContactParams", "Grasp", "Scene"]
 
@@ -220,7 +218,7 @@ class Scene:
             the scene added (``<joint>_servo``).
         allowed_contacts: Robot geoms allowed to touch the environment in a hold
             by default.
-        foot_geoms: The robot's foot geoms (:func:`pik_mj.ground.foot_geoms`): a
+        foot_geoms: The robot's foot geoms (:func:`pik_mj.robot.ground.foot_geoms`): a
             hold's foot slip is theirs.
         contact_tolerance: Distance [m] within which :meth:`static_check` counts
             two geoms as touching.
@@ -272,7 +270,7 @@ class Scene:
                 counts two geoms as touching.
             allowed_contacts: Robot geoms allowed to touch the environment in
                 :meth:`hold`; default: the robot's feet
-                (:func:`pik_mj.ground.foot_geoms`).
+                (:func:`pik_mj.robot.ground.foot_geoms`).
             impratio: Ratio of frictional to normal constraint impedance (MuJoCo
                 ``impratio``). With the default elliptic friction cones, 10 keeps
                 the soft-contact creep of a loaded foot below ~0.2 mm/s (1: ~3 mm/s).
@@ -875,7 +873,7 @@ class Scene:
     ) -> HoldReport:
         """Hold ``q`` with the servos for ``duration`` [s] of physics
         (:func:`pik_mj.sim.hold.hold`)."""
-        from .hold import hold
+        from pik_mj.sim.hold import hold
 
         return hold(
             self,
@@ -902,7 +900,7 @@ class Scene:
         physics, the servos tracking it (:func:`pik_mj.sim.motion.play`; options:
         ``max_velocity``, ``settle``, ``criteria``, ``external``, ``callback``,
         ``every``, ``margin_every``, ``feedforward``)."""
-        from .motion import DEFAULT_SPEED, play
+        from pik_mj.sim.motion import DEFAULT_SPEED, play
 
         return play(
             self, path, speed=DEFAULT_SPEED if speed is None else speed, start=start, **options

@@ -23,7 +23,7 @@ from pik_mj import balance, inputs
 from pik_mj.exceptions import InvalidInput
 
 if TYPE_CHECKING:
-    from .scene import External, Scene
+    from pik_mj.sim.scene import External, Scene
 
 __all__ = [
     "ContactInfo",

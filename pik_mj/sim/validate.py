@@ -20,10 +20,9 @@ from numpy.typing import ArrayLike
 from pik_mj import inputs
 from pik_mj.exceptions import UnknownName
 from pik_mj.robot import Robot, RobotSource
-
-from .hold import HoldCriteria, HoldReport
-from .scene import External, GraspLike, Scene
-from .static import StaticReport
+from pik_mj.sim.hold import HoldCriteria, HoldReport
+from pik_mj.sim.scene import External, GraspLike, Scene
+from pik_mj.sim.static import StaticReport
 
 __all__ = ["JOINT_LIMIT_TOLERANCE", "balance_report", "joint_limit_violations", "validate_pose"]
 

@@ -20,10 +20,10 @@ only module that calls it), :mod:`.driver` (Ray), :mod:`.dataset` (Parquet),
 :mod:`.views`, :mod:`.cli`.
 """
 
-from .case import PARAMETERS, STACKS, Worker
-from .dataset import RESULT_FIELDS, UNREPEATABLE, VERDICTS, read_rows
-from .driver import SweepReport, run_sweep
-from .spec import Case, Grid, Sweep, Uniform
+from pik_mj.sweep.case import PARAMETERS, STACKS, Worker
+from pik_mj.sweep.dataset import RESULT_FIELDS, UNREPEATABLE, VERDICTS, read_rows
+from pik_mj.sweep.driver import SweepReport, run_sweep
+from pik_mj.sweep.spec import Case, Grid, Sweep, Uniform
 
 __all__ = [
     "PARAMETERS",

@@ -2,6 +2,6 @@
 
 import sys
 
-from ..cli import main
+from pik_mj.cli import main
 
 raise SystemExit(main(["sweep", *sys.argv[1:]]))

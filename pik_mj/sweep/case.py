@@ -30,13 +30,14 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import InvalidInput
-from ..ik import fullbody_inverse_kinematics, sole_polygons
-from ..robot import Robot
-from ..sim import HoldCriteria, Scene, floor_environment
-from ..sim.environment import FLOOR
-from ..tasks.collision import CollisionAvoidanceTask, collision_pairs
-from ..tasks.support_polygon import SupportPolygonTask
+from pik_mj.exceptions import InvalidInput
+from pik_mj.ik import fullbody_inverse_kinematics
+from pik_mj.robot import Robot
+from pik_mj.robot.ground import sole_polygons
+from pik_mj.robot.world import FLOOR
+from pik_mj.sim import HoldCriteria, Scene, floor_environment
+from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs
+from pik_mj.tasks.support_polygon import SupportPolygonTask
 
 DEFAULT_HAND = "rarm"
 DEFAULT_MARGIN = 0.02  # [m] CoM kept this far inside the support polygon (balanced)

@@ -34,12 +34,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import inputs
-from ..exceptions import InvalidInput
-from ..scenario import count, positive
-from .case import PARAMETERS, REQUIRED, STACKS, standing_robot
-from .dataset import Dataset
-from .spec import Grid, Sweep, Uniform
+from pik_mj import inputs
+from pik_mj.exceptions import InvalidInput
+from pik_mj.scenario import count, positive
+from pik_mj.sweep.case import PARAMETERS, REQUIRED, STACKS, standing_robot
+from pik_mj.sweep.dataset import Dataset
+from pik_mj.sweep.spec import Grid, Sweep, Uniform
 
 DEFAULT_BOX = {"x": (0.2, 0.7), "y": (-0.5, 0.2), "z": (0.2, 1.3)}  # [m]
 DEFAULT_RANDOM = 100
@@ -187,8 +187,8 @@ def check(args: argparse.Namespace) -> Sweep:
 
 def run(args: argparse.Namespace) -> int:
     """Body of ``pik-mj sweep`` (options checked first); returns the exit status."""
-    from .driver import run_sweep
-    from .views import write_views
+    from pik_mj.sweep.driver import run_sweep
+    from pik_mj.sweep.views import write_views
 
     sweep = check(args)
     report = run_sweep(

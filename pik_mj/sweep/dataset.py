@@ -31,8 +31,8 @@ import pyarrow as pa
 import pyarrow.dataset as pads
 import pyarrow.parquet as pq
 
-from ..exceptions import InvalidInput
-from .spec import Case, Sweep
+from pik_mj.exceptions import InvalidInput
+from pik_mj.sweep.spec import Case, Sweep
 
 SWEEP_FILE = "sweep.json"
 RUNS_FILE = "runs.jsonl"

@@ -38,11 +38,11 @@ from typing import Any
 
 import pyarrow as pa
 
-from .. import inputs
-from ..exceptions import InvalidInput, PikError
-from .case import Worker
-from .dataset import Dataset, make_row
-from .spec import Case, Sweep
+from pik_mj import inputs
+from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.sweep.case import Worker
+from pik_mj.sweep.dataset import Dataset, make_row
+from pik_mj.sweep.spec import Case, Sweep
 
 OBJECT_STORE_BYTES = 128 * 2**20  # a local instance's object store: rows are small
 
@@ -122,7 +122,7 @@ class SweepReport:
 
     def summary(self) -> str:
         """What ran, and :func:`pik_mj.sweep.views.summary_table` of every row."""
-        from .views import summary_table
+        from pik_mj.sweep.views import summary_table
 
         head = f"sweep {self.path}: {len(self.table)}/{len(self.sweep)} cases; "
         if self.ran:

@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from .. import inputs
-from ..exceptions import InvalidInput, UnknownName
-from .case import DEFAULT_HAND, PARAMETERS, REQUIRED, STACKS
+from pik_mj import inputs
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.sweep.case import DEFAULT_HAND, PARAMETERS, REQUIRED, STACKS
 
 
 def _name(name: Any) -> str:
@@ -175,7 +175,7 @@ class Sweep:
     Args:
         space: The parameter points (:class:`Grid` or :class:`Uniform`); must set
             the hand target ``x``, ``y``, ``z``.
-        robots: Robot model names (or MJCF paths) of :func:`pik_mj.models.load_spec`.
+        robots: Robot model names (or MJCF paths) of :func:`pik_mj.robot.loading.load_spec`.
         stacks: Stack names, see :data:`pik_mj.sweep.case.STACKS`.
         seed: Sweep seed.
         hold: Duration of each physics hold [s].

@@ -23,10 +23,10 @@ import mujoco
 import numpy as np
 import pyarrow as pa
 
-from ..exceptions import InvalidInput
-from .case import REQUIRED, standing_robot
-from .dataset import VERDICTS
-from .spec import Grid, Sweep
+from pik_mj.exceptions import InvalidInput
+from pik_mj.sweep.case import REQUIRED, standing_robot
+from pik_mj.sweep.dataset import VERDICTS
+from pik_mj.sweep.spec import Grid, Sweep
 
 COLORS = {
     "validated": (44, 160, 44),
@@ -253,7 +253,7 @@ def log_map(
     import rerun as rr
     import rerun.blueprint as rrb
 
-    from ..record import Recorder
+    from pik_mj.record import Recorder
 
     robot, rows = _robot_rows(table, sweep, robot)
     if radius <= 0:

@@ -14,18 +14,18 @@ and from irteus (seed 001): :class:`CollisionAvoidanceTask`, :class:`LookAtTask`
 :class:`LinearTask` (the additional-Jacobian hook).
 """
 
-from .collision import CollisionAvoidanceTask
-from .com import CentroidTask
-from .frame import FrameTask
-from .joint_coupling import JointCouplingTask
-from .joint_limit import JointLimitTask
-from .joint_velocity import JointVelocityTask
-from .linear import LinearTask
-from .look_at import LookAtTask
-from .mink_adapter import MinkLimit, MinkTask, as_task
-from .scfr import AttachedContact, ScfrTask
-from .support_polygon import SupportPolygonTask
-from .task import Task, TaskRows
+from pik_mj.tasks.collision import CollisionAvoidanceTask
+from pik_mj.tasks.com import CentroidTask
+from pik_mj.tasks.frame import FrameTask
+from pik_mj.tasks.joint_coupling import JointCouplingTask
+from pik_mj.tasks.joint_limit import JointLimitTask
+from pik_mj.tasks.joint_velocity import JointVelocityTask
+from pik_mj.tasks.linear import LinearTask
+from pik_mj.tasks.look_at import LookAtTask
+from pik_mj.tasks.mink_adapter import MinkLimit, MinkTask, as_task
+from pik_mj.tasks.scfr import AttachedContact, ScfrTask
+from pik_mj.tasks.support_polygon import SupportPolygonTask
+from pik_mj.tasks.task import Task, TaskRows
 
 __all__ = [
     "AttachedContact",

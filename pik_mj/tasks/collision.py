@@ -54,10 +54,10 @@ import mink
 import mujoco
 import numpy as np
 
-from ..exceptions import InvalidInput, UnknownName
-from ..frames import names_of
-from .joint_limit import find_joint
-from .task import Task, TaskRows, TaskState
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.frames import names_of
+from pik_mj.tasks.joint_limit import find_joint
+from pik_mj.tasks.task import Task, TaskRows, TaskState
 
 DEFAULT_YELLOW = 0.2
 """Seed ``avoid-collision-distance`` [m] (200 mm)."""

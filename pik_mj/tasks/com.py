@@ -29,10 +29,10 @@ import mink
 import mujoco
 import numpy as np
 
-from ..exceptions import InvalidInput
-from ..frames import Frame, robot_root_body
-from .frame import AxisSpec, constrained_axes, rotation_matrix, skew
-from .task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame, robot_root_body
+from pik_mj.tasks.frame import AxisSpec, constrained_axes, rotation_matrix, skew
+from pik_mj.tasks.task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]
 

@@ -68,9 +68,9 @@ try:  # mink's compiled SE(3) operations, the ones its own FrameTask calls
 except ImportError:  # (a mink built without them: its tasks' Python path)
     _mink_lie = None
 
-from ..exceptions import InvalidInput
-from ..frames import Frame
-from .task import (
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame
+from pik_mj.tasks.task import (
     EqualityTask,
     TaskRows,
     TaskState,

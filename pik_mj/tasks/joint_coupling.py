@@ -18,9 +18,9 @@ from __future__ import annotations
 import mink
 import numpy as np
 
-from ..exceptions import InvalidInput
-from .joint_limit import DEFAULT_CHECK_MARGIN, JointRef, find_joint
-from .task import EqualityTask, diagonal_weights
+from pik_mj.exceptions import InvalidInput
+from pik_mj.tasks.joint_limit import DEFAULT_CHECK_MARGIN, JointRef, find_joint
+from pik_mj.tasks.task import EqualityTask, diagonal_weights
 
 JointOrValue = str | float
 

@@ -33,8 +33,8 @@ import mink
 import mujoco
 import numpy as np
 
-from ..exceptions import InvalidInput, UnknownName
-from .task import Task, TaskRows, diagonal_weights
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.tasks.task import Task, TaskRows, diagonal_weights
 
 JOINT_TYPES = {
     int(mujoco.mjtJoint.mjJNT_FREE): "free",

@@ -18,9 +18,9 @@ from collections.abc import Sequence
 import mink
 import numpy as np
 
-from ..exceptions import InvalidInput
-from .joint_limit import joint_list, per_entry
-from .task import Task, TaskRows, diagonal_weights
+from pik_mj.exceptions import InvalidInput
+from pik_mj.tasks.joint_limit import joint_list, per_entry
+from pik_mj.tasks.task import Task, TaskRows, diagonal_weights
 
 DEFAULT_PERIODIC_TIME = 0.05
 """Seed default ``periodic-time`` [s]."""

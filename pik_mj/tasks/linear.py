@@ -17,8 +17,8 @@ from typing import Any
 import mink
 import numpy as np
 
-from ..exceptions import InvalidInput
-from .task import Task, TaskRows, TaskState
+from pik_mj.exceptions import InvalidInput
+from pik_mj.tasks.task import Task, TaskRows, TaskState
 
 RowsFn = Callable[[mink.Configuration], TaskRows]
 

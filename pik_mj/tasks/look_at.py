@@ -31,10 +31,10 @@ from typing import Any
 import mink
 import numpy as np
 
-from ..exceptions import InvalidInput
-from ..frames import Frame
-from .frame import ONE_DEGREE, skew
-from .task import EqualityTask, clamp_norm, diagonal_weights
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame
+from pik_mj.tasks.frame import ONE_DEGREE, skew
+from pik_mj.tasks.task import EqualityTask, clamp_norm, diagonal_weights
 
 
 class LookAtTask(EqualityTask):

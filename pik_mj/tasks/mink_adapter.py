@@ -20,8 +20,8 @@ import mujoco
 import numpy as np
 from mink.tasks.task import BaseTask
 
-from ..exceptions import InvalidInput
-from .task import Task, TaskRows, TaskState, no_equality, no_inequality
+from pik_mj.exceptions import InvalidInput
+from pik_mj.tasks.task import Task, TaskRows, TaskState, no_equality, no_inequality
 
 
 class MinkTask(Task):

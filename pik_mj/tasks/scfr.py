@@ -26,16 +26,11 @@ from typing import Any
 import mink
 import numpy as np
 
-from ..balance import (
-    ContactConstraint,
-    ExternalWrench,
-    Region,
-    scfr,
-)
-from ..exceptions import InvalidInput, PikError
-from ..frames import Frame
-from .com import com_jacobian, com_position, robot_root_body, vector3
-from .task import Task, TaskRows
+from pik_mj.balance import ContactConstraint, ExternalWrench, Region, scfr
+from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.frames import Frame
+from pik_mj.tasks.com import com_jacobian, com_position, robot_root_body, vector3
+from pik_mj.tasks.task import Task, TaskRows
 
 ExternalSpec = Sequence[ExternalWrench] | Callable[[mink.Configuration], Sequence[ExternalWrench]]
 

@@ -34,12 +34,12 @@ from typing import Any
 import mink
 import numpy as np
 
-from ..balance import SupportRegion, convex_hull_2d, plane_basis, support_polygon
-from ..exceptions import InvalidInput
-from ..frames import Frame
-from .com import com_jacobian, com_position, robot_root_body
-from .frame import skew
-from .task import Task, TaskRows
+from pik_mj.balance import SupportRegion, convex_hull_2d, plane_basis, support_polygon
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame
+from pik_mj.tasks.com import com_jacobian, com_position, robot_root_body
+from pik_mj.tasks.frame import skew
+from pik_mj.tasks.task import Task, TaskRows
 
 PolygonSpec = Any
 """``(k, 3)`` world points, or ``(frame_name, (k, 3) local points[, frame_type])``."""

@@ -23,7 +23,7 @@ from typing import NamedTuple
 import mink
 import numpy as np
 
-from ..exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput
 
 
 class TaskRows(NamedTuple):

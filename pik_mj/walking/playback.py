@@ -25,7 +25,7 @@ the floor contact forces (all contact points lie on the floor plane, so it is
 their force-weighted centre, :math:`p = \\sum_i f_{z,i} p_i / \\sum_i f_{z,i}`),
 and the ZMP from the feet's force sensors (the robot's MJCF ``force``/``torque``
 sensors on the sole sites, seed ``:calc-zmp-from-forces-moments``:
-:func:`pik_mj.sensors.zmp_from_force_sensors`), what a robot measures.
+:func:`pik_mj.robot.sensors.zmp_from_force_sensors`), what a robot measures.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_dista
 from pik_mj.dynamics import joint_torques, root_wrench
 from pik_mj.exceptions import InvalidInput
 from pik_mj.record import Recorder
-from pik_mj.sensors import RobotSensors, zmp_from_force_sensors
+from pik_mj.robot.sensors import RobotSensors, zmp_from_force_sensors
 from pik_mj.sim import ContactParams, Scene
 from pik_mj.spatial import yaw_of
 from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle

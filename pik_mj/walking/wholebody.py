@@ -29,8 +29,8 @@ import numpy as np
 from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_distance
 from pik_mj.dynamics import zmp_of_motion
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.ground import sole_size
 from pik_mj.robot import Robot
+from pik_mj.robot.ground import sole_size
 from pik_mj.solve import solve
 from pik_mj.spatial import rot_z, yaw_of
 from pik_mj.tasks.com import CentroidTask
@@ -56,7 +56,7 @@ DEFAULT_FEET: dict[str, str] = {"rleg": "rleg_end", "lleg": "lleg_end"}
 
 def sole_corners(p_W: np.ndarray, yaw: float, size: Sequence[float]) -> np.ndarray:
     """Corners (4, 2) [m] of a sole rectangle ``size`` (length, width) [m] centred
-    on the sole frame (:func:`pik_mj.ground.sole_size` measures a robot's)."""
+    on the sole frame (:func:`pik_mj.robot.ground.sole_size` measures a robot's)."""
     hx, hy = 0.5 * float(size[0]), 0.5 * float(size[1])
     local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
     return np.asarray(p_W, dtype=float)[:2] + local @ rot_z(yaw)[:2, :2].T

@@ -4,8 +4,8 @@
 Both functions build a stack of levels for :func:`pik_mj.solve.solve` and run it:
 
 * :func:`inverse_kinematics` — level 0: joint limits, the MJCF couplings
-  (:class:`~pik_mj.couplings.CouplingTask`, when the model has any), and every degree of freedom
-  outside the used chains frozen (hard ``x_i = 0``; a floating base stays where it
+  (:class:`~pik_mj.robot.couplings.CouplingTask`, when the model has any), and every
+  degree of freedom outside the used chains frozen (hard ``x_i = 0``; a floating base stays where it
   is); then the ``collision_avoidance`` tasks (if any, above the targets); one
   frame task per target; look-at (if any); the caller's ``extra_levels``; last:
   posture towards the start (not checked).
@@ -43,22 +43,22 @@ import mink
 import mujoco
 import numpy as np
 
-from . import dynamics, inputs
-from .callbacks import Callback
-from .couplings import CouplingTask, find_couplings
-from .exceptions import InvalidInput
-from .frames import Frame
-from .ground import sole_polygons
-from .robot import Robot
-from .solve import SolveResult, solve
-from .tasks.com import CentroidTask
-from .tasks.frame import ONE_DEGREE, FrameTask, as_pose, constrained_axes
-from .tasks.joint_limit import JointLimitTask
-from .tasks.linear import LinearTask
-from .tasks.look_at import LookAtTask
-from .tasks.mink_adapter import MinkTask
-from .tasks.support_polygon import SupportPolygonTask
-from .tasks.task import Task
+from pik_mj import dynamics, inputs
+from pik_mj.callbacks import Callback
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame
+from pik_mj.robot import Robot
+from pik_mj.robot.couplings import CouplingTask, find_couplings
+from pik_mj.robot.ground import sole_polygons
+from pik_mj.solve import SolveResult, solve
+from pik_mj.tasks.com import CentroidTask
+from pik_mj.tasks.frame import ONE_DEGREE, FrameTask, as_pose, constrained_axes
+from pik_mj.tasks.joint_limit import JointLimitTask
+from pik_mj.tasks.linear import LinearTask
+from pik_mj.tasks.look_at import LookAtTask
+from pik_mj.tasks.mink_adapter import MinkTask
+from pik_mj.tasks.support_polygon import SupportPolygonTask
+from pik_mj.tasks.task import Task
 
 __all__ = [
     "DEFAULT_ROOT_BOUNDS",
@@ -416,7 +416,7 @@ def _tasks(value: Any, what: str) -> list[Any]:
 
 
 def _couplings(robot: Robot, used: set[str]) -> tuple[list[Task], set[str]]:
-    """The model's MJCF couplings as a :class:`~pik_mj.couplings.CouplingTask` (none
+    """The model's MJCF couplings as a :class:`~pik_mj.robot.couplings.CouplingTask` (none
     without any), and ``used`` grown by every joint coupled to a used one: a
     coupled joint moves with its partner, it is not frozen."""
     found = find_couplings(robot.model).couplings

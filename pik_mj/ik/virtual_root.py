@@ -30,11 +30,11 @@ import mink
 import mujoco
 import numpy as np
 
-from .exceptions import InvalidInput
-from .models import load_spec
-from .sim.guard import ATTACH_WARNINGS, mujoco_warnings
-from .solve import SolveResult, solve
-from .tasks.com import robot_root_body
+from pik_mj.exceptions import InvalidInput
+from pik_mj.robot.loading import load_spec
+from pik_mj.sim.guard import ATTACH_WARNINGS, mujoco_warnings
+from pik_mj.solve import SolveResult, solve
+from pik_mj.tasks.com import robot_root_body
 
 VIRTUAL_ROOT = "virtual_root"
 """Default name of the added free joint (and of the wrapper body when one is needed)."""
@@ -139,7 +139,7 @@ def with_virtual_root(
     """The model with a free joint at the robot's root.
 
     Args:
-        source: A model name (:func:`pik_mj.models.load_spec`), an MJCF path or a
+        source: A model name (:func:`pik_mj.robot.loading.load_spec`), an MJCF path or a
             :class:`mujoco.MjSpec` (copied, never modified).
         root_body: The robot's top-level body; default as
             :func:`pik_mj.tasks.com.robot_root_body`.

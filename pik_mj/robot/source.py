@@ -13,9 +13,9 @@ from typing import Any
 
 import mujoco
 
-from pik_mj.description import RobotDescription
 from pik_mj.exceptions import InvalidInput
-from pik_mj.models import model_path
+from pik_mj.robot.description import RobotDescription
+from pik_mj.robot.loading import model_path
 
 __all__ = ["ModelLike", "RobotSource", "source_description", "source_name"]
 
@@ -33,10 +33,10 @@ class RobotSource:
         at: Placement: a site of the environment, ``(x, y, yaw)`` or
             ``(x, y, z, yaw)`` [m, rad], or None.
         keyframe: The start pose's keyframe (name or index), or None
-            (:func:`pik_mj.keyframes.choose_keyframe`).
+            (:func:`pik_mj.robot.keyframes.choose_keyframe`).
         root_body: The robot's top-level body, or None (:func:`pik_mj.frames.robot_root_body`).
         description: The robot description file (absolute path) or a
-            :class:`~pik_mj.description.RobotDescription`, or None.
+            :class:`~pik_mj.robot.description.RobotDescription`, or None.
     """
 
     model: ModelLike

@@ -58,9 +58,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from .dynamics import _zmp_from_wrench
-from .exceptions import InvalidInput, UnknownName
-from .frames import names_of
+from pik_mj.dynamics import _zmp_from_wrench
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.frames import names_of
 
 __all__ = [
     "DEFAULT_BUMPER_THRESHOLD",

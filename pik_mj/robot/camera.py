@@ -60,8 +60,8 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .exceptions import InvalidInput, PikError, UnknownName
-from .frames import Frame
+from pik_mj.exceptions import InvalidInput, PikError, UnknownName
+from pik_mj.frames import Frame
 
 __all__ = [
     "DEFAULT_SIZE",

@@ -48,12 +48,12 @@ import mink
 import mujoco
 import numpy as np
 
-from . import inputs
-from .callbacks import Callback, as_callbacks
-from .checks import check_configuration
-from .exceptions import InvalidInput, UnknownName
-from .solve import IterationInfo, SolveResult, evaluate_levels, revert_unless_converged
-from .tasks.frame import ONE_DEGREE, FrameTask
+from pik_mj import inputs
+from pik_mj.callbacks import Callback, as_callbacks
+from pik_mj.checks import check_configuration
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.solve import IterationInfo, SolveResult, evaluate_levels, revert_unless_converged
+from pik_mj.tasks.frame import ONE_DEGREE, FrameTask
 
 METHODS = ("sr-inverse", "pseudo-inverse")
 

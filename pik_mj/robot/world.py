@@ -29,10 +29,9 @@ from numpy.typing import ArrayLike
 
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.inputs import Q_LIMIT
-from pik_mj.models import load_spec
+from pik_mj.robot.loading import load_spec
+from pik_mj.sim.guard import ATTACH_WARNINGS, mujoco_warnings
 from pik_mj.spatial import quat_mul, rot_z, yaw_of, yaw_quat
-
-from .guard import ATTACH_WARNINGS, mujoco_warnings
 
 __all__ = [
     "EnvironmentLike",

@@ -17,7 +17,7 @@ Names accepted by :func:`model_path`, :func:`load_spec` and :func:`load_model`:
 
 Any other argument is taken as a path to an MJCF file. A robot placed in an
 environment is composed by :meth:`pik_mj.Robot.from_model`
-(:mod:`pik_mj.sim.environment`).
+(:mod:`pik_mj.robot.world`).
 """
 
 from __future__ import annotations
@@ -166,7 +166,7 @@ def model_path(name_or_path: str | os.PathLike[str]) -> Path:
     near = difflib.get_close_matches(str(name_or_path), menagerie_models(), n=3)
     err = UnknownName("model", str(name_or_path), [*available_models(), *near])
     err.args = (
-        f"{err.args[0]}, or any MuJoCo Menagerie robot (pik_mj.models.menagerie_models()), "
+        f"{err.args[0]}, or any MuJoCo Menagerie robot (pik_mj.robot.loading.menagerie_models()), "
         "or an MJCF path",
     )
     raise err

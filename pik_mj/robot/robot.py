@@ -13,13 +13,13 @@ end-effector frames, mass, centroid and centroid Jacobian. MuJoCo computes all
 kinematics.
 
 Any MJCF is taken as it is shipped: the start pose is a keyframe chosen by
-:func:`pik_mj.keyframes.choose_keyframe`; a floating-base robot's start pose
+:func:`pik_mj.robot.keyframes.choose_keyframe`; a floating-base robot's start pose
 stands on the floor z = 0, its lowest collision geom touching the plane
 (dm_control's humanoids start 0.2 m up, Robotis OP3's zero pose floats 21 mm:
 they are lowered), so the IK's world and the physics' world are the same; the
-limbs are found from the kinematic tree (:func:`pik_mj.limbs.find_limbs`), and
+limbs are found from the kinematic tree (:func:`pik_mj.robot.limbs.find_limbs`), and
 what the tree does not tell is written in a robot description
-(:mod:`pik_mj.description`).
+(:mod:`pik_mj.robot.description`).
 """
 
 from __future__ import annotations
@@ -34,15 +34,21 @@ import mujoco
 import numpy as np
 
 from pik_mj import inputs
-from pik_mj.camera import Camera
-from pik_mj.description import RobotDescription, load_description, robot_limbs
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import robot_root_body
-from pik_mj.ground import NoCollisionGeometry, floor_gap, foot_geoms, sole_normal, subtree_bodies
-from pik_mj.keyframes import choose_keyframe
-from pik_mj.limbs import LIMB_NAMES, Limb, LimbsNotFound, find_limbs
-from pik_mj.robot_source import ModelLike, RobotSource, source_description, source_name
-from pik_mj.sensors import Bumper, ForceSensor, Imu, RobotSensors
+from pik_mj.robot.camera import Camera
+from pik_mj.robot.description import RobotDescription, load_description, robot_limbs
+from pik_mj.robot.ground import (
+    NoCollisionGeometry,
+    floor_gap,
+    foot_geoms,
+    sole_normal,
+    subtree_bodies,
+)
+from pik_mj.robot.keyframes import choose_keyframe
+from pik_mj.robot.limbs import LIMB_NAMES, Limb, LimbsNotFound, find_limbs
+from pik_mj.robot.sensors import Bumper, ForceSensor, Imu, RobotSensors
+from pik_mj.robot.source import ModelLike, RobotSource, source_description, source_name
 
 __all__ = ["Limb", "LimbsNotFound", "Robot", "RobotSource", "robot_root_body"]
 
@@ -107,12 +113,12 @@ class Robot:
             description's, else :func:`robot_root_body`).
         limbs: Explicit limb table ``{name: Limb}``; None: the description's
             limbs, the others found from the kinematic tree in the start pose
-            (:func:`pik_mj.description.robot_limbs`; none required).
+            (:func:`pik_mj.robot.description.robot_limbs`; none required).
         keyframe: Keyframe of the start pose (:meth:`reset_pose`), by name or
             index (default: the description's, else
-            :func:`pik_mj.keyframes.choose_keyframe`).
+            :func:`pik_mj.robot.keyframes.choose_keyframe`).
         description: What a robot description file states
-            (:class:`~pik_mj.description.RobotDescription`), or None.
+            (:class:`~pik_mj.robot.description.RobotDescription`), or None.
 
     Attributes:
         model: The compiled model.
@@ -124,9 +130,9 @@ class Robot:
             put (``at``), or None.
         keyframe: The start pose's keyframe (:meth:`reset_pose`): name, index of an
             unnamed one, or None for ``qpos0``.
-        keyframe_rule: Why that keyframe (:func:`pik_mj.keyframes.choose_keyframe`).
+        keyframe_rule: Why that keyframe (:func:`pik_mj.robot.keyframes.choose_keyframe`).
         description: The robot description, or None.
-        limbs: ``{name: Limb}``, in the order of :data:`pik_mj.limbs.LIMB_NAMES`.
+        limbs: ``{name: Limb}``, in the order of :data:`pik_mj.robot.limbs.LIMB_NAMES`.
 
     Raises:
         UnknownName: ``root_body``, ``keyframe`` or a limb's joint/frame does not exist.
@@ -200,7 +206,7 @@ class Robot:
     def keyframe(self) -> str | int | None:
         """The start pose's keyframe (:meth:`reset_pose`): its name, its index when it
         has none, or None for ``qpos0``; chosen by
-        :func:`pik_mj.keyframes.choose_keyframe` (:attr:`keyframe_rule` says why)."""
+        :func:`pik_mj.robot.keyframes.choose_keyframe` (:attr:`keyframe_rule` says why)."""
         if self._key_index is None:
             return None
         return self.model.key(self._key_index).name or self._key_index
@@ -220,26 +226,26 @@ class Robot:
     ) -> Robot:
         """The robot of ``model``, standing in its world, its MJCF as it is shipped.
 
-        Its start pose is a keyframe (:func:`pik_mj.keyframes.choose_keyframe`:
+        Its start pose is a keyframe (:func:`pik_mj.robot.keyframes.choose_keyframe`:
         the one named, else one named like a standing pose, else the first, else
         ``qpos0``), its limbs are found from the kinematic tree in that pose
-        (:func:`pik_mj.limbs.find_limbs`), and what the tree does not tell can be
-        described (``description``, :mod:`pik_mj.description`). Elements the
-        MJCF leaves unnamed get names (:func:`pik_mj.sim.environment.name_unnamed`).
+        (:func:`pik_mj.robot.limbs.find_limbs`), and what the tree does not tell can be
+        described (``description``, :mod:`pik_mj.robot.description`). Elements the
+        MJCF leaves unnamed get names (:func:`pik_mj.robot.world.name_unnamed`).
 
         The robot's spec is the host of its world: the robot's top-level body is
-        placed at ``at`` (:func:`pik_mj.sim.environment.place_root`), and the
+        placed at ``at`` (:func:`pik_mj.robot.world.place_root`), and the
         environment is attached into the spec
-        (:func:`pik_mj.sim.environment.attach_environment`), so the robot's
+        (:func:`pik_mj.robot.world.attach_environment`), so the robot's
         ``qpos`` is a prefix of the world's and the robot and the environment's
         objects (e.g. the room's ``kettle_handle`` site) share one world frame. A
         floating-base robot is first moved along z so that its lowest collision
-        geom touches z = 0 at its start pose (:func:`pik_mj.ground.floor_gap`,
+        geom touches z = 0 at its start pose (:func:`pik_mj.robot.ground.floor_gap`,
         when it is farther than :data:`GROUND_TOLERANCE`; Robotis OP3's zero pose
         floats 21 mm), in its qpos0 and its keyframes.
 
         Args:
-            model: Model name (:func:`pik_mj.models.available_models`, a MuJoCo
+            model: Model name (:func:`pik_mj.robot.loading.available_models`, a MuJoCo
                 Menagerie robot such as ``"unitree_g1"``), MJCF path, or an
                 :class:`mujoco.MjSpec` (copied; its source cannot be written to
                 JSON). None: the description's ``model``.
@@ -254,9 +260,9 @@ class Robot:
             limbs: Explicit limb table (default: the description's limbs, the
                 others found from the tree).
             description: A robot description file (``.toml``/``.json``) or a
-                :class:`~pik_mj.description.RobotDescription`.
+                :class:`~pik_mj.robot.description.RobotDescription`.
             required_limbs: Limb names the caller needs: when one is neither
-                described nor found, :class:`~pik_mj.limbs.LimbsNotFound` says so
+                described nor found, :class:`~pik_mj.robot.limbs.LimbsNotFound` says so
                 here, before any work (what was found, how to describe it).
 
         Raises:
@@ -266,7 +272,7 @@ class Robot:
                 or description.
             LimbsNotFound: A limb of ``required_limbs`` is not there.
         """
-        from pik_mj.sim.environment import (
+        from pik_mj.robot.world import (
             as_spec,
             attach_environment,
             name_unnamed,
@@ -369,7 +375,7 @@ class Robot:
 
     def _flat_stance(self, tolerance: float = 1e-4) -> np.ndarray | None:
         """The start configuration with each foot turned so that its sole is
-        horizontal (:func:`pik_mj.ground.sole_normal`), or None when the soles
+        horizontal (:func:`pik_mj.robot.ground.sole_normal`), or None when the soles
         already are within ``tolerance`` [rad] (or there are no legs).
 
         dm_control's humanoid stands in its zero pose on capsules tilted by
@@ -420,7 +426,7 @@ class Robot:
 
     def floor_gap(self) -> float:
         """Height [m] of the robot's lowest collision geom above the floor z = 0 in
-        its current configuration (:func:`pik_mj.ground.floor_gap`; negative: it
+        its current configuration (:func:`pik_mj.robot.ground.floor_gap`; negative: it
         sinks in), NaN for a robot without collision geoms."""
         try:
             return floor_gap(self.model, self.data, self._root_id)
@@ -455,7 +461,7 @@ class Robot:
         return LimbsNotFound(f"the robot has no limb {missing}", self.limbs, [])
 
     def require_limbs(self, names: Sequence[str]) -> None:
-        """Raise :class:`~pik_mj.limbs.LimbsNotFound` (what was found, how to
+        """Raise :class:`~pik_mj.robot.limbs.LimbsNotFound` (what was found, how to
         describe the limbs) unless the robot has every limb in ``names``."""
         if isinstance(names, str):
             names = [names]
@@ -468,7 +474,7 @@ class Robot:
 
         Raises:
             UnknownName: No limb ``name`` (lists the robot's limbs; for a name
-                :func:`~pik_mj.limbs.find_limbs` gives, such as ``larm``, how to
+                :func:`~pik_mj.robot.limbs.find_limbs` gives, such as ``larm``, how to
                 describe it). :meth:`require_limbs` says what the search saw.
         """
         try:
@@ -504,7 +510,7 @@ class Robot:
 
     def sensors(self, limb: str | None = None) -> RobotSensors:
         """The MJCF sensors on the robot's bodies: force/torque sensors, IMUs
-        and bumpers (:class:`pik_mj.sensors.RobotSensors`; seed ``(send robot
+        and bumpers (:class:`pik_mj.robot.sensors.RobotSensors`; seed ``(send robot
         :force-sensors)``), or only those on ``limb``'s bodies (seed ``(send
         robot :rleg :force-sensors)``). An environment's sensors are not the
         robot's.
@@ -536,7 +542,7 @@ class Robot:
     @property
     def cameras(self) -> tuple[Camera, ...]:
         """The perspective MJCF cameras on the robot's bodies, in model order
-        (seed ``:cameras``), each with its MJCF resolution (:class:`pik_mj.camera.Camera`)."""
+        (seed ``:cameras``), each with its MJCF resolution (:class:`pik_mj.robot.camera.Camera`)."""
         mine = set(subtree_bodies(self.model, self._root_id).tolist())
         perspective = int(mujoco.mjtProjection.mjPROJ_PERSPECTIVE)
         return tuple(

@@ -3,8 +3,8 @@
 A few lines of TOML (or the same keys in JSON) name the robot's limbs (by their
 end frame, optionally their joints or first body), the keyframe to stand in,
 the root body and the collision geoms of each sole. Everything left out is
-found as usual (:func:`pik_mj.limbs.find_limbs`, :func:`pik_mj.keyframes.standing_pose`,
-:func:`pik_mj.ground.sole_polygons`)::
+found as usual (:func:`pik_mj.robot.limbs.find_limbs`, :func:`pik_mj.robot.keyframes.standing_pose`,
+:func:`pik_mj.robot.ground.sole_polygons`)::
 
     # h1_description.toml
     model = "unitree_h1"              # a model name or an MJCF path (relative to this file)
@@ -38,10 +38,10 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from .exceptions import InvalidInput
-from .keyframes import StandingPose, standing_pose
-from .limbs import HUMANOID_LIMBS, Limb, find_limbs, limb_from_end
-from .models import _looks_like_path as looks_like_path
+from pik_mj.exceptions import InvalidInput
+from pik_mj.robot.keyframes import StandingPose, standing_pose
+from pik_mj.robot.limbs import HUMANOID_LIMBS, Limb, find_limbs, limb_from_end
+from pik_mj.robot.loading import _looks_like_path as looks_like_path
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -145,7 +145,7 @@ class RobotDescription:
         return out
 
     def standing_pose(self, model: mujoco.MjModel) -> StandingPose:
-        """:func:`pik_mj.keyframes.standing_pose` with this description's keyframe."""
+        """:func:`pik_mj.robot.keyframes.standing_pose` with this description's keyframe."""
         return standing_pose(model, self.keyframe, root_body=self.root_body)
 
 

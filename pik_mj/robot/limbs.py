@@ -1,9 +1,9 @@
 """Limbs found from the kinematic tree of a robot standing on the floor.
 
-In the standing configuration (:func:`pik_mj.keyframes.standing_pose`):
+In the standing configuration (:func:`pik_mj.robot.keyframes.standing_pose`):
 
 * **legs** end in the bodies whose collision geoms touch the floor: those within
-  3 mm (:data:`pik_mj.ground.DEFAULT_TOLERANCE`) of the robot's lowest point, or
+  3 mm (:data:`pik_mj.robot.ground.DEFAULT_TOLERANCE`) of the robot's lowest point, or
   within :data:`FOOT_TOLERANCE` when they turn a line or a face to the floor (a
   heel or a toe lying flat, not the rounded end of a shank). The touching bodies hang
   off one branching body ``L`` (the pelvis; Booster T1's waist); each branch of
@@ -33,7 +33,7 @@ humanoids (tested against them).
 
 When the tree does not give the limbs asked for, :func:`find_limbs` raises
 :class:`LimbsNotFound` before any solve, naming what it found and how to
-describe the limbs instead (:mod:`pik_mj.description`).
+describe the limbs instead (:mod:`pik_mj.robot.description`).
 """
 
 from __future__ import annotations
@@ -45,17 +45,17 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from .exceptions import InvalidInput
-from .frames import Frame, robot_root_body
-from .ground import (
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame, robot_root_body
+from pik_mj.robot.ground import (
     DEFAULT_TOLERANCE,
     NoCollisionGeometry,
     bottom_points,
     geom_heights,
     subtree_bodies,
 )
-from .keyframes import standing_pose
-from .tasks.joint_limit import find_joint
+from pik_mj.robot.keyframes import standing_pose
+from pik_mj.tasks.joint_limit import find_joint
 
 LIMB_NAMES = ("rarm", "larm", "rleg", "lleg", "torso", "head", "arm")
 """Names :func:`find_limbs` gives, in the order a robot lists its limbs."""
@@ -249,7 +249,7 @@ def find_limbs(
     Args:
         model: The robot's model.
         qpos: A configuration standing on the floor (nq,); default
-            :func:`pik_mj.keyframes.standing_pose`.
+            :func:`pik_mj.robot.keyframes.standing_pose`.
         root_body: The robot's top-level body (name or id); default
             :func:`pik_mj.frames.robot_root_body`.
         required: Limb names that must be found (the others are found if they can be).

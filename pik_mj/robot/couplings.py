@@ -29,8 +29,8 @@ import mink
 import mujoco
 import numpy as np
 
-from .exceptions import InvalidInput
-from .tasks.task import Task, TaskRows
+from pik_mj.exceptions import InvalidInput
+from pik_mj.tasks.task import Task, TaskRows
 
 DEFAULT_CHECK_MARGIN = 1e-6
 """``|e|`` [rad or m] the solve loop's stop test tolerates (a first-order QP

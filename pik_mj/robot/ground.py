@@ -35,12 +35,12 @@ from typing import TYPE_CHECKING
 import mujoco
 import numpy as np
 
-from .balance import convex_hull_2d
-from .exceptions import InvalidInput, UnknownName
-from .frames import Frame, names_of
+from pik_mj.balance import convex_hull_2d
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.frames import Frame, names_of
 
 if TYPE_CHECKING:  # the robot layer imports this module, not the other way round
-    from .robot import Robot
+    from pik_mj.robot.robot import Robot
 
 DEFAULT_TOLERANCE = 3e-3
 """Height difference [m] under which two points count as equally low (at rest on

@@ -1,0 +1,21 @@
+"""The robot layer: a MuJoCo model as irteus' robot-model (limbs, end frames, keyframes, soles,
+sensors, cameras, couplings) and the MJCF world it stands in.
+
+* :mod:`.loading` — model names (the project's MJCF, dm_control, MuJoCo Menagerie) to specs.
+* :mod:`.robot` — :class:`Robot`: the model, its limbs and start pose, read and set by name.
+* :mod:`.source` — :class:`RobotSource`: what builds a robot, as JSON.
+* :mod:`.description` — robot description files (limbs, keyframe, soles the tree does not tell).
+* :mod:`.limbs`, :mod:`.keyframes`, :mod:`.ground` — limbs from the kinematic tree, the start
+  pose, what touches the floor.
+* :mod:`.sensors`, :mod:`.camera`, :mod:`.couplings` — MJCF sensors, cameras, joint couplings.
+* :mod:`.world` — environments (floor, room, boxes) attached into a robot's spec.
+
+This layer imports the core only (frames, tasks, solve, balance, dynamics); nothing here runs
+physics or the irteus IK entry points.
+"""
+
+from pik_mj.robot.limbs import Limb
+from pik_mj.robot.robot import GROUND_TOLERANCE, STANDING_KEYFRAME, Robot
+from pik_mj.robot.source import RobotSource
+
+__all__ = ["GROUND_TOLERANCE", "STANDING_KEYFRAME", "Limb", "Robot", "RobotSource"]
