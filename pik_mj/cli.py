@@ -59,7 +59,14 @@ from types import ModuleType
 from typing import Any
 
 from pik_mj import inputs
-from pik_mj.exceptions import InvalidInput, PikError, SimulationUnstable, UnknownName
+from pik_mj.exceptions import (
+    InvalidInput,
+    OptionError,
+    PikError,
+    ScenarioWaiting,
+    SimulationUnstable,
+    UnknownName,
+)
 
 EXIT_PASSED, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 _RECORDING_OPTIONS = ("--save", "--connect", "--serve", "--stdout", "--headless")
@@ -69,18 +76,6 @@ def _scenarios() -> ModuleType:
     import pik_mj.scenarios
 
     return pik_mj.scenarios
-
-
-class ScenarioWaiting(PikError):
-    """A scenario needs a pik_mj module that does not exist yet.
-
-    Attributes:
-        missing: Name of that module.
-    """
-
-    def __init__(self, name: str, missing: str):
-        super().__init__(f"scenario {name!r} is waiting for {missing} (not available yet)")
-        self.missing = missing
 
 
 def load_scenario(name: str) -> ModuleType:
@@ -128,8 +123,6 @@ def _list() -> int:
 def _run(name: str | None, argv: list[str]) -> int:
     name = _scenarios().DEFAULT if name is None else name
     module = load_scenario(name)  # usage errors: exit 2
-    from pik_mj.scenario import OptionError
-
     if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
         argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
     print(f"running {name}: {describe(name)[0]}", file=sys.stderr)

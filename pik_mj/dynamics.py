@@ -199,7 +199,7 @@ def root_wrench(
     return np.linalg.solve(J_B.T, tau[dofs]), data.xpos[b].copy()
 
 
-def _zmp_from_wrench(f: np.ndarray, n_W0: np.ndarray, z: float) -> np.ndarray:
+def zmp_from_wrench(f: np.ndarray, n_W0: np.ndarray, z: float) -> np.ndarray:
     """Point on the plane ``z`` where the horizontal moment of ``(f, n_W0)`` vanishes.
 
     .. math::
@@ -257,7 +257,7 @@ def zmp_from_inverse_dynamics(
     tau = joint_torques(model, data, q, qvel, qacc, external)
     w_B, p_WB = root_wrench(model, data, tau, root_body)
     f = w_B[:3]
-    return _zmp_from_wrench(f, w_B[3:] + np.cross(p_WB, f), float(z))
+    return zmp_from_wrench(f, w_B[3:] + np.cross(p_WB, f), float(z))
 
 
 def zmp_of_motion(

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 
@@ -54,3 +54,63 @@ class QPFailure(PikError):
 
 class SimulationUnstable(PikError):
     """MuJoCo reported a warning (instability, NaN state) while stepping."""
+
+
+class NoCollisionGeometry(InvalidInput):
+    """The bodies asked about carry no collision geom: nothing of them touches a floor."""
+
+
+class LimbsNotFound(InvalidInput):
+    """The kinematic tree does not give the limbs asked for.
+
+    The message lists what the search saw, the limbs found (name, joint count, end
+    frame) and how to describe the limbs instead.
+
+    Attributes:
+        found: The limbs that were found, by name (:class:`pik_mj.robot.Limb`).
+        details: What the search saw (standing pose, touching bodies, branches).
+    """
+
+    HINT = (
+        "Describe the limbs instead: a robot description file (TOML), e.g.\n"
+        "    [limbs.rarm]\n"
+        '    end = "right_hand"          # a site or body; joints: from the branch to it\n'
+        "    [limbs.rleg]\n"
+        '    end = "right_foot"\n'
+        '    joints = ["right_hip", "right_knee", "right_ankle"]   # optional\n'
+        "given as Robot.from_model(model, description=PATH), or on the command line as\n"
+        "    pik-mj run fullbody_reach --model MODEL --description PATH"
+    )
+
+    def __init__(self, message: str, found: Mapping[str, Any], details: Sequence[str]):
+        self.found = dict(found)
+        self.details = list(details)
+        summary = ", ".join(
+            f"{n} ({len(x.joints)} joints → {x.end_frame_type} {x.end_frame!r})"
+            for n, x in self.found.items()
+        )
+        lines = [message, *(f"  {d}" for d in self.details)]
+        lines.append(f"  limbs found: {summary or 'none'}")
+        lines.append(self.HINT)
+        super().__init__("\n".join(lines))
+
+
+class OptionError(InvalidInput):
+    """A scenario option the user gave cannot be used (e.g. no viewer at
+    ``--connect``'s address): ``pik-mj run`` exits 2 with the message, no traceback."""
+
+
+class RenderingUnavailable(PikError):
+    """No OpenGL backend can render offscreen in this process."""
+
+
+class ScenarioWaiting(PikError):
+    """A scenario needs a pik_mj module that does not exist yet.
+
+    Attributes:
+        missing: Name of that module.
+    """
+
+    def __init__(self, name: str, missing: str):
+        super().__init__(f"scenario {name!r} is waiting for {missing} (not available yet)")
+        self.missing = missing

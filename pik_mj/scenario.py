@@ -36,7 +36,7 @@ import rerun as rr
 
 from pik_mj import inputs
 from pik_mj.balance import support_polygon
-from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.exceptions import InvalidInput, OptionError, PikError
 from pik_mj.record import Recorder
 from pik_mj.robot import Robot
 from pik_mj.robot.ground import sole_polygons
@@ -427,11 +427,6 @@ def _short(value: Any) -> str:
 
 # ---------------------------------------------------------------------------
 # The command line of a scenario's main
-
-
-class OptionError(InvalidInput):
-    """A scenario option the user gave cannot be used (e.g. no viewer at
-    ``--connect``'s address): ``pik-mj run`` exits 2 with the message, no traceback."""
 
 
 class ScenarioParser(argparse.ArgumentParser):

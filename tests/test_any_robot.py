@@ -22,12 +22,11 @@ import numpy as np
 import pytest
 
 from pik_mj import HoldCriteria, Robot, Scene, fullbody_inverse_kinematics
-from pik_mj.exceptions import UnknownName
+from pik_mj.exceptions import LimbsNotFound, UnknownName
 from pik_mj.robot import GROUND_TOLERANCE, STANDING_KEYFRAME
 from pik_mj.robot.couplings import find_couplings
 from pik_mj.robot.description import load_description
 from pik_mj.robot.ground import floor_gap
-from pik_mj.robot.limbs import LimbsNotFound
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 

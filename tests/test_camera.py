@@ -15,16 +15,9 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, RenderingUnavailable, UnknownName
 from pik_mj.record import read_recording
-from pik_mj.robot.camera import (
-    DEFAULT_SIZE,
-    Camera,
-    CameraRenderer,
-    Intrinsics,
-    RenderingUnavailable,
-    log_camera,
-)
+from pik_mj.robot.camera import DEFAULT_SIZE, Camera, CameraRenderer, Intrinsics, log_camera
 from pik_mj.robot.loading import load_model
 
 # Camera "tilted" looks down at the table from the side; "sensor" has a physical

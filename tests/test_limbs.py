@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from local_menagerie import menagerie_model
 
-from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, LimbsNotFound, UnknownName
 from pik_mj.robot import Limb, Robot
 from pik_mj.robot.description import (
     LimbDescription,
@@ -20,7 +20,7 @@ from pik_mj.robot.description import (
     robot_limbs,
 )
 from pik_mj.robot.keyframes import standing_pose
-from pik_mj.robot.limbs import LimbsNotFound, find_limbs, limb_from_end
+from pik_mj.robot.limbs import find_limbs, limb_from_end
 from pik_mj.robot.loading import load_model, load_spec
 
 

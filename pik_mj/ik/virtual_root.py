@@ -31,8 +31,9 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
+from pik_mj.mujoco_warnings import mujoco_warnings
 from pik_mj.robot.loading import load_spec
-from pik_mj.sim.guard import ATTACH_WARNINGS, mujoco_warnings
+from pik_mj.robot.world import ATTACH_WARNINGS
 from pik_mj.solve import SolveResult, solve
 from pik_mj.tasks.com import robot_root_body
 

@@ -29,7 +29,7 @@ import numpy as np
 import rerun as rr
 
 from pik_mj.balance import halfplanes_from_polygon, inset_vertices
-from pik_mj.exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput, RenderingUnavailable
 from pik_mj.record import style
 from pik_mj.tasks.com import CentroidTask, robot_root_body
 from pik_mj.tasks.frame import FrameTask
@@ -542,7 +542,7 @@ class MotionLogger(HoldLogger):
             rec.log_camera(camera, sample.data, image)
 
     def _render(self, sample: HoldSample, camera: Any) -> np.ndarray | None:
-        from pik_mj.robot.camera import CameraRenderer, RenderingUnavailable
+        from pik_mj.robot.camera import CameraRenderer
 
         if self._no_rendering is not None:
             return None

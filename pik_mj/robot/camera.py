@@ -60,7 +60,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj.exceptions import InvalidInput, PikError, UnknownName
+from pik_mj.exceptions import InvalidInput, RenderingUnavailable, UnknownName
 from pik_mj.frames import Frame
 
 __all__ = [
@@ -84,10 +84,6 @@ RENDERED_GEOM_GROUPS = (1, 1, 1, 0, 0, 0)
 visibility rays can hit."""
 
 _BACKENDS = ("egl", "osmesa", "glfw")
-
-
-class RenderingUnavailable(PikError):
-    """No OpenGL backend can render offscreen in this process."""
 
 
 def camera_names(model: mujoco.MjModel) -> list[str]:

@@ -41,7 +41,7 @@ import numpy as np
 from pik_mj.exceptions import InvalidInput
 from pik_mj.robot.keyframes import StandingPose, standing_pose
 from pik_mj.robot.limbs import HUMANOID_LIMBS, Limb, find_limbs, limb_from_end
-from pik_mj.robot.loading import _looks_like_path as looks_like_path
+from pik_mj.robot.loading import looks_like_path
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -36,7 +36,7 @@ import mujoco
 import numpy as np
 
 from pik_mj.balance import convex_hull_2d
-from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, NoCollisionGeometry, UnknownName
 from pik_mj.frames import Frame, names_of
 
 if TYPE_CHECKING:  # the robot layer imports this module, not the other way round
@@ -52,10 +52,6 @@ CYLINDER_RIM_POINTS = 16
 _MIN_SOLE_POINTS = 3
 
 _G = mujoco.mjtGeom
-
-
-class NoCollisionGeometry(InvalidInput):
-    """The bodies asked about carry no collision geom: nothing of them touches a floor."""
 
 
 def _in_pairs(model: mujoco.MjModel) -> np.ndarray:

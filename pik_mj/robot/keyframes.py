@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, NoCollisionGeometry, UnknownName
 from pik_mj.frames import robot_root_body
-from pik_mj.robot.ground import NoCollisionGeometry, floor_gap
+from pik_mj.robot.ground import floor_gap
 
 STANDING_KEYFRAME_NAMES = (
     "stand",

@@ -45,15 +45,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from pik_mj.exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput, LimbsNotFound, NoCollisionGeometry
 from pik_mj.frames import Frame, robot_root_body
-from pik_mj.robot.ground import (
-    DEFAULT_TOLERANCE,
-    NoCollisionGeometry,
-    bottom_points,
-    geom_heights,
-    subtree_bodies,
-)
+from pik_mj.robot.ground import DEFAULT_TOLERANCE, bottom_points, geom_heights, subtree_bodies
 from pik_mj.robot.keyframes import standing_pose
 from pik_mj.tasks.joint_limit import find_joint
 
@@ -71,17 +65,6 @@ LATERAL = 0.02
 
 HUMANOID_LIMBS = ("rleg", "lleg", "rarm", "larm")
 """The limbs :func:`find_limbs` requires by default."""
-
-OVERRIDE_HINT = (
-    "Describe the limbs instead: a robot description file (TOML), e.g.\n"
-    "    [limbs.rarm]\n"
-    '    end = "right_hand"          # a site or body; joints: from the branch to it\n'
-    "    [limbs.rleg]\n"
-    '    end = "right_foot"\n'
-    '    joints = ["right_hip", "right_knee", "right_ankle"]   # optional\n'
-    "given as Robot.from_model(model, description=PATH), or on the command line as\n"
-    "    pik-mj run fullbody_reach --model MODEL --description PATH"
-)
 
 _ANGLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
@@ -104,23 +87,6 @@ class Limb:
     end_frame: str
     end_frame_type: str
     root_body: str
-
-
-class LimbsNotFound(InvalidInput):
-    """The kinematic tree does not give the limbs asked for.
-
-    Attributes:
-        found: The limbs that were found, by name.
-        details: What the search saw (standing pose, touching bodies, branches).
-    """
-
-    def __init__(self, message: str, found: dict[str, Limb], details: Sequence[str]):
-        self.found = found
-        self.details = list(details)
-        lines = [message, *(f"  {d}" for d in self.details)]
-        lines.append(f"  limbs found: {_summary(found) or 'none'}")
-        lines.append(OVERRIDE_HINT)
-        super().__init__("\n".join(lines))
 
 
 @dataclass
@@ -228,13 +194,6 @@ def make_limb(model: mujoco.MjModel, name: str, joints: Sequence[int], end: int)
     frame, kind = end_frame(model, end)
     first = model.body(int(model.jnt_bodyid[joints[0]])).name
     return Limb(name, tuple(model.joint(j).name for j in joints), frame, kind, first)
-
-
-def _summary(limbs: dict[str, Limb]) -> str:
-    return ", ".join(
-        f"{n} ({len(x.joints)} joints → {x.end_frame_type} {x.end_frame!r})"
-        for n, x in limbs.items()
-    )
 
 
 def find_limbs(

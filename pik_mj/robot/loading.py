@@ -122,7 +122,9 @@ def _dm_control_suite_dir() -> Path:
     return Path(os.path.dirname(dm_control.__file__)) / "suite"
 
 
-def _looks_like_path(name: str) -> bool:
+def looks_like_path(name: str) -> bool:
+    """Whether a model argument names a file (ends in ``.xml`` or holds a path separator)
+    rather than a model name."""
     return name.endswith(".xml") or os.sep in name or "/" in name
 
 
@@ -147,7 +149,7 @@ def model_path(name_or_path: str | os.PathLike[str]) -> Path:
         return MODELS_DIR / _SHIPPED[name_or_path]
     if isinstance(name_or_path, str) and name_or_path in _DM_CONTROL:
         return _dm_control_suite_dir() / _DM_CONTROL[name_or_path]
-    if isinstance(name_or_path, os.PathLike) or _looks_like_path(str(name_or_path)):
+    if isinstance(name_or_path, os.PathLike) or looks_like_path(str(name_or_path)):
         path = Path(name_or_path).expanduser().resolve()
         if path.is_dir():
             raise InvalidInput(

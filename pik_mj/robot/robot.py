@@ -34,19 +34,13 @@ import mujoco
 import numpy as np
 
 from pik_mj import inputs
-from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.exceptions import InvalidInput, LimbsNotFound, NoCollisionGeometry, UnknownName
 from pik_mj.frames import robot_root_body
 from pik_mj.robot.camera import Camera
 from pik_mj.robot.description import RobotDescription, load_description, robot_limbs
-from pik_mj.robot.ground import (
-    NoCollisionGeometry,
-    floor_gap,
-    foot_geoms,
-    sole_normal,
-    subtree_bodies,
-)
+from pik_mj.robot.ground import floor_gap, foot_geoms, sole_normal, subtree_bodies
 from pik_mj.robot.keyframes import choose_keyframe
-from pik_mj.robot.limbs import LIMB_NAMES, Limb, LimbsNotFound, find_limbs
+from pik_mj.robot.limbs import LIMB_NAMES, Limb, find_limbs
 from pik_mj.robot.sensors import Bumper, ForceSensor, Imu, RobotSensors
 from pik_mj.robot.source import ModelLike, RobotSource, source_description, source_name
 
@@ -133,6 +127,8 @@ class Robot:
         keyframe_rule: Why that keyframe (:func:`pik_mj.robot.keyframes.choose_keyframe`).
         description: The robot description, or None.
         limbs: ``{name: Limb}``, in the order of :data:`pik_mj.robot.limbs.LIMB_NAMES`.
+        joint_names: The robot's hinge and slide joints (its angle vector), in model order.
+        angle_joint_ids: Their joint ids in :attr:`model`.
 
     Raises:
         UnknownName: ``root_body``, ``keyframe`` or a limb's joint/frame does not exist.
@@ -183,9 +179,9 @@ class Robot:
         in_robot = model.body_rootid[model.jnt_bodyid] == self._root_id
         self._robot_joint_ids = np.flatnonzero(in_robot)
         angle = np.isin(model.jnt_type, _ANGLE_JOINTS)
-        self._angle_joint_ids = np.flatnonzero(in_robot & angle)
+        self.angle_joint_ids = np.flatnonzero(in_robot & angle)
         self.joint_names: list[str] = [
-            _name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self._angle_joint_ids
+            _name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self.angle_joint_ids
         ]
         self._joint_index = {n: i for i, n in enumerate(self.joint_names)}
         if keyframe is None and description is not None:
@@ -607,7 +603,7 @@ class Robot:
         """Id of the robot's hinge or slide joint ``name``."""
         i = self._joint_index.get(name)
         if i is not None:
-            return int(self._angle_joint_ids[i])
+            return int(self.angle_joint_ids[i])
         j = _id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name)
         if j >= 0 and j in self._robot_joint_ids:
             kind = mujoco.mjtJoint(self.model.jnt_type[j]).name
@@ -619,7 +615,7 @@ class Robot:
 
     def _qposadr(self, names: Sequence[str] | None) -> np.ndarray:
         if names is None:
-            return self.model.jnt_qposadr[self._angle_joint_ids]
+            return self.model.jnt_qposadr[self.angle_joint_ids]
         names = inputs.names(names, "names (of joints)")
         return np.array([self.model.jnt_qposadr[self._angle_joint_id(n)] for n in names], dtype=int)
 
@@ -756,7 +752,7 @@ class Robot:
         bodies = {self.model.body(n).id for n in self.link_list(frame, frame_type)}
         return [
             self.joint_names[i]
-            for i, j in enumerate(self._angle_joint_ids)
+            for i, j in enumerate(self.angle_joint_ids)
             if self.model.jnt_bodyid[j] in bodies
         ]
 
@@ -802,7 +798,7 @@ class Robot:
             names: Hinge/slide joint names; all of :attr:`joint_names` if None.
         """
         if names is None:
-            ids = self._angle_joint_ids
+            ids = self.angle_joint_ids
         else:
             names = inputs.names(names, "names (of joints)")
             ids = np.array([self._angle_joint_id(n) for n in names], dtype=int)

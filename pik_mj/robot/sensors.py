@@ -58,7 +58,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from pik_mj.dynamics import _zmp_from_wrench
+from pik_mj.dynamics import zmp_from_wrench
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import names_of
 
@@ -525,7 +525,7 @@ def zmp_from_wrenches(wrenches: Sequence[ContactWrench], z: float = 0.0) -> np.n
     n_0 = np.sum([w.moment + np.cross(w.point, w.force) for w in wrenches], axis=0)
     if not f[2] > 0:
         raise InvalidInput(f"the contact wrenches do not push up (f_z = {f[2]:.3g} N): no ZMP")
-    return np.array([*_zmp_from_wrench(f, n_0, float(z)), float(z)])
+    return np.array([*zmp_from_wrench(f, n_0, float(z)), float(z)])
 
 
 def zmp_from_force_sensors(

@@ -29,8 +29,8 @@ from numpy.typing import ArrayLike
 
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.inputs import Q_LIMIT
+from pik_mj.mujoco_warnings import mujoco_warnings
 from pik_mj.robot.loading import load_spec
-from pik_mj.sim.guard import ATTACH_WARNINGS, mujoco_warnings
 from pik_mj.spatial import quat_mul, rot_z, yaw_of, yaw_quat
 
 __all__ = [
@@ -50,6 +50,10 @@ EnvironmentLike = str | os.PathLike[str] | mujoco.MjSpec
 
 FLOOR = "floor"
 """Name of the floor plane :func:`floor_environment` and :func:`add_floor` add."""
+
+#: What MuJoCo says while pik_mj attaches an environment with an empty name
+#: prefix: expected (names are kept on purpose; the host's <option> wins).
+ATTACH_WARNINGS = ("empty prefix", "Attach conflict")
 
 
 # ----------------------------------------------------------------------------

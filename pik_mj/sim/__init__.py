@@ -13,8 +13,9 @@ the static check, the physics hold, and the guard around MuJoCo's steps.
 * :mod:`.validate` — :func:`validate_pose` (``pik-mj validate``).
 """
 
+from pik_mj.mujoco_warnings import mujoco_warnings
 from pik_mj.robot.world import add_box, add_wall, floor_environment
-from pik_mj.sim.guard import StateGuard, mujoco_warnings
+from pik_mj.sim.guard import StateGuard
 from pik_mj.sim.hold import HoldCriteria, HoldReport, HoldSample
 from pik_mj.sim.motion import MotionReport, Waypoints
 from pik_mj.sim.scene import DEFAULT_CONTACT, ContactParams, Grasp, Scene

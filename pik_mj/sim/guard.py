@@ -1,11 +1,6 @@
-"""MuJoCo's warnings, routed to Python, and the state guard around physics steps.
+"""The state guard around physics steps.
 
-* :func:`mujoco_warnings` is the one place where pik_mj takes MuJoCo's C warnings
-  (without a handler MuJoCo prints them and appends them to ``MUJOCO_LOG.TXT`` in
-  the working directory): collected into a list, or re-raised as Python
-  ``RuntimeWarning``\\ s, expected ones (e.g. the empty attach prefix pik_mj uses
-  on purpose) dropped.
-* :class:`StateGuard` is dm_control's ``check_invalid_state``: MuJoCo's warning
+:class:`StateGuard` is dm_control's ``check_invalid_state``: MuJoCo's warning
   counters that mean the state is garbage are compared before and after each
   step, and a NaN or inf in ``qpos``/``qvel`` is caught, so a simulation fails
   loudly (:class:`~pik_mj.exceptions.SimulationUnstable`) instead of returning
@@ -15,16 +10,15 @@
 
 from __future__ import annotations
 
-import warnings
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput, SimulationUnstable
+from pik_mj.mujoco_warnings import mujoco_warnings
 
-__all__ = ["ATTACH_WARNINGS", "UNSTABLE_WARNINGS", "StateGuard", "mujoco_warnings"]
+__all__ = ["UNSTABLE_WARNINGS", "StateGuard"]
 
 #: Warnings after which the simulation state is garbage (as dm_control's
 #: ``check_invalid_state``), plus full contact / constraint buffers.
@@ -36,41 +30,6 @@ UNSTABLE_WARNINGS: tuple[mujoco.mjtWarning, ...] = (
     mujoco.mjtWarning.mjWARN_CONTACTFULL,
     mujoco.mjtWarning.mjWARN_CNSTRFULL,
 )
-
-#: What MuJoCo says while pik_mj attaches an environment with an empty name
-#: prefix: expected (names are kept on purpose; the host's <option> wins).
-ATTACH_WARNINGS = ("empty prefix", "Attach conflict")
-
-
-@contextmanager
-def mujoco_warnings(
-    messages: list[str] | None = None, *, expected: Sequence[str] = ()
-) -> Iterator[list[str]]:
-    """Route MuJoCo's C warnings to Python inside the block.
-
-    Args:
-        messages: List the warnings are appended to; None re-raises each as a
-            Python ``RuntimeWarning`` ("MuJoCo: ...").
-        expected: Substrings of warnings that are dropped.
-
-    Yields:
-        The list the warnings go to (``messages``, or a new one).
-    """
-    out: list[str] = [] if messages is None else messages
-
-    def handler(message: str) -> None:
-        if any(s in message for s in expected):
-            return
-        if messages is None:
-            warnings.warn(f"MuJoCo: {message}", RuntimeWarning, stacklevel=2)
-        out.append(message)
-
-    previous = mujoco.get_mju_user_warning()
-    mujoco.set_mju_user_warning(handler)
-    try:
-        yield out
-    finally:
-        mujoco.set_mju_user_warning(previous)
 
 
 class StateGuard:

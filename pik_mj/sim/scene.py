@@ -346,7 +346,7 @@ class Scene:
         # A servo on every robot hinge/slide joint (ids shared with the robot's
         # model: its joints and actuators come first): the robot's own position
         # actuator where it has one, else one the scene adds.
-        servo_ids = [int(j) for j in robot._angle_joint_ids]
+        servo_ids = [int(j) for j in robot.angle_joint_ids]
         self.servo_joints = [rm.joint(j).name for j in servo_ids]
         own = position_actuators(rm, servo_ids)
         self.robot_servos = [rm.joint(j).name for j in servo_ids if j in own]
