@@ -158,7 +158,9 @@ def holding_torques(
     tau = d.qfrc_bias - d.qfrc_passive  # gravity, less the joints' springs
     jacp = np.zeros((3, m.nv))
     for c, f in zip(env, solved[:, :3], strict=True):
-        mujoco.mj_jac(m, d, jacp, None, c.position, int(m.geom_bodyid[scene.geom_id(c.robot_geom)]))
+        mujoco.mj_jac(
+            m, d, jacp, None, c.position, int(m.geom_bodyid[scene.geom_ids[c.robot_geom]])
+        )
         tau -= jacp.T @ f
     for frame, b in scene.held_objects:
         # the weight of a grasped object hangs on the frame's body at its CoM

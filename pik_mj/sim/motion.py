@@ -223,10 +223,10 @@ def planned_contacts(scene: Physics, path: Waypoints) -> list[tuple[str, str]]:
     """The geom pairs ``(robot geom, other geom)`` touching at any waypoint (with
     the environment or self-contacts): the static checks' contacts
     (:meth:`~pik_mj.sim.physics.Physics.touching`), within the scene's
-    ``contact_tolerance`` of touching. A pair that penetrates deeper than the tolerance at a waypoint
-    collides there: it is not planned. A planned pair is planned with its
-    partner only: a hand meant to touch a handle that sweeps through the
-    counter makes an unexpected contact."""
+    ``contact_tolerance`` of touching. A pair that penetrates deeper than the
+    tolerance at a waypoint collides there: it is not planned. A planned pair
+    is planned with its partner only: a hand meant to touch a handle that
+    sweeps through the counter makes an unexpected contact."""
     pairs: dict[tuple[str, str], None] = {}
     tolerance = scene.contact_tolerance
     for w in path.items:

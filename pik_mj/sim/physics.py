@@ -25,6 +25,7 @@ import copy
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any
 
 import mujoco
@@ -120,6 +121,7 @@ class Physics:
             (:func:`pik_mj.sim.servos.position_feedback`; read-only array).
         robot_bodies: Mask (nbody,) of the robot's bodies (read-only array).
         geom_names: Name of each geom by id (``""`` when unnamed).
+        geom_ids: ``{name: id}`` of the named geoms (read-only mapping).
         foot_geoms: The robot's foot geoms (:func:`pik_mj.robot.ground.foot_geoms`,
             by name): a hold's foot slip is theirs.
         allowed_contacts: Robot geoms allowed to touch the environment in a hold
@@ -173,7 +175,7 @@ class Physics:
         self._probe_data = mujoco.MjData(self._probe_model)
         self.geom_names = tuple(model.geom(g).name for g in range(model.ngeom))
         self._body_names = [model.body(b).name for b in range(model.nbody)]
-        self._geom_id = {n: g for g, n in enumerate(self.geom_names) if n}
+        self.geom_ids = MappingProxyType({n: g for g, n in enumerate(self.geom_names) if n})
         self.foot_geoms = [rm.geom(g).name for g in foot_geoms(robot)]
         self.allowed_contacts = (
             list(self.foot_geoms)
@@ -182,10 +184,6 @@ class Physics:
         )
 
     # ------------------------------------------------------------------ names
-    def geom_id(self, name: str) -> int:
-        """Id of the geom ``name`` (:attr:`geom_names` inverted)."""
-        return self._geom_id[name]
-
     def check_robot_geoms(self, names: Sequence[str]) -> list[str]:
         """``names`` as a list, each checked to be a geom of the robot or of a
         grasped object.

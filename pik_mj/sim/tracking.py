@@ -356,7 +356,7 @@ class _Measures:
                 if not criteria.allow_self_contact and pair not in planned:
                     self.unexpected.setdefault((c.robot_geom, c.other_geom), float(d.time))
                 continue
-            g = scene.geom_id(c.robot_geom)
+            g = scene.geom_ids[c.robot_geom]
             if g in self.allowed_ids or pair in planned:
                 touching.add(g)
             else:
@@ -414,7 +414,8 @@ class _Measures:
     def falling(self, d: mujoco.MjData, ref: mujoco.MjData) -> bool:
         """The root is below ``fall_ratio`` of its reference height now (then
         :attr:`fell` stays True)."""
-        now = self.height(d) < self.criteria.fall_ratio * self.height(ref)
+        up, root = self.up, self.root
+        now = float(d.xpos[root] @ up) < self.criteria.fall_ratio * float(ref.xpos[root] @ up)
         self.fell = self.fell or now
         return now
 
