@@ -618,7 +618,7 @@ def test_excluded_body_pair_never_touches():
     }
     for scene, touches in ((room, True), (open_hand, False)):
         scene.set_pose(q)  # mj_forward: the physics' own contacts
-        contacts = scene._contacts(scene.model, scene.data, 0.0)
+        contacts = scene.contacts(scene.data, 0.0)
         assert bool(_hand_kettle(contacts)) == touches
     with pytest.raises(UnknownName, match="kettle"):
         Scene.from_robot(robot, exclude=[("rarm_hand", "kettel")])

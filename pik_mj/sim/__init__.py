@@ -1,25 +1,41 @@
-"""Simulation of a robot's world in MuJoCo (DESIGN.md §5): the physics scene,
-the static check, the physics hold, and the guard around MuJoCo's steps.
+"""Simulation of a robot's world in MuJoCo: the physics scene, the static check,
+the physics hold, the motion playback, and the guard around MuJoCo's steps.
 
-* :mod:`.environment` — environment specs (floor, boxes, walls), attaching one
-  into a robot's spec, placing the robot;
-* :mod:`.scene` — :class:`Scene`: the robot's world with servos and contacts;
+Modules, lowest first (each imports only those above it):
+
+* :mod:`.servos`, :mod:`.guard` — the joint servos' gains and controls; MuJoCo's
+  invalid-state check around each step;
+* :mod:`.grasp` — :class:`Grasp`: an object held by a robot frame, and its weld;
+* :mod:`.physics` — :class:`Physics`: the compiled world in the robot's terms
+  (contacts, wrenches, servo joints, stepping);
 * :mod:`.static` — :class:`StaticReport`, :class:`StaticChecks` (per iteration);
-* :mod:`.hold` — :class:`HoldCriteria`, :class:`HoldSample`, :class:`HoldReport`,
-  and the stepping loop a hold shares with a motion;
-* :mod:`.motion` — :class:`Waypoints`, :class:`MotionReport`: a solve's iterates
-  played in physics (:meth:`Scene.play`);
-* :mod:`.guard` — MuJoCo's warnings routed to Python, the invalid-state check;
+* :mod:`.tracking` — the stepping loop a hold shares with a motion,
+  :class:`HoldCriteria`, :class:`HoldSample`;
+* :mod:`.hold` — :class:`HoldReport`: a pose held in physics;
+* :mod:`.path`, :mod:`.reference`, :mod:`.clearance` — :class:`Waypoints`, the
+  timed reference the servos track, the clearance along a motion;
+* :mod:`.motion` — :class:`MotionReport`: a solve's iterates played in physics;
+* :mod:`.assembly` — what a scene adds to the robot's spec (:class:`ContactParams`,
+  servos, exclusions);
+* :mod:`.scene` — :class:`Scene`: the robot's world with servos and contacts, a
+  :class:`Physics` that runs the static check, the hold and the playback;
 * :mod:`.validate` — :func:`validate_pose` (``pik-mj validate``).
+
+Environments (floor, boxes, walls) are built in :mod:`pik_mj.robot.world`.
 """
 
 from pik_mj.mujoco_warnings import mujoco_warnings
 from pik_mj.robot.world import add_box, add_wall, floor_environment
+from pik_mj.sim.assembly import DEFAULT_CONTACT, ContactParams
+from pik_mj.sim.grasp import Grasp
 from pik_mj.sim.guard import StateGuard
-from pik_mj.sim.hold import HoldCriteria, HoldReport, HoldSample
-from pik_mj.sim.motion import MotionReport, Waypoints
-from pik_mj.sim.scene import DEFAULT_CONTACT, ContactParams, Grasp, Scene
-from pik_mj.sim.static import ContactInfo, StaticChecks, StaticReport
+from pik_mj.sim.hold import HoldReport
+from pik_mj.sim.motion import MotionReport
+from pik_mj.sim.path import Waypoints
+from pik_mj.sim.physics import ContactInfo, Physics
+from pik_mj.sim.scene import Scene
+from pik_mj.sim.static import StaticChecks, StaticReport
+from pik_mj.sim.tracking import HoldCriteria, HoldSample
 from pik_mj.sim.validate import balance_report, validate_pose
 
 __all__ = [
@@ -31,6 +47,7 @@ __all__ = [
     "HoldReport",
     "HoldSample",
     "MotionReport",
+    "Physics",
     "Scene",
     "StateGuard",
     "StaticChecks",

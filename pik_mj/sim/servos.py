@@ -20,10 +20,9 @@ the actuator length (``gear · q`` for a joint transmission). An actuator with
 
 (:func:`rest_controls`; ``u* = L`` for a position actuator): that is the
 control a hold gives it. Left at ``u = 0`` it would pull its joint to zero and
-fight the hold (Unitree G1: a joint held at 0.5 rad ended at 0.428 rad). A
-robot's position actuator on one of its hinge or slide joints is that joint's
-servo (:func:`position_actuators`); its joint-space gains are
-``k_p = gear² g_0``, ``k_v = -gear² b_2``. Actuators without position feedback
+fight the hold. A robot's position actuator on one of its hinge or slide
+joints is that joint's servo (:func:`position_actuators`); its joint-space
+gains are ``k_p = gear² g_0``, ``k_v = -gear² b_2``. Actuators without position feedback
 (``<motor>``, ``<velocity>``) exert nothing at rest with zero control; the scene
 adds its own servo on their joints.
 
@@ -48,8 +47,7 @@ robot. Choosing ``ω`` (:data:`DEFAULT_BANDWIDTH`):
   for Booster T1 (light feet, no heavy armature). With ``M_jj`` the servo's
   bandwidth is the one of the joint's lighter side (the foot), not of the body
   standing on it: gains from the stance inertia (``≈ m h²`` for an ankle)
-  would make the light side ring against the floor contacts (measured on
-  dm_control's humanoid: contact forces bouncing between 60 and 650 N);
+  would make the light side ring against the floor contacts;
 * ``ω Δt`` must stay well below the explicit integration limit 2 for the
   stiffness (0.3 at Δt = 2 ms; coupled modes run up to ~3 ω); ``k_v`` is
   integrated implicitly by ``implicitfast``.

@@ -1,5 +1,5 @@
 """The static check of a pose in its scene: contacts, support polygon, CoM
-margin and static equilibrium (DESIGN.md §5), per pose or per IK iteration.
+margin and static equilibrium, per pose or per IK iteration.
 
 :func:`static_check` (:meth:`pik_mj.sim.Scene.static_check`) runs MuJoCo's
 collision detection at the pose (kinematics only, no stepping) and reports a
@@ -13,17 +13,14 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
-import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
 from pik_mj import balance, inputs
 from pik_mj.exceptions import InvalidInput
-
-if TYPE_CHECKING:
-    from pik_mj.sim.scene import External, Scene
+from pik_mj.sim.physics import ContactInfo, External, Physics
 
 __all__ = [
     "ContactInfo",
@@ -38,44 +35,6 @@ __all__ = [
 def finite_or_none(x: float | None) -> float | None:
     """``x``, or None when it is None or not finite (JSON has no inf)."""
     return None if x is None or not math.isfinite(x) else float(x)
-
-
-@dataclass(frozen=True)
-class ContactInfo:
-    """A contact between a robot geom and another geom.
-
-    Attributes:
-        robot_geom: Name of the robot's geom.
-        other_geom: Name of the other geom (environment, or robot if ``self_contact``).
-        other_body: Name of the other geom's body.
-        position: Contact point ``p_WC`` (3,) [m] (MuJoCo: midway between surfaces).
-        normal: Unit normal (3,) pointing INTO the robot geom (the direction the
-            other geom pushes it).
-        dist: Signed distance between the surfaces [m] (< 0: penetration).
-        friction: MuJoCo's sliding friction coefficient of the pair.
-        self_contact: Both geoms belong to the robot.
-    """
-
-    robot_geom: str
-    other_geom: str
-    other_body: str
-    position: np.ndarray
-    normal: np.ndarray
-    dist: float
-    friction: float
-    self_contact: bool
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "robot_geom": self.robot_geom,
-            "other_geom": self.other_geom,
-            "other_body": self.other_body,
-            "position": self.position.tolist(),
-            "normal": self.normal.tolist(),
-            "dist": self.dist,
-            "friction": self.friction,
-            "self_contact": self.self_contact,
-        }
 
 
 @dataclass
@@ -151,7 +110,7 @@ class StaticReport:
 
 
 def static_check(
-    scene: Scene,
+    scene: Physics,
     q: ArrayLike,
     *,
     mu: float | None = None,
@@ -179,6 +138,7 @@ def static_check(
     of up, projected along gravity; ``margin = min_j (a_j^T c + b_j)`` [m].
 
     Args:
+        scene: The scene (its :class:`~pik_mj.sim.physics.Physics`).
         q: Robot configuration (``robot.model.nq``).
         mu: Friction coefficient for the LP; None uses each contact's MuJoCo
             friction.
@@ -187,7 +147,8 @@ def static_check(
         max_ground_slope: Largest angle [rad] between a contact normal and up
             for the contact to count in the support polygon.
         scfr: Also compute the margin to the static centroid feasible region
-            of the actual contacts (:func:`pik_mj.balance.scfr`, ~20-60 LPs).
+            of the actual contacts (:func:`pik_mj.balance.scfr`, one LP per
+            direction of its boundary).
 
     Returns:
         A :class:`StaticReport`.
@@ -196,16 +157,13 @@ def static_check(
         mu = inputs.real(mu, "mu", low=0)
     inputs.real(max_ground_slope, "max_ground_slope", unit="rad", low=0, high=math.pi / 2)
     inputs.flag(scfr, "scfr")
-    m, d = scene._probe_model, scene._probe_data
-    d.qpos[:] = scene._qpos(q)
-    d.qvel[:] = 0.0
-    mujoco.mj_forward(m, d)
-    contacts = scene._contacts(m, d, scene.contact_tolerance)
+    d = scene.probe(q)
+    contacts = scene.contacts(d, scene.contact_tolerance)
     com = scene.com(d)
     region, margin = scene.support(contacts, com, max_ground_slope)
-    wrenches = scene._wrenches(d, external)
+    wrenches = scene.external_wrenches(external, d)
     env = [c for c in contacts if not c.self_contact]
-    gravity = np.asarray(m.opt.gravity, dtype=float)
+    gravity = np.asarray(scene.model.opt.gravity, dtype=float)
     forces = None
     scfr_margin = None
     if not env:
@@ -252,7 +210,7 @@ def point_contacts(
 
 
 def _scfr_margin(
-    scene: Scene,
+    scene: Physics,
     cons: list[balance.ContactConstraint],
     com: np.ndarray,
     external: Sequence[balance.ExternalWrench],
@@ -275,7 +233,7 @@ def _scfr_margin(
 
 
 class StaticChecks:
-    """A :func:`pik_mj.solve` callback: :meth:`Scene.static_check` of every
+    """A :func:`pik_mj.solve` callback: :func:`static_check` of every
     iteration's configuration, kept in order.
 
     Make one with :meth:`pik_mj.sim.Scene.static_checker`; put it before the
@@ -289,7 +247,7 @@ class StaticChecks:
 
     def __init__(
         self,
-        scene: Scene,
+        scene: Physics,
         *,
         mu: float | None = None,
         external: Sequence[tuple[str, Any, Any]] = (),
@@ -304,8 +262,8 @@ class StaticChecks:
 
     def __call__(self, info: Any) -> None:
         t0 = time.perf_counter()
-        report = self.scene.static_check(
-            info.configuration.q, mu=self.mu, external=self.external, scfr=self.scfr
+        report = static_check(
+            self.scene, info.configuration.q, mu=self.mu, external=self.external, scfr=self.scfr
         )
         self.times.append(time.perf_counter() - t0)
         self.reports.append(report)

@@ -1,0 +1,441 @@
+r"""The compiled physics of a robot's world: :class:`Physics`, what the static check,
+the hold and the motion playback work with.
+
+A :class:`Physics` holds MuJoCo's model and state of a robot's world and answers
+in the robot's terms: the robot configuration ``q`` (the robot model's ``nq``) is
+a prefix of the world's ``qpos`` (:meth:`Physics.qpos_of`), the robot's contacts
+in a state (:meth:`Physics.contacts`, :meth:`Physics.touching`), the external
+wrenches at their frames (:meth:`Physics.external_wrenches`), the servo joints
+and their dofs, geom names, the grasped objects, and stepping through the state
+guard (:meth:`Physics.step`). :class:`pik_mj.sim.Scene` assembles the model
+(servos, contact parameters, grasp welds) and is a :class:`Physics`.
+
+**Touching geoms.** MuJoCo reports a contact only for ``dist < margin``; feet
+placed exactly on the floor have ``dist = 0``. The static check therefore runs
+collision detection on a probe copy of the model whose robot geoms have
+``geom_margin = contact_tolerance`` (:meth:`Physics.probe`,
+:meth:`Physics.touching`) and keeps contacts with ``dist <= contact_tolerance``.
+The physics model keeps the original margins (a margin there would make the
+contacts push at a distance).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pik_mj import balance, inputs
+from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.frames import Frame
+from pik_mj.robot import Robot
+from pik_mj.robot.ground import foot_geoms
+from pik_mj.sim.grasp import Grasp
+from pik_mj.sim.guard import StateGuard
+from pik_mj.sim.servos import position_feedback, rest_controls
+from pik_mj.spatial import matrix_to_quat
+
+__all__ = ["ContactInfo", "External", "Physics", "subtree_mask"]
+
+External = tuple[str, ArrayLike, ArrayLike]
+"""``(frame, force (3,) [N], moment (3,) [N·m])``: a wrench acting on the robot, the
+force at the frame's origin (a site or body of the scene), world frame."""
+
+
+@dataclass(frozen=True)
+class ContactInfo:
+    """A contact between a robot geom and another geom.
+
+    Attributes:
+        robot_geom: Name of the robot's geom.
+        other_geom: Name of the other geom (environment, or robot if ``self_contact``).
+        other_body: Name of the other geom's body.
+        position: Contact point ``p_WC`` (3,) [m] (MuJoCo: midway between surfaces).
+        normal: Unit normal (3,) pointing INTO the robot geom (the direction the
+            other geom pushes it).
+        dist: Signed distance between the surfaces [m] (< 0: penetration).
+        friction: MuJoCo's sliding friction coefficient of the pair.
+        self_contact: Both geoms belong to the robot.
+    """
+
+    robot_geom: str
+    other_geom: str
+    other_body: str
+    position: np.ndarray
+    normal: np.ndarray
+    dist: float
+    friction: float
+    self_contact: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "robot_geom": self.robot_geom,
+            "other_geom": self.other_geom,
+            "other_body": self.other_body,
+            "position": self.position.tolist(),
+            "normal": self.normal.tolist(),
+            "dist": self.dist,
+            "friction": self.friction,
+            "self_contact": self.self_contact,
+        }
+
+
+def subtree_mask(model: mujoco.MjModel, root_id: int) -> np.ndarray:
+    """Mask (nbody,) of the bodies whose top-level ancestor is ``root_id`` (its tree)."""
+    return np.asarray(model.body_rootid) == root_id
+
+
+class Physics:
+    """MuJoCo's model and state of a robot's world, read in the robot's terms.
+
+    Args:
+        robot: The robot; its joints come first in ``model``, at the same addresses.
+        model: The compiled world.
+        grasps: Objects held by robot frames (welded in ``model``): they follow
+            their frames in :meth:`qpos_of` and count in the CoM and the contacts.
+        contact_tolerance: Distance [m] within which :meth:`touching` counts two
+            geoms as touching.
+        allowed_contacts: Robot geoms allowed to touch the environment in a
+            hold; default: the robot's feet (:attr:`foot_geoms`).
+
+    Attributes:
+        robot: The :class:`pik_mj.Robot`.
+        model: The physics model.
+        data: The physics state.
+        root_body: Name of the robot's top-level body.
+        mass: Robot mass [kg].
+        carried_mass: Mass of the grasped objects [kg].
+        grasps: The :class:`~pik_mj.sim.grasp.Grasp` list.
+        contact_tolerance: Distance [m] within which :meth:`touching` counts two
+            geoms as touching.
+        servo_joints: Joints with a position servo (the robot's hinge/slide joints).
+        servo_dofs: Their dof addresses (read-only array).
+        position_actuators: Ids of the actuators that pull towards a position
+            (:func:`pik_mj.sim.servos.position_feedback`; read-only array).
+        robot_bodies: Mask (nbody,) of the robot's bodies (read-only array).
+        geom_names: Name of each geom by id (``""`` when unnamed).
+        geom_ids: ``{name: id}`` of the named geoms (read-only mapping).
+        foot_geoms: The robot's foot geoms (:func:`pik_mj.robot.ground.foot_geoms`,
+            by name): a hold's foot slip is theirs.
+        allowed_contacts: Robot geoms allowed to touch the environment in a hold
+            by default.
+
+    Raises:
+        UnknownName: A geom of ``allowed_contacts`` that is not the robot's.
+    """
+
+    def __init__(
+        self,
+        robot: Robot,
+        model: mujoco.MjModel,
+        *,
+        grasps: Sequence[Grasp] = (),
+        contact_tolerance: float = 2e-3,
+        allowed_contacts: Sequence[str] | None = None,
+    ):
+        self.robot = robot
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self._guard = StateGuard(model, self.data)
+        self.contact_tolerance = float(contact_tolerance)
+        self.root_body = robot.root_body
+        self._root_id = robot.root_body_id
+        self.mass = float(model.body_subtreemass[self._root_id])
+        self.robot_bodies = _frozen(subtree_mask(model, self._root_id))
+        # Grasped objects are part of the system: CoM, contacts, equilibrium.
+        self.grasps = list(grasps)
+        self._grasp_frames = [Frame.find(model, g.frame) for g in self.grasps]
+        self._grasp_bodies = np.array([model.body(g.body).id for g in self.grasps], dtype=int)
+        self._grasp_qadr = [
+            int(model.jnt_qposadr[model.body_jntadr[b]]) for b in self._grasp_bodies
+        ]
+        self.carried_mass = float(model.body_subtreemass[self._grasp_bodies].sum())
+        system = self.robot_bodies.copy()
+        for b in self._grasp_bodies:
+            system |= subtree_mask(model, b)
+        self._system_geom = system[model.geom_bodyid]
+        self._kin_data = mujoco.MjData(model)
+        rm = robot.model
+        servo_ids = [int(j) for j in robot.angle_joint_ids]
+        self.servo_joints = [rm.joint(j).name for j in servo_ids]
+        self.servo_dofs = _frozen(np.array(rm.jnt_dofadr[servo_ids], dtype=int))
+        self.position_actuators = _frozen(np.flatnonzero(position_feedback(model)))
+        # Collision-only copy whose robot geoms carry the contact tolerance.
+        self._probe_model = copy.copy(model)
+        self._probe_model.geom_margin[self._system_geom] = self.contact_tolerance
+        pairs = self._system_geom[model.pair_geom1] | self._system_geom[model.pair_geom2]
+        self._probe_model.pair_margin[pairs] = self.contact_tolerance
+        self._probe_data = mujoco.MjData(self._probe_model)
+        self.geom_names = tuple(model.geom(g).name for g in range(model.ngeom))
+        self._body_names = [model.body(b).name for b in range(model.nbody)]
+        self.geom_ids = MappingProxyType({n: g for g, n in enumerate(self.geom_names) if n})
+        self.foot_geoms = [rm.geom(g).name for g in foot_geoms(robot)]
+        self.allowed_contacts = (
+            list(self.foot_geoms)
+            if allowed_contacts is None
+            else self.check_robot_geoms(allowed_contacts)
+        )
+
+    # ------------------------------------------------------------------ names
+    def check_robot_geoms(self, names: Sequence[str]) -> list[str]:
+        """``names`` as a list, each checked to be a geom of the robot or of a
+        grasped object.
+
+        Raises:
+            InvalidInput: Not a list of names.
+            UnknownName: A geom that is not the robot's (lists the robot's).
+        """
+        robot_geoms = [n for g, n in enumerate(self.geom_names) if self._system_geom[g] and n]
+        names = inputs.names(names, "allowed contacts (robot geoms)")
+        for name in names:
+            if name not in robot_geoms:
+                raise UnknownName("robot geom", name, robot_geoms)
+        return list(names)
+
+    def allowed(self, names: Sequence[str] | None = None) -> list[str]:
+        """The robot geoms allowed to touch the environment: ``names``
+        (:meth:`check_robot_geoms`), or :attr:`allowed_contacts` for None."""
+        return list(self.allowed_contacts) if names is None else self.check_robot_geoms(names)
+
+    @property
+    def held_objects(self) -> list[tuple[Frame, int]]:
+        """``(frame F, object body id)`` of each grasp, in :attr:`grasps` order."""
+        return list(zip(self._grasp_frames, self._grasp_bodies.tolist(), strict=True))
+
+    # ------------------------------------------------------------------- pose
+    @property
+    def robot_nq(self) -> int:
+        """Length of a robot configuration (the robot model's ``nq``)."""
+        return int(self.robot.model.nq)
+
+    def qpos_of(self, q: ArrayLike, base: np.ndarray | None = None) -> np.ndarray:
+        """The world's ``qpos`` (a new array): ``q`` in its first :attr:`robot_nq`
+        entries, the rest from ``base`` (default ``qpos0``), grasped objects at
+        ``X_WF(q) X_FO``.
+
+        Raises:
+            InvalidInput: ``q`` is not a finite configuration of the robot.
+        """
+        q = inputs.configuration(self.robot.model, q, "q (the robot's configuration)")
+        out = (self.model.qpos0 if base is None else base).copy()
+        out[: self.robot_nq] = q
+        if self.grasps:
+            d = self._kin_data
+            d.qpos[:] = out
+            mujoco.mj_kinematics(self.model, d)
+            for g, frame, adr in zip(
+                self.grasps, self._grasp_frames, self._grasp_qadr, strict=True
+            ):
+                R_WF = frame.rotation(d)
+                out[adr : adr + 3] = frame.position(d) + R_WF @ g.p_FO
+                out[adr + 3 : adr + 7] = matrix_to_quat(R_WF @ g.R_FO)
+        return out
+
+    def kinematics(self, q: ArrayLike, data: mujoco.MjData | None = None) -> mujoco.MjData:
+        """MuJoCo's kinematics of the world at the robot configuration ``q``
+        (the environment at ``qpos0``, grasped objects in their frames): the
+        poses of bodies, geoms and sites (``mj_kinematics``) and the subtree
+        centres of mass (``mj_comPos``), in ``data`` (default: a new
+        ``MjData`` of :attr:`model`, the physics state untouched). For
+        distances along a path (``mj_geomDistance``), camera views, the CoM
+        (:meth:`com`).
+
+        Raises:
+            InvalidInput: ``q`` is not a finite configuration of the robot, or
+                ``data`` is not of :attr:`model`.
+        """
+        if data is None:
+            data = mujoco.MjData(self.model)
+        elif not isinstance(data, mujoco.MjData) or data.qpos.shape != (self.model.nq,):
+            raise InvalidInput("data must be an MjData of the scene's model (scene.model)")
+        data.qpos[:] = self.qpos_of(q)
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_comPos(self.model, data)
+        return data
+
+    def set_pose(self, q: ArrayLike) -> None:
+        """Write the robot configuration ``q`` into the physics state: zero
+        velocity, ``mj_forward``, and every actuator's control at rest there: the
+        servos' (the scene's and the robot's own position actuators') targets at
+        the pose (:func:`pik_mj.sim.servos.rest_controls`; their activations
+        too), zero for the others (motors). The other joints keep their state
+        (grasped objects follow their frames)."""
+        m, d = self.model, self.data
+        d.qpos[:] = self.qpos_of(q, base=d.qpos)
+        d.qvel[:] = 0.0
+        d.ctrl[:] = 0.0
+        d.act[:] = 0.0
+        mujoco.mj_fwdPosition(m, d)
+        servos = self.position_actuators
+        d.ctrl[servos] = rest_controls(m, d, servos)
+        for a in servos[m.actuator_actnum[servos] > 0]:
+            d.act[m.actuator_actadr[a]] = d.ctrl[a]
+        mujoco.mj_forward(m, d)
+
+    def com(self, data: mujoco.MjData | None = None) -> np.ndarray:
+        r"""Centre of mass ``p_WG`` (3,) [m] of the robot and its grasped objects
+        in ``data`` (default: physics):
+
+        .. math::
+
+            p_{WG} = \frac{m_r c_r + \sum_o m_o c_o}{m_r + \sum_o m_o}
+        """
+        d = self.data if data is None else data
+        if not self.grasps:
+            return d.subtree_com[self._root_id].copy()
+        c = self.mass * d.subtree_com[self._root_id]
+        for b in self._grasp_bodies:
+            c = c + self.model.body_subtreemass[b] * d.subtree_com[b]
+        return c / (self.mass + self.carried_mass)
+
+    # --------------------------------------------------------------- contacts
+    def contacts(
+        self, data: mujoco.MjData | None = None, max_dist: float = 0.0
+    ) -> list[ContactInfo]:
+        """Robot contacts (with the environment and self-contacts) in ``data``
+        (default: physics; or :meth:`probe`'s state) with ``dist <= max_dist`` [m]."""
+        d = self.data if data is None else data
+        system, geoms, bodies = self._system_geom, self.geom_names, self._body_names
+        geom_body = self.model.geom_bodyid
+        out: list[ContactInfo] = []
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if c.dist > max_dist or c.exclude not in (0, 1):
+                continue
+            g1, g2 = int(c.geom1), int(c.geom2)
+            r1, r2 = bool(system[g1]), bool(system[g2])
+            if not (r1 or r2):
+                continue
+            # MuJoCo's normal frame[0:3] points from geom1 to geom2: it pushes geom2.
+            n = np.array(c.frame[:3])
+            robot, other = (g2, g1) if r2 else (g1, g2)
+            if not r2:
+                n = -n
+            out.append(
+                ContactInfo(
+                    robot_geom=geoms[robot],
+                    other_geom=geoms[other],
+                    other_body=bodies[geom_body[other]],
+                    position=np.array(c.pos),
+                    normal=n,
+                    dist=float(c.dist),
+                    friction=float(c.friction[0]),
+                    self_contact=r1 and r2,
+                )
+            )
+        return out
+
+    def probe(self, q: ArrayLike) -> mujoco.MjData:
+        """The state of the probe model (robot geoms with ``margin =
+        contact_tolerance``) at the robot configuration ``q`` at rest, after
+        ``mj_forward``: its :meth:`contacts` within ``contact_tolerance`` are
+        the geoms touching at ``q``. Valid until the next call.
+
+        Raises:
+            InvalidInput: ``q`` is not a finite configuration of the robot.
+        """
+        m, d = self._probe_model, self._probe_data
+        d.qpos[:] = self.qpos_of(q)
+        d.qvel[:] = 0.0
+        mujoco.mj_forward(m, d)
+        return d
+
+    def touching(self, qpos: np.ndarray) -> list[ContactInfo]:
+        """Robot contacts within ``contact_tolerance`` at the world state ``qpos``
+        (collision detection on the probe model, as :meth:`probe`)."""
+        m, d = self._probe_model, self._probe_data
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        return self.contacts(d, self.contact_tolerance)
+
+    def contact_forces(self, data: mujoco.MjData | None = None) -> tuple[np.ndarray, np.ndarray]:
+        r"""Points ``p_WC`` (n, 3) [m] and forces (n, 3) [N] on the robot (and its
+        grasped objects) of the active contacts with the environment in ``data``
+        (default: physics), from MuJoCo's ``mj_contactForce``.
+
+        MuJoCo's contact frame has its normal (first row of ``frame``) from geom1
+        to geom2 and gives the force of geom1 on geom2 in that frame:
+
+        .. math::
+            f_W = R_{WC} f_C, \quad R_{WC} = \text{frame}^T, \qquad
+            f_{robot} = \pm f_W \;(+ \text{ if the robot geom is geom2})
+        """
+        d = self.data if data is None else data
+        points, forces = [], []
+        f6 = np.zeros(6)
+        for i in range(d.ncon):
+            c = d.contact[i]
+            r1, r2 = bool(self._system_geom[c.geom1]), bool(self._system_geom[c.geom2])
+            if r1 == r2 or c.efc_address < 0:  # not robot-environment, or inactive
+                continue
+            mujoco.mj_contactForce(self.model, d, i, f6)
+            f_W = np.asarray(c.frame).reshape(3, 3).T @ f6[:3]
+            points.append(np.array(c.pos))
+            forces.append(f_W if r2 else -f_W)
+        return np.array(points).reshape(-1, 3), np.array(forces).reshape(-1, 3)
+
+    def up(self) -> np.ndarray:
+        """Unit vector against gravity (z without gravity)."""
+        g = np.asarray(self.model.opt.gravity, dtype=float)
+        n = float(np.linalg.norm(g))
+        return -g / n if n > 0 else np.array([0.0, 0.0, 1.0])
+
+    def support(
+        self, contacts: list[ContactInfo], com: np.ndarray, max_slope: float
+    ) -> tuple[balance.SupportRegion | None, float]:
+        """Support region of the ground contacts (normal within ``max_slope`` [rad]
+        of up, projected along gravity) and the signed distance of ``com`` to it
+        [m] (``(None, -inf)`` without ground contacts)."""
+        up = self.up()
+        cos_max = math.cos(max_slope)
+        pts = [c.position for c in contacts if not c.self_contact and c.normal @ up >= cos_max]
+        if not pts:
+            return None, -math.inf
+        uv = np.array(pts) @ balance.plane_basis(up)[:, :2]
+        extent = float(np.max(np.ptp(uv, axis=0))) if len(uv) > 1 else 0.0
+        region = balance.support_polygon(
+            [np.array(pts)], up, allow_degenerate=True, tol=max(1e-9, 1e-6 * extent)
+        )
+        return region, region.signed_distance(com)
+
+    def external_wrenches(
+        self, external: Sequence[External], data: mujoco.MjData | None = None
+    ) -> list[balance.ExternalWrench]:
+        """``external`` as :class:`pik_mj.balance.ExternalWrench`\\ es at the frames'
+        positions in ``data`` (default: physics).
+
+        Raises:
+            InvalidInput: Not a list of ``(frame, force, moment)``.
+            UnknownName: A frame that is not a site or body of the world.
+        """
+        d = self.data if data is None else data
+        return [
+            balance.ExternalWrench(Frame.find(self.model, frame).position(d), F, M)
+            for frame, F, M in inputs.wrenches(external, "external")
+        ]
+
+    # --------------------------------------------------------------- stepping
+    def step(
+        self, n: int = 1, *, before_step: Callable[[mujoco.MjData], None] | None = None
+    ) -> None:
+        """Advance the physics ``n`` steps through the state guard
+        (:class:`pik_mj.sim.guard.StateGuard`), calling ``before_step`` with the
+        state before each (e.g. to write ``xfrc_applied``).
+
+        Raises:
+            SimulationUnstable: A warning fired or the state is not finite.
+        """
+        self._guard.step(n, before_step=before_step)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
