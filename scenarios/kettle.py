@@ -200,7 +200,7 @@ def run(
     grasp = reach_handle(stage, kettle, path, pairs)
     held = Scene.from_robot(robot, grasps=[("rarm_end", "kettle")])  # X_FO read now
     lift_path, q_ik = lift(stage, kettle, grasp.X_grasp)
-    motion = {}
+    motion: dict[str, Any] = {}  # the motion's figures
     if speed:
         open_hand = Scene.from_robot(robot, exclude=[(HAND, "kettle")])
         parts = [
@@ -276,11 +276,10 @@ def reach_handle(stage: Stage, kettle: Kettle, path: Waypoints, pairs: list[Geom
         stop=200,
         trust_region=STEPS,
     )
-    pre = (kettle.pre_grasp, R_grasp)
     stage.solve(
         inverse_kinematics,
         "pre-grasp",
-        pre,
+        (kettle.pre_grasp, R_grasp),
         path=path,
         collision_avoidance=avoid(robot, pairs),
         **options,

@@ -12,7 +12,13 @@ from pik_mj.robot import Robot
 @dataclass(frozen=True)
 class RobotOption:
     """What ``--model`` (and ``--description``) must give a scenario: a robot that
-    loads and has ``limbs`` (and a floating base with ``floating_base``)."""
+    loads and has ``limbs`` (and a floating base with ``floating_base``).
+
+    Attributes:
+        default: The model run when neither option names one.
+        limbs: Limbs the scenario moves.
+        floating_base: The scenario needs a floating base.
+    """
 
     default: str
     limbs: tuple[str, ...]
