@@ -1,4 +1,5 @@
-"""The ``pik-mj`` command: list and run the seed's scenarios, validate poses.
+"""The ``pik-mj`` command: list and run the scenarios, validate poses, take screenshots,
+run sweeps.
 
 ::
 
@@ -54,28 +55,28 @@ import sys
 import threading
 import traceback
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+import pik_mj.scenarios
 from pik_mj import inputs
 from pik_mj.exceptions import (
     InvalidInput,
     OptionError,
-    PikError,
     ScenarioWaiting,
     SimulationUnstable,
     UnknownName,
 )
+from pik_mj.record import Recorder, screenshot
+from pik_mj.robot import Robot, RobotSource
+from pik_mj.scenario import balance_summary, jsonable, positive
+from pik_mj.scenario.exit_status import EXIT_FAILED, EXIT_PASSED, EXIT_USAGE, exit_code, guarded
+from pik_mj.sim import validate_pose
+from pik_mj.sweep import cli as sweep_cli
 
-EXIT_PASSED, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 _RECORDING_OPTIONS = ("--save", "--connect", "--serve", "--stdout", "--headless")
-
-
-def _scenarios() -> ModuleType:
-    import pik_mj.scenarios
-
-    return pik_mj.scenarios
 
 
 def load_scenario(name: str) -> ModuleType:
@@ -85,7 +86,7 @@ def load_scenario(name: str) -> ModuleType:
         UnknownName: Not a scenario of :data:`pik_mj.scenarios.SCENARIOS`.
         ScenarioWaiting: The scenario needs a pik_mj module that does not exist yet.
     """
-    names = _scenarios().SCENARIOS
+    names = pik_mj.scenarios.SCENARIOS
     if name not in names:
         raise UnknownName("scenario", name, names)
     try:
@@ -98,8 +99,7 @@ def load_scenario(name: str) -> ModuleType:
 
 def describe(name: str) -> tuple[str, list[str]]:
     """``(first line of the scenario's docstring, flags)`` for ``pik-mj list``."""
-    scenarios = _scenarios()
-    flags = ["default"] if name == scenarios.DEFAULT else []
+    flags = ["default"] if name == pik_mj.scenarios.DEFAULT else []
     try:
         module = load_scenario(name)
     except ScenarioWaiting as exc:
@@ -111,7 +111,7 @@ def describe(name: str) -> tuple[str, list[str]]:
 
 
 def _list() -> int:
-    names = _scenarios().SCENARIOS
+    names = pik_mj.scenarios.SCENARIOS
     width = max(len(n) for n in names)
     for name in names:
         text, flags = describe(name)
@@ -121,7 +121,7 @@ def _list() -> int:
 
 
 def _run(name: str | None, argv: list[str]) -> int:
-    name = _scenarios().DEFAULT if name is None else name
+    name = pik_mj.scenarios.DEFAULT if name is None else name
     module = load_scenario(name)  # usage errors: exit 2
     if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
         argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
@@ -130,7 +130,7 @@ def _run(name: str | None, argv: list[str]) -> int:
         try:
             return int(module.main(argv))
         except SystemExit as exc:  # the scenario's argparse: --help (0) or bad options (2)
-            return _exit_code(exc)
+            return exit_code(exc)
         except OptionError as exc:  # an option the user gave cannot be used: exit 2
             print(f"pik-mj: error: {exc}", file=sys.stderr)
             return EXIT_USAGE
@@ -184,13 +184,6 @@ def _recording_note(argv: list[str], when: str) -> None:
         print(f"recording ({when}): {save}")
 
 
-def _exit_code(exc: SystemExit) -> int:
-    """The exit status of argparse's SystemExit (--help: 0, a usage error: 2)."""
-    if exc.code is None:
-        return EXIT_PASSED
-    return exc.code if isinstance(exc.code, int) else EXIT_USAGE
-
-
 def read_pose_file(path: str | Path) -> dict[str, Any]:
     """The pose of a JSON file: the ``robot`` entry of a ``pik-mj run --json``
     summary, or the file itself when it has ``model`` and ``q``.
@@ -203,8 +196,6 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
     Raises:
         InvalidInput: Missing or unreadable file, or no pose in it.
     """
-    from pik_mj.robot import RobotSource
-
     p = Path(path)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
@@ -273,13 +264,6 @@ def _validate_parser() -> argparse.ArgumentParser:
 
 
 def _validate(argv: list[str]) -> int:
-    from dataclasses import replace
-
-    from pik_mj.record import Recorder
-    from pik_mj.robot import Robot
-    from pik_mj.scenario import balance_summary, jsonable, positive
-    from pik_mj.sim import validate_pose
-
     args = _validate_parser().parse_args(argv)
     try:
         duration = positive(args.duration)
@@ -342,7 +326,7 @@ def _validate(argv: list[str]) -> int:
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="pik-mj", description="Prioritized IK on MuJoCo: run the seed's scenarios."
+        prog="pik-mj", description="Prioritized IK on MuJoCo: run the scenarios."
     )
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the scenarios")
@@ -365,39 +349,32 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Usage errors (argparse's, and :class:`~pik_mj.exceptions.PikError` raised by
     the command itself, not by a scenario) print one line on stderr and return 2;
-    Ctrl-C returns 130 once the run has unwound (recordings closed).
+    Ctrl-C returns 130 once the run has unwound (recordings closed):
+    :func:`pik_mj.scenario.exit_status.guarded`.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    try:
-        # `run` and `validate` hand their options on: only the command is parsed here.
-        command = _parser().parse_args(argv[:1]).command
-        rest = argv[1:]
-        if command == "list":
-            if rest:
-                _parser().error(f"unrecognized arguments: {' '.join(rest)}")
-            return _list()
-        if command == "validate":
-            return _validate(rest)
-        if command == "screenshot":
-            from pik_mj.record import screenshot
+    return guarded(lambda: _command(argv))
 
-            shot = argparse.ArgumentParser(prog="pik-mj screenshot")
-            screenshot.add_arguments(shot)
-            return screenshot.run(shot.parse_args(rest))
-        if command == "sweep":
-            from pik_mj.sweep import cli as sweep_cli
 
-            return sweep_cli.main(rest)
-        name = rest[0] if rest and not rest[0].startswith("-") else None
-        return _run(name, rest[1:] if name is not None else rest)
-    except SystemExit as exc:  # argparse: --help (0) or a usage error (2), printed
-        return _exit_code(exc)
-    except PikError as exc:
-        print(f"pik-mj: error: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("pik-mj: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+def _command(argv: list[str]) -> int:
+    """The command ``argv[0]`` with its options ``argv[1:]``."""
+    # `run` and `validate` hand their options on: only the command is parsed here.
+    command = _parser().parse_args(argv[:1]).command
+    rest = argv[1:]
+    if command == "list":
+        if rest:
+            _parser().error(f"unrecognized arguments: {' '.join(rest)}")
+        return _list()
+    if command == "validate":
+        return _validate(rest)
+    if command == "screenshot":
+        shot = argparse.ArgumentParser(prog="pik-mj screenshot")
+        screenshot.add_arguments(shot)
+        return screenshot.run(shot.parse_args(rest))
+    if command == "sweep":
+        return sweep_cli.main(rest)
+    name = rest[0] if rest and not rest[0].startswith("-") else None
+    return _run(name, rest[1:] if name is not None else rest)
 
 
 if __name__ == "__main__":

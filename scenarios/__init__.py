@@ -1,4 +1,5 @@
-"""The seed's examples as scenario scripts, installed as ``pik_mj.scenarios``.
+"""The examples of the prioritized-IK and irteus manuals as scenario scripts, installed
+as ``pik_mj.scenarios``.
 
 Each module ``pik_mj.scenarios.<name>`` is a script (``python -m
 pik_mj.scenarios.<name>``, or ``pik-mj run <name>``) with a ``main(argv)`` and a

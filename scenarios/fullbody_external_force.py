@@ -1,8 +1,8 @@
 """Fullbody IK with forces on both hands: the static balance point between the feet
-(seed 001, ``:centroid-offset-func`` with ``:calc-static-balance-point``).
+(irteus manual, ``:centroid-offset-func`` with ``:calc-static-balance-point``).
 
-Both hands receive the seed's force (-20, 0, 0) N and moment (10, 0, 0) N·m; the
-feet stay, the hands go to the seed's ``#f(400 ∓300 0)`` mm from the waist
+Both hands receive the irteus example's force (-20, 0, 0) N and moment (10, 0, 0)
+N·m; the feet stay, the hands go to ``#f(400 ∓300 0)`` mm from the waist
 (position only), and the *static balance point* — where the ground reaction
 balances gravity and the hand wrenches — is brought over the midpoint of the
 feet instead of the centroid. The check is independent of the formula used in
@@ -14,17 +14,17 @@ is held, both with the same hand wrenches applied.
 
 from __future__ import annotations
 
-import sys
+from typing import Any
 
+import mink
 import numpy as np
 
 from pik_mj import (
     CollisionAvoidanceTask,
-    HoldCriteria,
-    Progress,
     Recorder,
     Robot,
     Scene,
+    SolveResult,
     Waypoints,
     fullbody_inverse_kinematics,
 )
@@ -33,7 +33,10 @@ from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
     ScenarioResult,
+    Stage,
     com_margin,
+    end_pose,
+    largest_move,
     open_recorder,
     parser,
     report,
@@ -46,10 +49,7 @@ FORCE = np.array([-20.0, 0.0, 0.0])  # [N] on each hand
 MOMENT = np.array([10.0, 0.0, 0.0])  # [N·m] on each hand
 HANDS = ("rarm", "larm")
 FEET = ("rleg", "lleg")
-
-
-def frame_of(robot: Robot, limb: str):
-    return robot.frame_pose(robot.limb(limb).end_frame, robot.limb(limb).end_frame_type)
+Wrench = tuple[str, np.ndarray, np.ndarray]  # (frame, force [N], moment [N·m])
 
 
 def run(
@@ -59,30 +59,52 @@ def run(
     speed: float = DEFAULT_SPEED,
     quiet: bool = True,
 ) -> ScenarioResult:
-    result = ScenarioResult(NAME)
     robot = Robot.from_model("sample_humanoid")
-    scene = Scene.from_robot(robot)
-    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
-    feet0 = [frame_of(robot, x) for x in FEET]
+    stage = Stage(NAME, robot, recorder, scene=Scene.from_robot(robot), quiet=quiet)
+    feet0 = [end_pose(robot, x) for x in FEET]
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     p_root, _ = robot.root_pose()
     targets = [p_root + np.array([0.4, -0.3, 0.0]), p_root + np.array([0.4, 0.3, 0.0])]
     forces = [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
+    path = Waypoints(robot)
+    res = reach(stage, targets, forces, p_mid, path)
+    if speed:
+        # The hands take up their wrenches as they reach, at half the speed: under the
+        # 40 N of pulls the servos let the root lag behind its reference in proportion
+        # to the speed.
+        stage.play("reach with forces", path, speed=speed / 2, external=forces, external_ramp=True)
+    # The final pose in physics, with the hand wrenches it was solved for.
+    stage.hold_final_pose(hold, external=forces)
+    result = stage.result
+    result.main = "reach with forces"
+    result.figures = figures(robot, forces, targets, feet0, res)
+    check(result, robot, res)
+    return result
 
-    # The arms keep off the body (seed: collision-avoidance links of the arms):
-    # the plain solution's first step swings the right forearm into the pelvis.
+
+def reach(
+    stage: Stage,
+    targets: list[np.ndarray],
+    forces: list[Wrench],
+    p_mid: np.ndarray,
+    path: Waypoints,
+) -> SolveResult:
+    """The hands to ``targets`` (position only) under ``forces``, the feet kept, the
+    static balance point over the feet midpoint ``p_mid`` (its x-y); the arms keep off
+    the body (irteus: the arms' ``:collision-avoidance-link-pair``), which the
+    plain solution's first step swings the right forearm into."""
+    robot = stage.robot
     arms = [f"{arm}_{link}" for arm in HANDS for link in ("upper", "lower", "hand")]
     pairs = collision_pairs(
         robot.model, robot.data, [*arms, "pelvis", "torso_chest", "rleg_thigh", "lleg_thigh"]
     )
     avoid = CollisionAvoidanceTask(robot.configuration, pairs, yellow=0.1, orange=0.01)
-    checks = scene.static_checker()
-    log = recorder.solve_logger("reach with forces", checks=checks, start=robot)
-    progress = Progress("reach with forces", total=100, stream=None if quiet else sys.stderr)
-    path = Waypoints(robot)
-    res = fullbody_inverse_kinematics(
-        robot,
+    return stage.solve(
+        fullbody_inverse_kinematics,
+        "reach with forces",
         [(p, np.array([1.0, 0.0, 0.0, 0.0])) for p in targets],
+        path=path,
+        total=100,
         limbs=list(HANDS),
         rotation_axis=None,
         external_forces=forces,
@@ -90,79 +112,65 @@ def run(
         target_centroid_pos=p_mid,
         centroid_axes="z",
         stop=100,
-        # short steps: the first long step lifts a foot off the floor (level 1 is
-        # not yet satisfied, so the trust region does not keep the feet), which
-        # the motion in physics shows as slip and a lean
+        # short steps: a long first step lifts a foot off the floor (level 1 is not
+        # yet satisfied, so the trust region does not keep the feet)
         trust_region=TrustRegion(radius=0.05, max_radius=0.1),
-        callback=[checks, log, progress, path.segment("reach with forces")],
     )
-    result.add_solve("reach with forces", res, checks, finish=[log, progress, path])
 
-    # The iterates as a motion in physics: the hands take up their wrenches as they reach.
-    if speed:
-        log = recorder.motion_logger()
-        # at half the speed: under the 40 N of pulls the servos let the root lag
-        # 24.6 mm behind its reference at 0.2 of the joint limits, 10.7 mm at 0.1
-        motion = scene.play(
-            path, speed=speed / 2, external=forces, external_ramp=True, callback=log
-        )
-        result.add_motion("reach with forces", motion, finish=[log])
 
-    # The final pose in physics, with the hand wrenches it was solved for.
-    q = robot.configuration.q.copy()
-    static = scene.static_check(q, external=forces)
-    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
-    log = recorder.hold_logger()
-    held = scene.hold(q, hold, criteria=criteria, external=forces, callback=log) if hold else None
-    result.add_balance(scene, static, held, criteria, external=forces)
-
-    # Independent check: moments about the feet midpoint (3D cross products), where
-    # a pure vertical ground force must balance gravity and the hand wrenches.
+def figures(
+    robot: Robot,
+    forces: list[Wrench],
+    targets: list[np.ndarray],
+    feet0: list[mink.SE3],
+    res: SolveResult,
+) -> dict[str, Any]:
+    """The measures of the final pose: the balance point and, independently, the
+    moment about the feet midpoint (3D cross products) where a pure vertical ground
+    force must balance gravity and the hand wrenches; the hands, the feet, the CoM."""
+    p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     p = static_balance_point(robot, forces, height=p_mid[2])
-    g = robot.mass * robot.model.opt.gravity
-    moment = np.cross(robot.com() - p_mid, g)
+    moment = np.cross(robot.com() - p_mid, robot.mass * robot.model.opt.gravity)
     for h in HANDS:
-        moment += np.cross(frame_of(robot, h).translation() - p_mid, FORCE) + MOMENT
-    feet1 = [frame_of(robot, x) for x in FEET]
+        moment += np.cross(end_pose(robot, h).translation() - p_mid, FORCE) + MOMENT
     com = robot.com()
-    hand_errors = [
-        float(np.linalg.norm(frame_of(robot, h).translation() - t))
-        for h, t in zip(HANDS, targets, strict=True)
-    ]
-    result.main = "reach with forces"
-    result.figures = {
+    return {
         "balance_point_m": p,
         "balance_point_xy_error_m": float(np.linalg.norm(p[:2] - p_mid[:2])),
         "horizontal_moment_about_feet_midpoint_Nm": moment[:2],
         "com_m": com,
         "com_shift_from_feet_midpoint_m": com[:2] - p_mid[:2],
         "balance_point_margin_m": com_margin(robot, p),
-        "hand_errors_m": hand_errors,
-        "feet_moved_m": max(
-            float(np.linalg.norm(a.translation() - b.translation()))
-            for a, b in zip(feet0, feet1, strict=True)
-        ),
+        "hand_errors_m": [
+            float(np.linalg.norm(end_pose(robot, h).translation() - t))
+            for h, t in zip(HANDS, targets, strict=True)
+        ],
+        "feet_moved_m": largest_move(feet0, [end_pose(robot, x) for x in FEET]),
         "median_iteration_ms": res.median_iteration_ms,
     }
+
+
+def check(result: ScenarioResult, robot: Robot, res: SolveResult) -> None:
+    """The scenario's checks on its solve and figures."""
     f = result.figures
+    moment = f["horizontal_moment_about_feet_midpoint_Nm"]
     weight = robot.mass * float(np.linalg.norm(robot.model.opt.gravity))  # [N]
     result.check("converged", res.converged, f"{res.iterations} iterations")
-    result.check("hands on target (1 mm)", max(hand_errors) <= 1e-3)
+    result.check("hands on target (1 mm)", max(f["hand_errors_m"]) <= 1e-3)
     result.check("feet did not move (0.1 mm)", f["feet_moved_m"] <= 1e-4)
     result.check(
         "balance point over the feet midpoint (1 mm)", f["balance_point_xy_error_m"] <= 1e-3
     )
     result.check(
         "no horizontal moment about the feet midpoint (M g · 1 mm)",
-        float(np.abs(moment[:2]).max()) <= weight * 1e-3,
-        f"{moment[:2]}",
+        float(np.abs(moment).max()) <= weight * 1e-3,
+        f"{moment}",
     )
     result.check("balance point inside the support polygon", f["balance_point_margin_m"] > 0)
     result.check(
         "CoM leans into the pull (x forward of the feet midpoint by > 2 cm)",
         f["com_shift_from_feet_midpoint_m"][0] > 0.02,
     )
-    return result
 
 
 def main(argv: list[str] | None = None) -> int:

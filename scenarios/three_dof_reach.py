@@ -1,81 +1,103 @@
-"""3-DoF arm: reach sweep; the seed's failing case reverts; an unreachable one stretches.
+"""3-DoF arm: reach sweep; the manual's failing case reverts; an unreachable one stretches.
 
-Seed 001 ``3dof-robot``: the tip pointing down (rpy (0 pi 0)) is sent along
-``x = 100 + 80 sin(i / 100)`` mm, z = 0; with the joints' ±100° limits a pose
-with the tip down at height 0 needs the elbow bend ``j2 = 2 acos(x / 0.2)``, so
-targets with ``x < 0.2 cos 50° = 0.1286 m`` fail (the seed's failure printout is
-at x = 39.98 mm) and, with ``revert_if_fail``, leave the angles as they were.
-Then the seed's ``(300 0 0)`` with ``:rotation-axis nil :revert-if-fail nil``:
-out of reach, the arm ends stretched towards it. A fixed-base arm: nothing to
-balance, no physics hold.
+The irteus manual's ``3dof-robot``: the tip pointing down (rpy (0 pi 0)) is sent
+along ``x = 100 + 80 sin(i / 100)`` mm, z = 0; with the joints' ±100° limits a
+pose with the tip down at height 0 needs the elbow bend ``j2 = 2 acos(x / 0.2)``,
+so targets with ``x < 0.2 cos 50° = 0.1286 m`` fail (the manual's failure
+printout is at x = 39.98 mm) and, with ``revert_if_fail``, leave the angles as
+they were. Then the manual's ``(300 0 0)`` with ``:rotation-axis nil
+:revert-if-fail nil``: out of reach, the arm ends stretched towards it. A
+fixed-base arm: nothing to balance, no physics hold.
 """
 
 from __future__ import annotations
 
-import sys
+from typing import Any
 
 import numpy as np
 
-from pik_mj import Progress, Recorder, Robot, inverse_kinematics
-from pik_mj.scenario import ScenarioResult, open_recorder, parser, report
+from pik_mj import Recorder, Robot, SolveResult, inverse_kinematics
+from pik_mj.scenario import ScenarioResult, Stage, open_recorder, parser, report
 
 NAME = "three_dof_reach"
 LINK = 0.1  # [m] l2 and l3
 TIP_DOWN = np.array([0.0, 0.0, 1.0, 0.0])  # (w, x, y, z): rotation by pi about y
+START = np.deg2rad([30.0, 30.0, 30.0])  # [rad]
+FAR = np.array([0.3, 0.0, 0.0])  # [m] the out-of-reach target
 
 
 def run(recorder: Recorder, *, quiet: bool = True, samples: int = 16) -> ScenarioResult:
-    result = ScenarioResult(NAME)
     robot = Robot.from_model("three_dof_arm")
-    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
-    err = None if quiet else sys.stderr
-    robot.set_angle_vector(np.deg2rad([30.0, 30.0, 30.0]))
-    x_min = 2 * LINK * np.cos(np.deg2rad(50.0))  # elbow at its 100° limit
+    stage = Stage(NAME, robot, recorder, quiet=quiet)
+    robot.set_angle_vector(START)
+    reached, failed, reverted_exactly = sweep(stage, samples)
+    # The manual's printout case, alone: the angles must be unchanged.
+    robot.set_angle_vector(START)
+    before = robot.angle_vector()
+    fail = solve(stage, "seed failing case", [0.039982, 0.0, 0.0])
+    failing_unchanged = np.array_equal(robot.angle_vector(), before)
+    # (300 0 0), rotation free, no revert: stretched towards the target.
+    far = solve(stage, "out of reach", FAR, rotation_axis=None, revert_if_fail=False)
+    result = stage.result
+    result.main = "seed failing case"
+    result.robot = robot
+    result.figures = figures(robot, reached, failed, before)
+    check(result, fail, far, reverted_exactly, failing_unchanged)
+    return result
 
-    def solve(label: str, target, **options):
-        """``inverse_kinematics`` with the logger and the progress."""
-        log, progress = (
-            recorder.solve_logger(label, start=robot),
-            Progress(label, total=50, stream=err),
-        )
-        res = inverse_kinematics(robot, target, callback=[log, progress], **options)
-        return result.add_solve(label, res, finish=[log, progress])
 
+def solve(stage: Stage, label: str, p: Any, **options: Any) -> SolveResult:
+    """The tip to ``p`` [m] pointing down, with the logger and the progress."""
+    return stage.solve(inverse_kinematics, label, (p, TIP_DOWN), total=50, **options)
+
+
+def sweep(stage: Stage, samples: int) -> tuple[list[float], list[float], bool]:
+    """The tip along ``x = 0.1 + 0.08 sin(i / 100)`` m, ``samples`` targets from where
+    the last one ended. Returns the targets' x [m] reached and failed, and whether
+    every failed one left the angles exactly as they were (reverted)."""
+    robot = stage.robot
     reached, failed, reverted_exactly = [], [], True
     for i in np.linspace(0, 400, samples, endpoint=False):
         x = 0.1 + 0.08 * np.sin(i / 100.0)
         before = robot.angle_vector()
-        res = solve(f"sweep x={x:.4f}", ([x, 0.0, 0.0], TIP_DOWN))
+        res = solve(stage, f"sweep x={x:.4f}", [x, 0.0, 0.0])
         (reached if res.converged else failed).append(float(x))
         if not res.converged:
             reverted_exactly &= bool(res.reverted) and np.array_equal(robot.angle_vector(), before)
+    return reached, failed, reverted_exactly
 
-    # The seed's printout case, alone: the angles must be unchanged.
-    robot.set_angle_vector(np.deg2rad([30.0, 30.0, 30.0]))
-    before = robot.angle_vector()
-    fail = solve("seed failing case", ([0.039982, 0.0, 0.0], TIP_DOWN))
-    failing_unchanged = np.array_equal(robot.angle_vector(), before)
 
-    # (300 0 0), rotation free, no revert: stretched towards the target.
-    far = solve(
-        "out of reach", ([0.3, 0.0, 0.0], TIP_DOWN), rotation_axis=None, revert_if_fail=False
-    )
-
-    tip = robot.frame_pose("end").translation()
-    # Closest reachable point: straight arm (0.22 m from joint0 at z = 0.02) towards it.
-    expected_gap = np.linalg.norm(np.array([0.3, 0.0, 0.0]) - [0, 0, 0.02]) - 0.22
-    gap = float(np.linalg.norm(tip - [0.3, 0.0, 0.0]))
-    result.main = "seed failing case"
-    result.robot = robot
-    result.figures = {
-        "x_min_analytic_m": x_min,
+def figures(
+    robot: Robot, reached: list[float], failed: list[float], before: np.ndarray
+) -> dict[str, Any]:
+    """The sweep's outcome against the elbow's limit, the failing case's angles
+    (``before``), and how near the stretched arm came to the far target, against the
+    straight arm's reach (0.22 m from joint0 at z = 0.02)."""
+    gap = float(np.linalg.norm(robot.frame_pose("end").translation() - FAR))
+    return {
+        "x_min_analytic_m": 2 * LINK * np.cos(np.deg2rad(50.0)),  # elbow at its 100° limit
         "reached_x_m": reached,
         "failed_x_m": failed,
         "failing_case_angles_deg": np.rad2deg(before),
         "out_of_reach_gap_m": gap,
-        "out_of_reach_gap_analytic_m": expected_gap,
+        "out_of_reach_gap_analytic_m": np.linalg.norm(FAR - [0, 0, 0.02]) - 0.22,
         "out_of_reach_angles_deg": np.rad2deg(robot.angle_vector()),
     }
+
+
+def check(
+    result: ScenarioResult,
+    fail: SolveResult,
+    far: SolveResult,
+    reverted_exactly: bool,
+    failing_unchanged: bool,
+) -> None:
+    """The scenario's checks: reach iff the elbow's limit allows, the failed sweep
+    targets reverted exactly, the failing case not converged with its angles
+    unchanged, the stretch towards the far target."""
+    f = result.figures
+    x_min, reached, failed = f["x_min_analytic_m"], f["reached_x_m"], f["failed_x_m"]
+    gap, expected_gap = f["out_of_reach_gap_m"], f["out_of_reach_gap_analytic_m"]
     result.check(
         "reach iff x >= x_min (2 mm band excluded)",
         all(x >= x_min - 2e-3 for x in reached) and all(x <= x_min + 2e-3 for x in failed),
@@ -92,7 +114,6 @@ def run(recorder: Recorder, *, quiet: bool = True, samples: int = 16) -> Scenari
         not far.converged and not far.reverted and abs(gap - expected_gap) < 2e-3,
         f"gap {gap:.4f} m vs {expected_gap:.4f} m",
     )
-    return result
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,7 +1,7 @@
 """Walk forward: 4 steps of 0.12 m by preview control + whole-body IK, played in physics.
 
-Seed 001 ``:calc-walk-pattern-from-footstep-list``, its first walking example on
-the sample humanoid: footsteps straight ahead (left first), preview control of
+The irteus manual's ``:calc-walk-pattern-from-footstep-list``, its first walking
+example on the sample humanoid: footsteps straight ahead (left first), preview control of
 the cart-table model for the CoM, one whole-body IK per tick (feet, CoM and
 upright pelvis, posture), then two checks of the pattern: the ZMP of its
 inverse dynamics stays inside the support polygon at every tick, and played

@@ -1,6 +1,6 @@
 """Walk to a pose: go_pos(0.5 m, 0.15 m, 45°) footsteps, the pattern played in physics.
 
-Seed 001 ``:go-pos-params->footstep-list``: footsteps from the sample humanoid's
+The irteus manual's ``:go-pos-params->footstep-list``: footsteps from the sample humanoid's
 feet to a goal 0.5 m ahead, 0.15 m left and turned 45° left (the left leg
 leads, at most 0.15 m / 30° per step), the walking pattern by preview control
 and whole-body IK per tick, then the same checks as ``walk_forward``: ZMP of the

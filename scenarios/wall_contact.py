@@ -1,4 +1,4 @@
-"""A hand on the wall: multi-contact balance with the SCFR (seed 000 ``centroid-scfr-task``).
+"""A hand on the wall: the SCFR of three contacts (prioritized-IK manual ``centroid-scfr-task``).
 
 The robot stands at ``spot_wall`` facing the wall (0.45 m ahead). Its right palm
 is put flat on the wall at shoulder height; the feet stay. The balance task of
@@ -14,7 +14,8 @@ until the palm reaches the wall, and on once it is there.
 
 from __future__ import annotations
 
-import sys
+from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -22,22 +23,22 @@ import numpy as np
 from pik_mj import (
     CentroidTask,
     CollisionAvoidanceTask,
-    HoldCriteria,
-    Progress,
     Recorder,
     Robot,
     Scene,
     ScfrTask,
+    SolveResult,
     Waypoints,
     fullbody_inverse_kinematics,
 )
-from pik_mj.balance import contact_from_normal, foot_contact, static_equilibrium
+from pik_mj.balance import ContactConstraint, contact_from_normal, foot_contact, static_equilibrium
 from pik_mj.robot.ground import sole_size
 from pik_mj.robot.sensors import SensorTrace
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
     ScenarioResult,
+    Stage,
     com_margin,
     open_recorder,
     parser,
@@ -53,10 +54,55 @@ PALM_OFFSET = 0.02  # [m] from the hand site to the palm face (hand box half thi
 LEAN = 0.1  # [m] CoM target past the toes
 BUMPER = "rarm_bumper"  # touch sensor site around the right hand
 TOUCHING = 1e-3  # [m] hand-wall distance at which the palm is on the wall
-# The step rule the palm-then-lean path was tuned with (a first radius of 0.5
-# ends the palm's solve with the forearm nearer the wall than the lean's
-# clearance, which then never holds: the lean reverts).
+# The first trust radius of 1: the palm's solve then ends with the forearm clear of
+# the wall by the lean's clearance, so that the lean's avoidance holds from its start.
 STEPS = TrustRegion(radius=1.0)
+FEET = ("rleg_end", "lleg_end")
+
+
+@dataclass(frozen=True)
+class WallSupport:
+    """Where the palm goes on the wall, and the contacts the robot then leans on.
+
+    Attributes:
+        p_palm: The palm's centre on the wall [m], below the shoulder.
+        p_site: The hand site's target [m]: ``PALM_OFFSET`` off the wall.
+        R_hand: The hand's orientation: y (palm normal) into the wall, z (towards
+            the elbow) down.
+        n_wall: Direction of the wall's push on the palm (the wall's normal).
+        contacts: The soles (μ = 0.8) and the palm (μ = 0.5).
+        toes: The toes' y [m] (the wall is ahead along y).
+        lean: The CoM's target [m]: ``LEAN`` past the toes, between the feet in x.
+    """
+
+    p_palm: np.ndarray
+    p_site: np.ndarray
+    R_hand: np.ndarray
+    n_wall: np.ndarray
+    contacts: list[ContactConstraint]
+    toes: float
+    lean: np.ndarray
+
+    @classmethod
+    def facing(cls, robot: Robot) -> WallSupport:
+        """The support of ``robot`` standing before the wall."""
+        wall = robot.frame_pose("wall", "geom")
+        y_wall = wall.translation()[1] - robot.model.geom("wall").size[1]  # wall face [m]
+        n_wall = np.array([0.0, -1.0, 0.0])  # the wall pushes the robot back
+        shoulder = robot.frame_pose("rarm_upper", "body").translation()
+        p_palm = np.array([shoulder[0], y_wall, shoulder[2] - 0.05])
+        R_hand = np.column_stack(
+            [np.cross([0.0, 1.0, 0.0], [0.0, 0.0, -1.0]), [0, 1, 0], [0, 0, -1]]
+        )
+        feet = [robot.frame_pose(f) for f in FEET]
+        yaw = yaw_of(feet[0].rotation().as_matrix())
+        sole = 0.5 * np.array(sole_size(robot))  # [m] half length and width
+        contacts = [foot_contact(f.translation(), yaw, *sole, mu=0.8) for f in feet]
+        contacts.append(contact_from_normal(p_palm, n_wall, *PALM, mu=0.5))
+        toes = max(f.translation()[1] for f in feet) + sole[0]  # the sites: the sole centres
+        x_mid = 0.5 * (feet[0].translation()[0] + feet[1].translation()[0])
+        lean = np.array([x_mid, toes + LEAN, 0.0])
+        return cls(p_palm, p_palm + PALM_OFFSET * n_wall, R_hand, n_wall, contacts, toes, lean)
 
 
 def run(
@@ -66,56 +112,66 @@ def run(
     speed: float = DEFAULT_SPEED,
     quiet: bool = True,
 ) -> ScenarioResult:
-    result = ScenarioResult(NAME)
     robot = Robot.from_model("sample_humanoid", environment="room", at="spot_wall")
-    scene = Scene.from_robot(robot)
-    recorder.log_model_geometry(robot.model, robot_root_body=robot.root_body)
-    wall = robot.frame_pose("wall", "geom")
-    y_wall = wall.translation()[1] - robot.model.geom("wall").size[1]  # wall face [m]
-    n_wall = np.array([0.0, -1.0, 0.0])  # the wall pushes the robot back
-    shoulder = robot.frame_pose("rarm_upper", "body").translation()
-    p_palm = np.array([shoulder[0], y_wall, shoulder[2] - 0.05])
-    # Hand frame: y (palm normal) into the wall, z (towards the elbow) down.
-    R_hand = np.column_stack([np.cross([0.0, 1.0, 0.0], [0.0, 0.0, -1.0]), [0, 1, 0], [0, 0, -1]])
-    p_site = p_palm + PALM_OFFSET * n_wall
-    feet = [robot.frame_pose(f) for f in ("rleg_end", "lleg_end")]
-    yaw = yaw_of(feet[0].rotation().as_matrix())
-    sole = 0.5 * np.array(sole_size(robot))  # [m] half length and width
-    contacts = [foot_contact(f.translation(), yaw, *sole, mu=0.8) for f in feet]
-    contacts.append(contact_from_normal(p_palm, n_wall, *PALM, mu=0.5))
-    toes = max(f.translation()[1] for f in feet) + sole[0]  # the sites are the sole centres
-    lean = np.array([0.5 * (feet[0].translation()[0] + feet[1].translation()[0]), toes + LEAN, 0.0])
-
-    scfr_task = ScfrTask(robot.configuration, contacts, root_body=robot.root_body, margin=0.01)
-    lean_task = CentroidTask(robot.configuration, lean, root_body=robot.root_body, check=False)
-    checks = scene.static_checker()
-    log = recorder.solve_logger("hand to the wall", checks=checks, start=robot)
-    progress = Progress("hand to the wall", total=100, stream=None if quiet else sys.stderr)
+    stage = Stage(NAME, robot, recorder, scene=Scene.from_robot(robot), quiet=quiet)
+    support = WallSupport.facing(robot)
     path = Waypoints(robot, "hand to the wall")
-    # First the palm to the wall, the CoM over the feet (a lean before the hand
-    # is there would fall into the wall), then the lean with the wall's support.
-    reach = fullbody_inverse_kinematics(
-        robot,
-        [(p_site, R_hand)],
+    # First the palm to the wall, the CoM over the feet (a lean before the hand is
+    # there would fall into the wall), then the lean with the wall's support.
+    palm_to_wall(stage, support, path)
+    scfr_task, lean = lean_on_wall(stage, support, path)
+    trace = play(stage, path, speed) if speed else None
+    # The final pose in physics; the palm on the wall is an intended contact.
+    stage.hold_final_pose(hold)
+    result = stage.result
+    result.main = "lean on the wall"
+    result.figures = figures(robot, support, scfr_task, lean)
+    check(result)
+    if trace is not None:
+        check_bumper(result, *trace)
+    return result
+
+
+def palm_to_wall(stage: Stage, support: WallSupport, path: Waypoints) -> SolveResult:
+    """The right palm flat on the wall, rotation about its normal free."""
+    return stage.solve(
+        fullbody_inverse_kinematics,
+        "hand to the wall",
+        [(support.p_site, support.R_hand)],
+        path=path,
+        total=100,
         limbs=["rarm"],
         rotation_axis=["y"],
         stop=100,
         trust_region=STEPS,
-        callback=[checks, log, progress, path],
     )
-    result.add_solve("hand to the wall", reach, checks, finish=[log, progress, path])
-    checks = scene.static_checker()
-    log = recorder.solve_logger("lean on the wall", checks=checks)
-    progress = Progress("lean on the wall", total=100, stream=None if quiet else sys.stderr)
-    # The arm and head keep 2 cm off the wall while the body leans (the forearm
-    # dragged along the wall sticks to it and pulls the robot off its reference).
-    forearm = collision_pairs(
+
+
+def lean_on_wall(
+    stage: Stage, support: WallSupport, path: Waypoints
+) -> tuple[ScfrTask, SolveResult]:
+    """The palm kept on the wall, the CoM in the SCFR of the three contacts (level 1)
+    and leaning past the toes (a lower level); the arm and head keep 2 cm off the
+    wall (a forearm dragged along the wall sticks to it and pulls the robot off its
+    reference). Returns the SCFR task and the solve's result."""
+    robot = stage.robot
+    scfr_task = ScfrTask(
+        robot.configuration, support.contacts, root_body=robot.root_body, margin=0.01
+    )
+    lean_task = CentroidTask(
+        robot.configuration, support.lean, root_body=robot.root_body, check=False
+    )
+    arm = collision_pairs(
         robot.model, robot.data, ["rarm_lower", "rarm_upper", "head_link"], ["wall"]
     )
-    avoid = CollisionAvoidanceTask(robot.configuration, forearm, yellow=0.06, orange=0.02)
-    res = fullbody_inverse_kinematics(
-        robot,
-        [(p_site, R_hand)],
+    avoid = CollisionAvoidanceTask(robot.configuration, arm, yellow=0.06, orange=0.02)
+    res = stage.solve(
+        fullbody_inverse_kinematics,
+        "lean on the wall",
+        [(support.p_site, support.R_hand)],
+        path=path,
+        total=100,
+        start=False,
         limbs=["rarm"],
         rotation_axis=["y"],
         balance=[scfr_task],
@@ -124,84 +180,95 @@ def run(
         stop=100,
         min_loop=15,  # the lean is not checked (it stops where the SCFR keeps it)
         trust_region=STEPS,
-        callback=[checks, log, progress, path.segment("lean on the wall")],
     )
-    result.add_solve("lean on the wall", res, checks, finish=[log, progress, path])
+    return scfr_task, res
 
-    # The iterates as a motion in physics, with the hand's bumper and its distance to the wall.
-    bumpers = SensorTrace(robot.sensors())
-    hand, wall_geom = scene.model.geom("rarm_hand").id, scene.model.geom("wall").id
+
+def play(stage: Stage, path: Waypoints, speed: float) -> tuple[SensorTrace, list[float]]:
+    """The iterates as a motion in physics; the hand's bumper and the hand's distance
+    to the wall [m] at every sample."""
+    bumpers = SensorTrace(stage.robot.sensors())
+    model = stage.scene.model
+    hand, wall = model.geom("rarm_hand").id, model.geom("wall").id
     gap: list[float] = []
 
-    def hand_to_wall(sample) -> None:
-        gap.append(mujoco.mj_geomDistance(sample.model, sample.data, hand, wall_geom, 0.1, None))
+    def hand_to_wall(sample: Any) -> None:
+        gap.append(mujoco.mj_geomDistance(sample.model, sample.data, hand, wall, 0.1, None))
 
-    if speed:
-        log = recorder.motion_logger()
-        motion = scene.play(path, speed=speed, callback=[log, bumpers, hand_to_wall])
-        result.add_motion("hand on the wall, lean", motion, finish=[log])
+    stage.play("hand on the wall, lean", path, speed=speed, callback=[bumpers, hand_to_wall])
+    return bumpers, gap
 
-    # The final pose in physics; the palm on the wall is an intended contact.
-    q = robot.configuration.q.copy()
-    static = scene.static_check(q)
-    criteria = HoldCriteria(allowed=[*scene.allowed_contacts, *static.touching_geoms])
-    held = scene.hold(q, hold, criteria=criteria, callback=recorder.hold_logger()) if hold else None
-    result.add_balance(scene, static, held, criteria)
 
+def figures(
+    robot: Robot, support: WallSupport, scfr_task: ScfrTask, lean: SolveResult
+) -> dict[str, Any]:
+    """The measures of the final pose: the palm on the wall, the CoM in the SCFR and
+    past the toes, the static equilibrium with and without the wall."""
     com = robot.com()
     region = scfr_task.region(robot.configuration)
-    eq = static_equilibrium(contacts, robot.mass, com, gravity=robot.model.opt.gravity)
-    eq_feet = static_equilibrium(contacts[:2], robot.mass, com, gravity=robot.model.opt.gravity)
+    g = robot.model.opt.gravity
+    eq = static_equilibrium(support.contacts, robot.mass, com, gravity=g)
+    eq_feet = static_equilibrium(support.contacts[:2], robot.mass, com, gravity=g)
     hand = robot.frame_pose("rarm_end")
-    result.main = "lean on the wall"
-    result.figures = {
-        "palm_target_m": p_palm,
-        "hand_error_m": float(np.linalg.norm(hand.translation() - p_site)),
+    n_wall = support.n_wall
+    return {
+        "palm_target_m": support.p_palm,
+        "hand_error_m": float(np.linalg.norm(hand.translation() - support.p_site)),
         "palm_normal_misalignment_rad": float(
             np.arccos(np.clip(hand.rotation().as_matrix()[:, 1] @ -n_wall, -1, 1))
         ),
         "com_m": com,
         "com_scfr_margin_m": float(region.signed_distance(com[:2])),
         "com_support_polygon_margin_m": com_margin(robot),
-        "com_past_toes_m": float(com[1] - toes),
+        "com_past_toes_m": float(com[1] - support.toes),
         "equilibrium_with_wall": eq.feasible,
         "equilibrium_feet_only": eq_feet.feasible,
         "wall_normal_force_N": None if eq.wrenches is None else float(eq.wrenches[2, :3] @ n_wall),
         "scfr_regions_computed": scfr_task.region_computations,
-        "median_iteration_ms": res.median_iteration_ms,
+        "median_iteration_ms": lean.median_iteration_ms,
     }
+
+
+def check(result: ScenarioResult) -> None:
+    """The scenario's checks on its solves and figures."""
     f = result.figures
-    result.check("hand to the wall: converged", reach.converged, f"{reach.iterations} iterations")
-    result.check("lean on the wall: converged", res.converged, f"{res.iterations} iterations")
+    for label in ("hand to the wall", "lean on the wall"):
+        res = result.solves[label]
+        result.check(f"{label}: converged", res.converged, f"{res.iterations} iterations")
     result.check(
         "palm on the wall (1 mm, 1°)",
         f["hand_error_m"] <= 1e-3 and f["palm_normal_misalignment_rad"] <= np.deg2rad(1),
     )
     result.check("CoM inside the SCFR (margin 1 cm)", f["com_scfr_margin_m"] >= 0.01 - 1e-3)
     result.check("CoM outside the feet's support polygon", f["com_support_polygon_margin_m"] < 0)
-    result.check("static equilibrium LP: feasible with the wall", bool(eq.feasible))
-    result.check("static equilibrium LP: infeasible on the feet alone", not eq_feet.feasible)
-    if speed:
-        on, t = np.array(bumpers.on[BUMPER]), np.array(bumpers.time)
-        away = np.array(gap) > TOUCHING
-        reached = np.flatnonzero(~away)
-        f["bumper_first_on_s"] = bumpers.first_on(BUMPER)
-        f["hand_reaches_wall_s"] = float(t[reached[0]]) if reached.size else None
-        f["bumper_on_while_away_from_wall"] = int(np.count_nonzero(on & away))
-        f["bumper_samples_away_from_wall"] = int(np.count_nonzero(away))
-        f["bumper_force_end_N"] = bumpers.force[BUMPER][-1]
-        result.check(
-            f"bumper {BUMPER} off while the hand is away from the wall (> {TOUCHING * 1e3:g} mm)",
-            away.any() and not (on & away).any(),
-            f"{f['bumper_on_while_away_from_wall']} of {f['bumper_samples_away_from_wall']} "
-            "samples on",
-        )
-        result.check(
-            f"bumper {BUMPER} on with the palm on the wall at the end",
-            bool(on[-1]) and not away[-1],
-            f"{f['bumper_force_end_N']:.1f} N, first on at {f['bumper_first_on_s']} s",
-        )
-    return result
+    result.check("static equilibrium LP: feasible with the wall", bool(f["equilibrium_with_wall"]))
+    result.check(
+        "static equilibrium LP: infeasible on the feet alone", not f["equilibrium_feet_only"]
+    )
+
+
+def check_bumper(result: ScenarioResult, bumpers: SensorTrace, gap: list[float]) -> None:
+    """The bumper's figures and checks: off while the hand is away from the wall, on
+    with the palm on it at the end."""
+    f = result.figures
+    on, t = np.array(bumpers.on[BUMPER]), np.array(bumpers.time)
+    away = np.array(gap) > TOUCHING
+    reached = np.flatnonzero(~away)
+    f["bumper_first_on_s"] = bumpers.first_on(BUMPER)
+    f["hand_reaches_wall_s"] = float(t[reached[0]]) if reached.size else None
+    f["bumper_on_while_away_from_wall"] = int(np.count_nonzero(on & away))
+    f["bumper_samples_away_from_wall"] = int(np.count_nonzero(away))
+    f["bumper_force_end_N"] = bumpers.force[BUMPER][-1]
+    result.check(
+        f"bumper {BUMPER} off while the hand is away from the wall (> {TOUCHING * 1e3:g} mm)",
+        away.any() and not (on & away).any(),
+        f"{f['bumper_on_while_away_from_wall']} of {f['bumper_samples_away_from_wall']} samples on",
+    )
+    result.check(
+        f"bumper {BUMPER} on with the palm on the wall at the end",
+        bool(on[-1]) and not away[-1],
+        f"{f['bumper_force_end_N']:.1f} N, first on at {f['bumper_first_on_s']} s",
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

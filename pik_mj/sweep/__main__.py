@@ -2,6 +2,6 @@
 
 import sys
 
-from pik_mj.cli import main
+from pik_mj.sweep.cli import command
 
-raise SystemExit(main(["sweep", *sys.argv[1:]]))
+raise SystemExit(command(sys.argv[1:]))

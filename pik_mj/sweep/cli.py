@@ -36,26 +36,22 @@ import numpy as np
 
 from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput
-from pik_mj.scenario import count, positive
+from pik_mj.scenario.arguments import argument_type, as_integer, count, positive
+from pik_mj.scenario.exit_status import EXIT_FAILED, EXIT_PASSED, guarded
 from pik_mj.sweep.case import PARAMETERS, REQUIRED, STACKS, standing_robot
 from pik_mj.sweep.dataset import Dataset
+from pik_mj.sweep.driver import run_sweep
 from pik_mj.sweep.spec import Grid, Sweep, Uniform
+from pik_mj.sweep.views import write_views
 
 DEFAULT_BOX = {"x": (0.2, 0.7), "y": (-0.5, 0.2), "z": (0.2, 1.3)}  # [m]
 DEFAULT_RANDOM = 100
-EXIT_PASSED, EXIT_FAILED = 0, 1
 
 
+@argument_type
 def _seed(text: str) -> int:
     """An argparse type: an integer >= 0."""
-    try:
-        value: int | str = int(text)
-    except ValueError:
-        value = text
-    try:
-        return inputs.integer(value, "a seed", low=0)
-    except InvalidInput as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    return inputs.integer(as_integer(text), "a seed", low=0)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -187,9 +183,6 @@ def check(args: argparse.Namespace) -> Sweep:
 
 def run(args: argparse.Namespace) -> int:
     """Body of ``pik-mj sweep`` (options checked first); returns the exit status."""
-    from pik_mj.sweep.driver import run_sweep
-    from pik_mj.sweep.views import write_views
-
     sweep = check(args)
     report = run_sweep(
         sweep,
@@ -216,8 +209,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``pik-mj sweep`` with ``argv`` (usage errors raise; :func:`pik_mj.cli.main`
-    turns them into one line and exit 2)."""
+    """``pik-mj sweep`` with ``argv`` (usage errors raise; :func:`command` and
+    ``pik-mj`` turn them into one line and exit 2)."""
     parser = argparse.ArgumentParser(
         prog="pik-mj sweep",
         description="Solve, check statically and hold in physics every case (hand targets x "
@@ -226,3 +219,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     add_arguments(parser)
     return run(parser.parse_args(argv))
+
+
+def command(argv: Sequence[str] | None = None) -> int:
+    """``python -m pik_mj.sweep``: :func:`main` with a usage error reported in one line
+    (exit 2) and Ctrl-C as exit 130 (:func:`pik_mj.scenario.exit_status.guarded`)."""
+    return guarded(lambda: main(argv))

@@ -28,8 +28,6 @@ from pathlib import Path
 from typing import Any
 
 import pyarrow as pa
-import pyarrow.dataset as pads
-import pyarrow.parquet as pq
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.sweep.spec import Case, Sweep
@@ -224,6 +222,8 @@ class Dataset:
 
     def write(self, rows: Sequence[Mapping[str, Any]]) -> Path:
         """Write ``rows`` as one batch file (atomically); returns its path."""
+        import pyarrow.parquet as pq  # Parquet's modules load with a sweep, not with pik-mj
+
         table = pa.Table.from_pylist(list(rows), schema=self.schema)
         first = min(r["case"] for r in rows)
         final = self.rows / f"part-{first:08d}-{uuid.uuid4().hex[:8]}.parquet"
@@ -236,6 +236,8 @@ class Dataset:
 
     def table(self) -> pa.Table:
         """Every row written so far, sorted by case."""
+        import pyarrow.dataset as pads  # as pyarrow.parquet in write
+
         parts = self.parts()
         if not parts:
             return self.schema.empty_table()

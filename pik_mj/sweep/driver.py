@@ -43,6 +43,7 @@ from pik_mj.exceptions import InvalidInput, PikError
 from pik_mj.sweep.case import Worker
 from pik_mj.sweep.dataset import Dataset, make_row
 from pik_mj.sweep.spec import Case, Sweep
+from pik_mj.sweep.views import summary_table
 
 OBJECT_STORE_BYTES = 128 * 2**20  # a local instance's object store: rows are small
 
@@ -122,8 +123,6 @@ class SweepReport:
 
     def summary(self) -> str:
         """What ran, and :func:`pik_mj.sweep.views.summary_table` of every row."""
-        from pik_mj.sweep.views import summary_table
-
         head = f"sweep {self.path}: {len(self.table)}/{len(self.sweep)} cases; "
         if self.ran:
             head += (

@@ -22,8 +22,11 @@ from typing import Any
 import mujoco
 import numpy as np
 import pyarrow as pa
+import rerun as rr
+import rerun.blueprint as rrb
 
 from pik_mj.exceptions import InvalidInput
+from pik_mj.record import Recorder
 from pik_mj.sweep.case import REQUIRED, standing_robot
 from pik_mj.sweep.dataset import VERDICTS
 from pik_mj.sweep.spec import Grid, Sweep
@@ -250,11 +253,6 @@ def log_map(
         robot: Robot whose cases are drawn (default: the sweep's first).
         radius: Point radius [m] (0: a quarter of the grid spacing, else 1.5 cm).
     """
-    import rerun as rr
-    import rerun.blueprint as rrb
-
-    from pik_mj.record import Recorder
-
     robot, rows = _robot_rows(table, sweep, robot)
     if radius <= 0:
         steps = [
@@ -299,8 +297,6 @@ def write_views(
 ) -> list[Path]:
     """Write the PNG and/or the recording of each robot (``<stem>-<robot>`` when
     the sweep has several); returns the files written."""
-    import rerun as rr
-
     robots = list(sweep.robots if robots is None else robots)
     written = []
     for robot in robots:

@@ -1,45 +1,20 @@
-"""What the scenario scripts share: their result, their figures' summary, and
-the command line of their ``main``.
-
-A scenario (``scenarios/<name>.py``, installed as ``pik_mj.scenarios.<name>``)
-reads top to bottom: build the robot and its scene, the tasks, solve with
-``callback=[checks, recorder.solve_logger(...), Progress(...), path]``, play the
-iterates in physics (``scene.play(path)``), hold the final pose in physics
-(``scene.hold(...)``), then put the figures and checks into a
-:class:`ScenarioResult`. A failed check makes the scenario fail; it does not
-raise. Its ``main(argv)`` parses :func:`parser`'s options (rerun's
-``--save/--connect/--serve/--stdout/--headless``, ``--json``, ``--hold``,
-``--speed``, ``--quiet``, ``--model``), records into :func:`open_recorder`'s stream and ends
-with :func:`report`.
-
-The user's options are checked here, once for every scenario, before any work
-starts: the output files can be written, ``--model`` is a model that loads and
-has what the scenario moves, numbers are in range (the argparse types
-:func:`count`, :func:`positive`, :func:`finite`, :func:`duration`). A bad option
-is a usage error (``SystemExit(2)`` from argparse, or :class:`OptionError`),
-which ``pik-mj run`` reports without a traceback.
-"""
+"""A scenario's result: its solves, motions, balance, figures and checks, as JSON and as
+text (:class:`ScenarioResult`); the one-line summary of a balance report."""
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
-import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import rerun as rr
 
 from pik_mj import inputs
-from pik_mj.balance import support_polygon
-from pik_mj.exceptions import InvalidInput, OptionError, PikError
-from pik_mj.record import Recorder
+from pik_mj.exceptions import InvalidInput
 from pik_mj.robot import Robot
-from pik_mj.robot.ground import sole_polygons
 from pik_mj.sim import (
     HoldCriteria,
     HoldReport,
@@ -49,30 +24,8 @@ from pik_mj.sim import (
     StaticReport,
     balance_report,
 )
-from pik_mj.sim.motion import DEFAULT_SPEED
 from pik_mj.sim.validate import describe_violation
 from pik_mj.solve import SolveResult
-
-__all__ = [
-    "DEFAULT_HOLD",
-    "DEFAULT_SPEED",
-    "OptionError",
-    "ScenarioParser",
-    "ScenarioResult",
-    "balance_summary",
-    "com_margin",
-    "count",
-    "duration",
-    "finite",
-    "jsonable",
-    "open_recorder",
-    "parser",
-    "positive",
-    "report",
-]
-
-DEFAULT_HOLD = 3.0
-"""Physics hold of the final pose [s] of a scenario run."""
 
 
 def jsonable(value: Any, where: str = "value") -> Any:
@@ -104,14 +57,6 @@ def jsonable(value: Any, where: str = "value") -> Any:
         f"{where} is a {type(value).__name__}, which JSON cannot hold; use numbers, "
         "strings, booleans, None, lists, dicts or numpy arrays"
     )
-
-
-def com_margin(robot: Robot, point: np.ndarray | None = None) -> float:
-    """Signed distance [m] of the CoM's (or ``point``'s) ground projection to the edges
-    of the support polygon of both soles (:func:`pik_mj.robot.ground.sole_polygons`),
-    positive inside."""
-    region = support_polygon(sole_polygons(robot))
-    return float(region.signed_distance(robot.com() if point is None else np.asarray(point)))
 
 
 @dataclass
@@ -423,241 +368,3 @@ def _short(value: Any) -> str:
     if isinstance(v, list) and v and all(isinstance(x, float) for x in v):
         return "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
     return str(v)
-
-
-# ---------------------------------------------------------------------------
-# The command line of a scenario's main
-
-
-class ScenarioParser(argparse.ArgumentParser):
-    """The argument parser of a scenario's ``main`` (:func:`parser`): after parsing,
-    it checks that the output files (``--save``, ``--json``) can be written and
-    that ``--model``/``--description`` give a robot the scenario can move, before
-    any work starts (a usage error otherwise). The robot it built for that check
-    is kept on the namespace as ``robot`` (None for a scenario without
-    ``--model``), so that the scenario need not build it again."""
-
-    robot_option: _RobotOption | None = None
-
-    def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
-        ns = super().parse_args(args, namespace)
-        outputs = [
-            (option, getattr(ns, dest))
-            for option, dest in (("--save", "save"), ("--json", "json"))
-            if getattr(ns, dest, None) is not None
-        ]
-        for option, value in outputs:
-            try:
-                inputs.output_path(value, f"argument {option}:")
-            except InvalidInput as exc:
-                self.error(str(exc))
-        if len(outputs) == 2 and Path(outputs[0][1]).resolve() == Path(outputs[1][1]).resolve():
-            self.error(f"--save and --json name the same file {outputs[0][1]!r}; give two files")
-        ns.robot = None
-        if self.robot_option is not None:
-            try:
-                ns.model, ns.robot = self.robot_option.check(
-                    ns.model, getattr(ns, "description", None)
-                )
-            except InvalidInput as exc:
-                self.error(str(exc))
-        return ns
-
-
-@dataclass(frozen=True)
-class _RobotOption:
-    """What ``--model`` (and ``--description``) must give a scenario: a robot that
-    loads and has ``limbs`` (and a floating base with ``floating_base``)."""
-
-    default: str
-    limbs: tuple[str, ...]
-    floating_base: bool
-
-    def check(self, model: str | None, description: str | None) -> tuple[str | None, Robot]:
-        """The model to run (the default when neither option names one) and the
-        robot built from it and its description.
-
-        Raises:
-            InvalidInput: Why not, one line starting with the option to blame.
-        """
-        if model is None and description is None:
-            model = self.default
-        option = "--model" if model is not None else "--description"
-        named = f"model {model!r}" if model is not None else f"the model of {description!r}"
-        try:
-            robot = Robot.from_model(model, description=description)
-        except PikError as exc:
-            raise InvalidInput(f"argument {option}: {exc}") from None
-        missing = [x for x in self.limbs if x not in robot.limbs]
-        if missing:
-            hint = "" if description else "; name them in a robot description: --description PATH"
-            raise InvalidInput(
-                f"argument {option}: {named} has no limb {', '.join(missing)}, which this "
-                f"scenario moves (its limbs: {', '.join(robot.limbs) or 'none'}){hint}"
-            )
-        if self.floating_base and not robot.has_floating_base:
-            raise InvalidInput(
-                f"argument {option}: {named} has no floating base (a free joint at its "
-                f"root {robot.root_body!r}), which this scenario needs"
-            )
-        return model, robot
-
-
-def parser(
-    doc: str | None,
-    *,
-    hold: bool = True,
-    model: str | None = None,
-    limbs: Sequence[str] = (),
-    floating_base: bool = False,
-    description: bool = False,
-) -> ScenarioParser:
-    """The options of a scenario's ``main``: rerun's (``--save FILE.rrd``,
-    ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
-    :func:`rerun.script_add_args`), ``--json FILE``, ``--quiet`` (no progress) and,
-    with ``hold``, ``--hold SECONDS`` (physics hold of the final pose, default 3;
-    0: none) and ``--speed FRACTION`` (the iterates played in physics at this
-    fraction of the joint velocity limits, default 0.2; 0: not played).
-
-    Args:
-        doc: The scenario's docstring (its first line describes it).
-        hold: Add ``--hold``.
-        model: Add ``--model NAME`` with this default: a model name or MJCF path,
-            checked when parsed (it loads and builds a robot that has ``limbs``,
-            and a floating base with ``floating_base``).
-        limbs: Limbs the scenario moves (checked on ``--model``).
-        floating_base: The scenario needs a floating base (checked on ``--model``).
-        description: With ``model``, add ``--description FILE`` (a robot description,
-            :mod:`pik_mj.robot.description`), checked with ``--model``; ``--model``'s
-            default then applies when neither is given.
-    """
-    p = ScenarioParser(description=(doc or "").strip().splitlines()[0])
-    rr.script_add_args(p)
-    p.add_argument("--json", help="JSON summary to write")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    if hold:
-        p.add_argument(
-            "--hold",
-            type=duration,
-            default=DEFAULT_HOLD,
-            help=f"physics hold of the final pose [s] (default {DEFAULT_HOLD:g}; 0: none)",
-        )
-        p.add_argument(
-            "--speed",
-            type=fraction,
-            default=DEFAULT_SPEED,
-            help="the iterates played in physics at this fraction of the joint velocity "
-            f"limits (default {DEFAULT_SPEED:g}; 0: not played)",
-        )
-    if model is not None:
-        p.robot_option = _RobotOption(model, tuple(limbs), floating_base)
-        p.add_argument(
-            "--model",
-            help=f"robot: a model name ({model}, dm_humanoid, a MuJoCo Menagerie robot "
-            "such as unitree_g1) or an MJCF path (default: "
-            + ("the description's model, else " if description else "")
-            + f"{model})",
-        )
-        if description:
-            p.add_argument(
-                "--description",
-                help="robot description file (.toml/.json): limbs, keyframe, soles the "
-                "kinematic tree does not tell",
-            )
-    return p
-
-
-def _argument_type(check: Any) -> Any:
-    """An argparse type from a check raising :class:`InvalidInput` (the message
-    becomes argparse's, after ``argument --name:``)."""
-
-    def convert(text: str) -> Any:
-        try:
-            return check(text)
-        except InvalidInput as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-
-    convert.__name__ = check.__name__
-    return convert
-
-
-def _number(text: str) -> float | str:
-    try:
-        return float(text)
-    except ValueError:
-        return text  # refused by inputs.real, which names it
-
-
-@_argument_type
-def duration(text: str) -> float:
-    """An argparse type: a duration >= 0 [s]."""
-    return inputs.real(_number(text), "a duration", unit="s", low=0)
-
-
-@_argument_type
-def positive(text: str) -> float:
-    """An argparse type: a finite number > 0."""
-    return inputs.real(_number(text), "a value", low=0, low_open=True)
-
-
-@_argument_type
-def finite(text: str) -> float:
-    """An argparse type: a finite number."""
-    return inputs.real(_number(text), "a value")
-
-
-@_argument_type
-def count(text: str) -> int:
-    """An argparse type: an integer >= 1."""
-    try:
-        value: int | str = int(text)
-    except ValueError:
-        value = text
-    return inputs.integer(value, "a count", low=1)
-
-
-@_argument_type
-def fraction(text: str) -> float:
-    """An argparse type: a fraction in [0, 1]."""
-    return inputs.real(_number(text), "a fraction", low=0, high=1)
-
-
-def open_recorder(args: argparse.Namespace, name: str) -> Recorder:
-    """A :class:`Recorder` on a new stream where rerun's options send it
-    (as :func:`rerun.script_setup`, but the stream is not made the global one):
-    ``--save FILE.rrd``, ``--stdout``, ``--serve`` (a web viewer), ``--connect``
-    (a running viewer), a spawned viewer, or nothing kept with ``--headless``.
-
-    Raises:
-        OptionError: The sink cannot be opened (a bad ``--url``, no viewer to
-            spawn, a file that cannot be created); rerun's reason is given.
-    """
-    stream = rr.RecordingStream(f"pik_mj_{name}", recording_id=uuid.uuid4())
-    try:
-        if args.stdout:
-            stream.stdout()
-        elif args.serve:
-            rr.serve_web_viewer(open_browser=True, connect_to=stream.serve_grpc())
-        elif args.connect:
-            stream.connect_grpc(args.url)
-        elif args.save is not None:
-            Path(args.save).parent.mkdir(parents=True, exist_ok=True)
-            stream.save(args.save)
-        elif not args.headless:
-            stream.spawn()
-    except (OSError, RuntimeError, ValueError) as exc:
-        raise OptionError(f"cannot open the recording's destination: {exc}") from None
-    return Recorder(stream, owns_stream=True)
-
-
-def report(result: ScenarioResult, args: argparse.Namespace) -> int:
-    """Print the summary (and where the recording and JSON went); 0 iff passed."""
-    if args.save:
-        result.recording = str(args.save)
-    print(result.summary(recording=False))
-    if args.json:
-        print(f"JSON summary: {result.to_json(args.json)}")
-    if result.recording:
-        print(f"recording: {result.recording}  (view with: rerun {result.recording})")
-    rr.script_teardown(args)
-    return 0 if result.passed else 1

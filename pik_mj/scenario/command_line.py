@@ -1,0 +1,121 @@
+"""The command line of a scenario's ``main``: :func:`parser` gives rerun's options,
+``--json``, ``--quiet``, ``--hold``, ``--speed`` and ``--model``/``--description``;
+the :class:`ScenarioParser` it returns checks the output files and the robot before any
+work starts."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import rerun as rr
+
+from pik_mj import inputs
+from pik_mj.exceptions import InvalidInput
+from pik_mj.scenario.arguments import duration, fraction
+from pik_mj.scenario.robot_option import RobotOption
+from pik_mj.sim.motion import DEFAULT_SPEED
+
+DEFAULT_HOLD = 3.0
+"""Physics hold of the final pose [s] of a scenario run."""
+
+
+class ScenarioParser(argparse.ArgumentParser):
+    """The argument parser of a scenario's ``main`` (:func:`parser`): after parsing,
+    it checks that the output files (``--save``, ``--json``) can be written and
+    that ``--model``/``--description`` give a robot the scenario can move, before
+    any work starts (a usage error otherwise). The robot it built for that check
+    is kept on the namespace as ``robot`` (None for a scenario without
+    ``--model``), so that the scenario need not build it again."""
+
+    robot_option: RobotOption | None = None
+
+    def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
+        ns = super().parse_args(args, namespace)
+        outputs = [
+            (option, getattr(ns, dest))
+            for option, dest in (("--save", "save"), ("--json", "json"))
+            if getattr(ns, dest, None) is not None
+        ]
+        for option, value in outputs:
+            try:
+                inputs.output_path(value, f"argument {option}:")
+            except InvalidInput as exc:
+                self.error(str(exc))
+        if len(outputs) == 2 and Path(outputs[0][1]).resolve() == Path(outputs[1][1]).resolve():
+            self.error(f"--save and --json name the same file {outputs[0][1]!r}; give two files")
+        ns.robot = None
+        if self.robot_option is not None:
+            try:
+                ns.model, ns.robot = self.robot_option.check(
+                    ns.model, getattr(ns, "description", None)
+                )
+            except InvalidInput as exc:
+                self.error(str(exc))
+        return ns
+
+
+def parser(
+    doc: str | None,
+    *,
+    hold: bool = True,
+    model: str | None = None,
+    limbs: Sequence[str] = (),
+    floating_base: bool = False,
+    description: bool = False,
+) -> ScenarioParser:
+    """The options of a scenario's ``main``: rerun's (``--save FILE.rrd``,
+    ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
+    :func:`rerun.script_add_args`), ``--json FILE``, ``--quiet`` (no progress) and,
+    with ``hold``, ``--hold SECONDS`` (physics hold of the final pose, default 3;
+    0: none) and ``--speed FRACTION`` (the iterates played in physics at this
+    fraction of the joint velocity limits, default 0.2; 0: not played).
+
+    Args:
+        doc: The scenario's docstring (its first line describes it).
+        hold: Add ``--hold``.
+        model: Add ``--model NAME`` with this default: a model name or MJCF path,
+            checked when parsed (it loads and builds a robot that has ``limbs``,
+            and a floating base with ``floating_base``).
+        limbs: Limbs the scenario moves (checked on ``--model``).
+        floating_base: The scenario needs a floating base (checked on ``--model``).
+        description: With ``model``, add ``--description FILE`` (a robot description,
+            :mod:`pik_mj.robot.description`), checked with ``--model``; ``--model``'s
+            default then applies when neither is given.
+    """
+    p = ScenarioParser(description=(doc or "").strip().splitlines()[0])
+    rr.script_add_args(p)
+    p.add_argument("--json", help="JSON summary to write")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    if hold:
+        p.add_argument(
+            "--hold",
+            type=duration,
+            default=DEFAULT_HOLD,
+            help=f"physics hold of the final pose [s] (default {DEFAULT_HOLD:g}; 0: none)",
+        )
+        p.add_argument(
+            "--speed",
+            type=fraction,
+            default=DEFAULT_SPEED,
+            help="the iterates played in physics at this fraction of the joint velocity "
+            f"limits (default {DEFAULT_SPEED:g}; 0: not played)",
+        )
+    if model is not None:
+        p.robot_option = RobotOption(model, tuple(limbs), floating_base)
+        p.add_argument(
+            "--model",
+            help=f"robot: a model name ({model}, dm_humanoid, a MuJoCo Menagerie robot "
+            "such as unitree_g1) or an MJCF path (default: "
+            + ("the description's model, else " if description else "")
+            + f"{model})",
+        )
+        if description:
+            p.add_argument(
+                "--description",
+                help="robot description file (.toml/.json): limbs, keyframe, soles the "
+                "kinematic tree does not tell",
+            )
+    return p
