@@ -47,7 +47,12 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput, LimbsNotFound, NoCollisionGeometry
 from pik_mj.frames import Frame, robot_root_body
-from pik_mj.robot.ground import DEFAULT_TOLERANCE, bottom_points, geom_heights, subtree_bodies
+from pik_mj.robot.floor_contact import (
+    DEFAULT_TOLERANCE,
+    bottom_points,
+    geom_heights,
+    subtree_bodies,
+)
 from pik_mj.robot.keyframes import standing_pose
 from pik_mj.tasks.joint_limit import find_joint
 
