@@ -12,7 +12,7 @@ sensors, cameras, couplings) and the MJCF world it stands in.
 * :mod:`.floor_contact`, :mod:`.ground` — collision geometry against the floor; the
   robot's feet, sole polygons and size. :mod:`.stance` — soles turned flat.
 * :mod:`.stack` — the guard and posture levels every IK stack on a robot has.
-* :mod:`.sensors`, :mod:`.camera`, :mod:`.couplings` — MJCF
+* :mod:`.sensors` (:mod:`.sensor_channels`), :mod:`.camera`, :mod:`.couplings` — MJCF
   sensors, cameras, joint couplings.
 * :mod:`.world` — environments (floor, room, boxes) attached into a robot's spec.
 
