@@ -174,6 +174,16 @@ def move_frames(robot: Robot, move_targets: Any, limbs: list[str] | None, n: int
     return [Frame.find(robot.model, m) for m in names]
 
 
+def targets_and_frames(
+    robot: Robot, targets: Any, limbs: Any, move_targets: Any
+) -> tuple[list[Any], list[Frame], list[str] | None]:
+    """The parsed targets (:func:`parse_targets`), the limbs (one per target, or None)
+    and the frames moved onto them (:func:`move_frames`)."""
+    poses = parse_targets(robot, targets)
+    limb_names = parse_limbs(robot, limbs, len(poses))
+    return poses, move_frames(robot, move_targets, limb_names, len(poses)), limb_names
+
+
 def _chain_joints(robot: Robot, frame: Frame) -> list[str]:
     return robot.joint_list(frame.name, frame.frame_type)
 

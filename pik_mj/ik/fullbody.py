@@ -38,11 +38,9 @@ from pik_mj.ik.arguments import (
     check_solve_options,
     frame_tasks,
     look_at_task,
-    move_frames,
     parse_extra_levels,
-    parse_limbs,
-    parse_targets,
     root_dofs,
+    targets_and_frames,
     used_joints,
 )
 from pik_mj.ik.measures import parse_forces, static_balance_point
@@ -148,31 +146,18 @@ def fullbody_inverse_kinematics(
         Frame.find(robot.model, robot.limb(x).end_frame, robot.limb(x).end_frame_type) for x in feet
     ]
     if isinstance(targets, (list, tuple)) and len(targets) == 0:
-        poses, frames, limb_names = [], [], []
+        poses, frames, limb_names = [], [], None
     else:
-        poses = parse_targets(robot, targets)
-        limb_names = parse_limbs(robot, limbs, len(poses))
-        frames = move_frames(robot, move_targets, limb_names, len(poses))
+        poses, frames, limb_names = targets_and_frames(robot, targets, limbs, move_targets)
     used = _moving_joints(robot, joints, frames, limb_names, feet, look_at)
-    level0 = [*guard_level(robot.configuration, used, root_dofs(robot))]
+    level0 = guard_level(robot.configuration, used, root_dofs(robot))
     if root_bounds is not None:
         level0.append(_root_box(robot, *_bounds(root_bounds)))
-    weight = inputs.vector(root_weight, 6, "root_weight")
-    if np.any(weight <= 0):
-        raise InvalidInput(f"root_weight must be 6 positive numbers, got {root_weight!r}")
+    weight = _root_weight(root_weight)
     _check_centroid_options(centroid_thre, centroid_offset, centroid_axes)
     if target_centroid_pos is not None and not callable(target_centroid_pos):
         target_centroid_pos = inputs.vector(target_centroid_pos, 3, "target_centroid_pos", unit="m")
-    level1: list[Any] = [
-        FrameTask(
-            robot.configuration,
-            f.name,
-            (f.position(robot.data), f.rotation(robot.data)),
-            move_target_type=f.frame_type,
-            name=f"foot:{f.name}",
-        )
-        for f in foot_frames
-    ]
+    level1 = _foot_tasks(robot, foot_frames)
     level1 += _balance_tasks(
         robot,
         balance,
@@ -215,14 +200,14 @@ def _moving_joints(
     robot: Robot,
     joints: Any,
     frames: Sequence[Frame],
-    limb_names: Sequence[str],
+    limb_names: Sequence[str] | None,
     feet: Sequence[str],
     look_at: Any,
 ) -> set[str]:
     """The joints the solve may move: those of the targets' chains
     (:func:`~pik_mj.ik.arguments.used_joints`), the fixed feet's legs, the head's
     with a look-at; every joint for ``joints="all"``."""
-    used = used_joints(robot, joints, frames, limb_names or None) if frames else set()
+    used = used_joints(robot, joints, frames, limb_names) if frames else set()
     for x in feet:
         used |= set(robot.limb(x).joints)
     if look_at is not None:
@@ -245,6 +230,32 @@ def _bounds(root_bounds: Any) -> tuple[np.ndarray, np.ndarray]:
     if np.any(lo > hi):
         raise InvalidInput(f"root_bounds must have lo <= hi, got lo {lo} > hi {hi}")
     return lo, hi
+
+
+def _root_weight(root_weight: Any) -> np.ndarray:
+    """``root_weight`` as 6 positive numbers.
+
+    Raises:
+        InvalidInput: Not 6 finite numbers > 0.
+    """
+    weight = inputs.vector(root_weight, 6, "root_weight")
+    if np.any(weight <= 0):
+        raise InvalidInput(f"root_weight must be 6 positive numbers, got {root_weight!r}")
+    return weight
+
+
+def _foot_tasks(robot: Robot, foot_frames: Sequence[Frame]) -> list[Any]:
+    """Each fixed foot's end frame held where it is (position and orientation)."""
+    return [
+        FrameTask(
+            robot.configuration,
+            f.name,
+            (f.position(robot.data), f.rotation(robot.data)),
+            move_target_type=f.frame_type,
+            name=f"foot:{f.name}",
+        )
+        for f in foot_frames
+    ]
 
 
 def _check_centroid_options(centroid_thre: Any, centroid_offset: Any, centroid_axes: Any) -> None:

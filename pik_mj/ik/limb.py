@@ -29,10 +29,8 @@ from pik_mj.ik.arguments import (
     check_solve_options,
     frame_tasks,
     look_at_task,
-    move_frames,
     parse_extra_levels,
-    parse_limbs,
-    parse_targets,
+    targets_and_frames,
     used_joints,
 )
 from pik_mj.robot import Robot
@@ -169,9 +167,7 @@ def build_levels(
         poses, frames, limb_names = [], [], None
         used: set[str] = set() if joints is None else used_joints(robot, joints, [], None)
     else:
-        poses = parse_targets(robot, targets)
-        limb_names = parse_limbs(robot, limbs, len(poses))
-        frames = move_frames(robot, move_targets, limb_names, len(poses))
+        poses, frames, limb_names = targets_and_frames(robot, targets, limbs, move_targets)
         used = used_joints(robot, joints, frames, limb_names)
     if look_at is not None:
         head = robot.limb("head")
