@@ -13,8 +13,8 @@ Rule, first match wins:
 The chosen pose is returned as it is written, with its gap to the floor
 (:func:`pik_mj.robot.floor_contact.floor_gap`). :meth:`pik_mj.Robot.from_model` makes it a
 pose standing on the floor: a zero pose whose soles are tilted gets its feet
-turned flat (keyframe ``pik_mj_standing``; dm_control's humanoid, 8 mrad), and
-the robot is put down onto z = 0 (Robotis OP3's zero pose floats 21 mm).
+turned flat (keyframe ``pik_mj_standing``; dm_control's humanoid), and the robot
+is put down onto z = 0 (Robotis OP3's zero pose floats).
 """
 
 from __future__ import annotations

@@ -265,8 +265,8 @@ class RobotModel:
 
     def sensors(self, limb: str | None = None) -> RobotSensors:
         """The MJCF sensors on the robot's bodies: force/torque sensors, IMUs
-        and bumpers (:class:`pik_mj.robot.sensors.RobotSensors`; seed ``(send robot
-        :force-sensors)``), or only those on ``limb``'s bodies (seed ``(send
+        and bumpers (:class:`pik_mj.robot.sensors.RobotSensors`; irteus manual: ``(send robot
+        :force-sensors)``), or only those on ``limb``'s bodies (irteus manual: ``(send
         robot :rleg :force-sensors)``). An environment's sensors are not the
         robot's.
 
@@ -281,23 +281,24 @@ class RobotModel:
 
     @property
     def force_sensors(self) -> tuple[ForceSensor, ...]:
-        """The robot's 6-axis force/torque sensors (seed ``:force-sensors``)."""
+        """The robot's 6-axis force/torque sensors (irteus manual: ``:force-sensors``)."""
         return self.sensors().force_sensors
 
     @property
     def imu_sensors(self) -> tuple[Imu, ...]:
-        """The robot's IMUs (seed ``:imu-sensors``)."""
+        """The robot's IMUs (irteus manual: ``:imu-sensors``)."""
         return self.sensors().imu_sensors
 
     @property
     def bumpers(self) -> tuple[Bumper, ...]:
-        """The robot's touch sensors read on/off (seed ``bumper-model``)."""
+        """The robot's touch sensors read on/off (irteus manual: ``bumper-model``)."""
         return self.sensors().bumpers
 
     @property
     def cameras(self) -> tuple[Camera, ...]:
         """The perspective MJCF cameras on the robot's bodies, in model order
-        (seed ``:cameras``), each with its MJCF resolution (:class:`pik_mj.robot.camera.Camera`)."""
+        (irteus manual: ``:cameras``), each with its MJCF resolution
+        (:class:`pik_mj.robot.camera.Camera`)."""
         mine = set(subtree_bodies(self.model, self._root_id).tolist())
         perspective = int(mujoco.mjtProjection.mjPROJ_PERSPECTIVE)
         return tuple(
@@ -308,7 +309,7 @@ class RobotModel:
         )
 
     def camera(self, name: str) -> Camera:
-        """The robot's camera ``name`` (seed ``(send robot :camera name)``).
+        """The robot's camera ``name`` (irteus manual: ``(send robot :camera name)``).
 
         Raises:
             UnknownName: Not one of :attr:`cameras` (lists them).

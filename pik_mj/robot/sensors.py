@@ -1,9 +1,9 @@
-"""A robot's MJCF sensors (seed 001 ``:force-sensors``, ``:imu-sensors``,
+"""A robot's MJCF sensors (irteus manual: ``:force-sensors``, ``:imu-sensors``,
 ``bumper-model``) and the ZMP from foot force sensors
 (``:calc-zmp-from-forces-moments``).
 
 MuJoCo computes every reading (``data.sensordata``, after ``mj_forward`` or
-``mj_step``); this module names them, groups them the way the seed does, and
+``mj_step``); this module names them, groups them the way irteus does, and
 turns force/torque readings into the wrench the environment applies.
 
 * **Force sensor** (:class:`ForceSensor`): a MuJoCo ``force`` and ``torque``
@@ -26,7 +26,7 @@ turns force/torque readings into the wrench the environment applies.
   frame [rad/s]) and ``framequat`` (orientation ``q_WS``, w x y z) on one site.
 * **Bumper** (:class:`Bumper`): a MuJoCo ``touch`` sensor, the normal force [N]
   of the contacts inside its site's volume, read on/off with a threshold (the
-  seed's bumper returns 1/0; its threshold is a distance, MuJoCo's touch
+  irteus bumper returns 1/0; its threshold is a distance, MuJoCo's touch
   sensor measures force).
 * **ZMP** (:func:`zmp_from_wrenches`, :func:`zmp_from_force_sensors`): the
   point of the floor plane ``z = h`` about which the horizontal moment of the
@@ -40,12 +40,12 @@ turns force/torque readings into the wrench the environment applies.
 
   One wrench gives one foot's centre of pressure; the ZMP of double support is
   the same formula over both feet (equal to the ``f_z``-weighted mean of the
-  feet's centres of pressure, as the seed computes it). A sensor whose
+  feet's centres of pressure, as irteus computes it). A sensor whose
   ``f_z`` is below a threshold takes no part; with none left the ZMP is
-  undefined (the seed returns nil, this module None).
+  undefined (irteus returns nil, this module None).
 
 Sensors that a robot's MJCF lacks are added to its ``MjSpec`` on the sites the
-caller names with :func:`add_sensors`.
+caller names with :func:`~pik_mj.robot.sensor_channels.add_sensors`.
 """
 
 from __future__ import annotations
@@ -97,12 +97,12 @@ DEFAULT_BUMPER_THRESHOLD = 1.0
 
 DEFAULT_FZ_THRESHOLD = 1.0
 """Normal force [N] below which a force sensor takes no part in the ZMP (the
-seed's ``fz-thre``; 1 N rather than its 1 mN, because a compensated swing foot
+irteus manual's ``fz-thre``, 1 mN there; 1 N here because a compensated swing foot
 still reads its own ``m_D a_D``)."""
 
 
 # ----------------------------------------------------------------------------
-# sensors as the seed groups them
+# sensors as irteus groups them
 # ----------------------------------------------------------------------------
 
 
@@ -219,7 +219,7 @@ class Imu:
 
 @dataclass(frozen=True)
 class Bumper:
-    """A touch sensor read as on/off (seed ``bumper-model``). Named after the site.
+    """A touch sensor read as on/off (irteus manual: ``bumper-model``). Named after the site.
 
     Attributes:
         name: The site's name (its volume is the sensing zone).
@@ -240,7 +240,7 @@ class Bumper:
         return float(self.touch.read(data)[0])
 
     def is_on(self, data: mujoco.MjData) -> bool:
-        """The seed's reading: True (1) when the force reaches the threshold."""
+        """irteus' reading: True (1) when the force reaches the threshold."""
         return self.force(data) >= self.threshold
 
 
@@ -321,11 +321,11 @@ class RobotSensors:
 
     # ----------------------------------------------------------- look-ups
     def force_sensor(self, name: str) -> ForceSensor:
-        """The force sensor on site ``name`` (seed ``:force-sensor``)."""
+        """The force sensor on site ``name`` (irteus manual: ``:force-sensor``)."""
         return _by_name("force sensor", self.force_sensors, name)
 
     def imu_sensor(self, name: str) -> Imu:
-        """The IMU on site ``name`` (seed ``:imu-sensor``)."""
+        """The IMU on site ``name`` (irteus manual: ``:imu-sensor``)."""
         return _by_name("IMU", self.imu_sensors, name)
 
     def bumper(self, name: str) -> Bumper:
@@ -333,8 +333,8 @@ class RobotSensors:
         return _by_name("bumper", self.bumpers, name)
 
     def by_limb(self, limbs: Mapping[str, Iterable[str]]) -> dict[str, RobotSensors]:
-        """The sensors of each limb, given as ``{limb: its body names}`` (seed
-        ``(send robot :rleg :force-sensors)``). A sensor belongs to the limb
+        """The sensors of each limb, given as ``{limb: its body names}`` (irteus
+        manual: ``(send robot :rleg :force-sensors)``). A sensor belongs to the limb
         holding its site's body; sensors of no limb are left out."""
         limb_of: dict[str, str] = {}
         for limb, bodies in limbs.items():
@@ -401,7 +401,7 @@ def _by_name(kind: str, items: Sequence, name: str):
 
 
 # ----------------------------------------------------------------------------
-# ZMP (seed :calc-zmp-from-forces-moments)
+# ZMP (irteus manual: :calc-zmp-from-forces-moments)
 # ----------------------------------------------------------------------------
 
 
@@ -447,7 +447,7 @@ def zmp_from_force_sensors(
     fz_threshold: float = DEFAULT_FZ_THRESHOLD,
     compensate: bool = True,
 ) -> SensorZmp | None:
-    """The ZMP from foot force sensors (seed ``:calc-zmp-from-forces-moments``).
+    """The ZMP from foot force sensors (irteus manual: ``:calc-zmp-from-forces-moments``).
 
     Each sensor's :meth:`ForceSensor.contact_wrench` whose ``f_z`` reaches
     ``fz_threshold`` takes part; its centre of pressure and the combined ZMP
