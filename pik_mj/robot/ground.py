@@ -32,7 +32,7 @@ from pik_mj.robot.floor_contact import (
     subtree_bodies,
     touching_geoms,
 )
-from pik_mj.robot.robot import Robot
+from pik_mj.robot.robot_model import RobotModel
 
 __all__ = [
     "CYLINDER_RIM_POINTS",
@@ -57,12 +57,12 @@ __all__ = [
 
 
 def foot_geoms(
-    robot: Robot,
+    robot: RobotModel,
     legs: Sequence[str] = ("rleg", "lleg"),
     *,
     soles: Mapping[str, Sequence[int | str]] | None = None,
 ) -> list[int]:
-    """The collision geoms the robot stands on (:meth:`pik_mj.robot.Robot.foot_geoms`):
+    """The collision geoms the robot stands on (:meth:`~pik_mj.robot.RobotModel.foot_geoms`):
     per leg, the geoms of ``soles`` (default: the robot description's ``[soles]``),
     else every collision geom of the leg's foot.
 
@@ -72,7 +72,7 @@ def foot_geoms(
 
 
 def sole_polygons(
-    robot: Robot,
+    robot: RobotModel,
     legs: Sequence[str] = ("rleg", "lleg"),
     tolerance: float = DEFAULT_TOLERANCE,
     *,
@@ -105,7 +105,7 @@ def sole_polygons(
     return polys
 
 
-def sole_size(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[float, float]:
+def sole_size(robot: RobotModel, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[float, float]:
     """Length and width [m] of the soles: the extent of :func:`sole_polygons`
     along the x and y axes of each leg's end frame (the sole frame, at the sole's
     centre), the same for every leg (what walking plans footsteps with).
