@@ -1,8 +1,12 @@
 """irteus' inverse-kinematics entry points on the priority cascade.
 
-* :func:`inverse_kinematics`, :func:`fullbody_inverse_kinematics` — irteus
-  ``:inverse-kinematics`` and ``:fullbody-inverse-kinematics``: a stack of levels for
-  :func:`pik_mj.solve.solve`, built from a :class:`~pik_mj.robot.Robot`'s limbs.
+* :func:`inverse_kinematics` (:mod:`.limb`), :func:`fullbody_inverse_kinematics`
+  (:mod:`.fullbody`) — irteus ``:inverse-kinematics`` and
+  ``:fullbody-inverse-kinematics``: a stack of levels for :func:`pik_mj.solve.solve`,
+  built from a :class:`~pik_mj.robot.Robot`'s limbs; their arguments are read by
+  :mod:`.arguments`.
+* :func:`static_balance_point`, :func:`gaze_angle` (:mod:`.measures`) — irteus
+  ``:calc-static-balance-point`` and the head's gaze error.
 * :func:`classic_inverse_kinematics` — irteus' SR-inverse iteration, for comparison.
 * :func:`with_virtual_root` — a virtual 6-DoF root for fixed-base models.
 
@@ -10,12 +14,9 @@ This layer imports the robot layer and the core.
 """
 
 from pik_mj.ik.classic import classic_inverse_kinematics
-from pik_mj.ik.irteus import (
-    fullbody_inverse_kinematics,
-    gaze_angle,
-    inverse_kinematics,
-    static_balance_point,
-)
+from pik_mj.ik.fullbody import fullbody_inverse_kinematics
+from pik_mj.ik.limb import inverse_kinematics
+from pik_mj.ik.measures import gaze_angle, static_balance_point
 from pik_mj.ik.virtual_root import with_virtual_root
 
 __all__ = [

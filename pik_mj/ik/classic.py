@@ -1,4 +1,4 @@
-"""irteus' classic inverse kinematics, for comparison with the cascade (seed 001).
+"""irteus' classic inverse kinematics, for comparison with the cascade (irteus manual).
 
 One iteration of irteus ``:inverse-kinematics`` (``:move-joints``) with the
 frame tasks' Jacobian ``J`` and requested motion ``ẋ`` (each task's clamped
@@ -10,7 +10,7 @@ frame tasks' Jacobian ``J`` and requested motion ``ẋ`` (each task's clamped
     J^{*}_W = W^{-1} J^T (J W^{-1} J^T + k I)^{-1}
 
 * SR-inverse (Nakamura & Hanafusa): ``k`` grows as the manipulability
-  ``κ = \\sqrt{\\det(J W^{-1} J^T)}`` falls below ``κ_0`` (seed
+  ``κ = \\sqrt{\\det(J W^{-1} J^T)}`` falls below ``κ_0`` (irteus
   ``manipulability-limit`` 0.1, ``manipulability-gain`` 0.001):
   ``k = k_0 (1 − κ/κ_0)²`` if ``κ < κ_0`` else 0.
 * Weighted least norm for joint-limit avoidance (Chan & Dubey 1995):
@@ -26,7 +26,7 @@ frame tasks' Jacobian ``J`` and requested motion ``ẋ`` (each task's clamped
       \\frac{(\\theta_{i,max} - \\theta_{i,min})^2 (2\\theta_i - \\theta_{i,max}
       - \\theta_{i,min})}{4 (\\theta_{i,max} - \\theta_i)^2 (\\theta_i - \\theta_{i,min})^2}
 
-* null-space joint-limit avoidance (seed ``avoid-nspace-gain``): ``z`` pulls each
+* null-space joint-limit avoidance (irteus ``avoid-nspace-gain``): ``z`` pulls each
   joint towards the middle of its range, scaled by the inverse weight,
   ``z_i = −g_n w_i^{-1} \\operatorname{sign}(r_i) r_i^2``,
   ``r_i = (θ_i − θ_{i,mid}) / (θ_{i,max} − θ_{i,mid})``: the weighted
@@ -35,7 +35,7 @@ frame tasks' Jacobian ``J`` and requested motion ``ẋ`` (each task's clamped
 After the step the joints are clamped to their ranges (irteus ``:joint-angle``).
 Interlocking joint pairs (irteus ``:interlocking-joint-pairs``) add rows
 ``θ̇_a − θ̇_b = −(θ_a − θ_b)`` to ``J`` and ``ẋ``: the pair moves together and an
-initial mismatch is removed (seed ``:calc-jacobian-for-interlocking-joints``).
+initial mismatch is removed (irteus ``:calc-jacobian-for-interlocking-joints``).
 """
 
 from __future__ import annotations
@@ -118,7 +118,7 @@ def joint_limit_weights(
 def joint_limit_nspace(
     q: np.ndarray, lower: np.ndarray, upper: np.ndarray, gain: float = 0.01
 ) -> np.ndarray:
-    """Null-space velocity towards the middle of each range (seed ``avoid-nspace-gain``)."""
+    """Null-space velocity towards the middle of each range (irteus ``avoid-nspace-gain``)."""
     z = np.zeros_like(q)
     lim = np.isfinite(lower) & np.isfinite(upper)
     mid = 0.5 * (lower[lim] + upper[lim])
@@ -230,16 +230,16 @@ def classic_inverse_kinematics(
         targets: :class:`FrameTask`s (their own axes, tolerances and step limits:
             the SR-inverse has no trust region, so give them ``p_limit`` and
             ``r_limit``), or ``(move_target, pose)`` tuples made into full 6-D
-            FrameTasks with the seed's limits (0.1 m, 0.5 rad) and error
+            FrameTasks with irteus' limits (0.1 m, 0.5 rad) and error
             (``error_type="split"``).
-        method: ``"sr-inverse"`` (seed default) or ``"pseudo-inverse"`` (``k = 0``).
-        stop: Maximum iterations (seed ``stop``).
+        method: ``"sr-inverse"`` (irteus' default) or ``"pseudo-inverse"`` (``k = 0``).
+        stop: Maximum iterations (irteus ``stop``).
         min_loop: Iterations before the stop test may end the loop.
         thre: Translation tolerance [m] for targets given as tuples.
         rthre: Rotation tolerance [rad] for targets given as tuples.
         joints: Joints moved (all of the model's if None).
-        manipulability_limit: ``κ_0`` (seed ``manipulability-limit``).
-        manipulability_gain: ``k_0`` (seed ``manipulability-gain``).
+        manipulability_limit: ``κ_0`` (irteus ``manipulability-limit``).
+        manipulability_gain: ``k_0`` (irteus ``manipulability-gain``).
         avoid_weight_gain: Gain of the Chan–Dubey weights (0: unweighted).
         avoid_nspace_gain: Gain ``g_n`` of the null-space joint-limit term (0: off).
         interlocking_pairs: ``[(joint_a, joint_b), ...]`` hinge/slide joints kept

@@ -1,4 +1,4 @@
-"""A virtual 6-DoF root for fixed-base models (seed 000 ``virtual-joint-variable``).
+"""A virtual 6-DoF root for fixed-base models (prioritized-IK manual: ``virtual-joint-variable``).
 
 irteus attaches a virtual joint between the world and a robot for one solve and
 removes it afterwards. MuJoCo cannot add degrees of freedom to a compiled model,

@@ -1,4 +1,4 @@
-r"""Cameras of a robot model (seed 001 ``:cameras``, ``camera-model``).
+r"""Cameras of a robot model (irteus manual: ``:cameras``, ``camera-model``).
 
 A :class:`Camera` is an MJCF ``<camera>`` taken by name. Everything geometric
 comes from MuJoCo:

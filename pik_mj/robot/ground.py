@@ -1,337 +1,78 @@
-"""What of a robot touches the ground: lowest points of its collision geometry,
-its gap to the floor, and the sole polygons its feet stand on.
+"""What of a robot touches the ground: the collision geoms its feet stand on, their
+sole polygons and size, read from its limbs and its robot description.
 
-The floor is the plane ``z = 0`` of the world (gravity along ``-z``). Only
-*collision* geoms count (``contype`` or ``conaffinity`` non-zero, or named by a
-``<contact><pair>``): visual meshes (``contype = conaffinity = 0``) never touch
-anything in MuJoCo, so they never widen a sole.
-
-The lowest point of a geom is its support point in the direction ``-z``. With
-``c`` the geom's centre, ``R = [r_1 r_2 r_3]`` its orientation (``geom_xpos``,
-``geom_xmat``) and ``s`` its size, its height is
-
-.. math::
-
-    h_{sphere} = c_z - s_1, \\qquad
-    h_{box} = c_z - \\sum_i |R_{3i}|\\, s_i, \\qquad
-    h_{ellipsoid} = c_z - \\sqrt{\\textstyle\\sum_i (R_{3i} s_i)^2}
-
-    h_{capsule} = c_z - |R_{33}|\\, s_2 - s_1, \\qquad
-    h_{cylinder} = c_z - |R_{33}|\\, s_2 - s_1 \\sqrt{1 - R_{33}^2}
-
-and for a mesh the lowest of its vertices (MuJoCo collides a mesh's convex
-hull, whose lowest point is a vertex). The parts of a geom *at* its lowest
-height (within a tolerance) are what a floor under it touches: a box's bottom
-face or edge or corner, a sphere's lowest point, both end caps' lowest points of
-a capsule lying flat, the bottom disc (as a polygon) of a cylinder standing
-upright or the bottom line of one lying flat, a mesh's lowest vertices.
+The geometry under these (lowest points of geoms, a body's gap to the floor,
+one foot's contact polygon and its normal) is :mod:`pik_mj.robot.floor_contact`;
+its names are given here too (``ground.floor_gap``, ``ground.sole_polygon``, ...),
+so one module answers "what touches the ground" for a reader and a caller.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
 
-import mujoco
 import numpy as np
 
-from pik_mj.balance import convex_hull_2d
-from pik_mj.exceptions import InvalidInput, NoCollisionGeometry, UnknownName
-from pik_mj.frames import Frame, names_of
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame
+from pik_mj.robot.floor_contact import (
+    CYLINDER_RIM_POINTS,
+    DEFAULT_TOLERANCE,
+    FLAT_TOLERANCE,
+    MIN_SOLE_POINTS,
+    bottom_points,
+    collision_geoms,
+    floor_gap,
+    geom_heights,
+    geom_id,
+    is_collision_geom,
+    lowest_height,
+    sole_normal,
+    sole_polygon,
+    subtree_bodies,
+    touching_geoms,
+)
+from pik_mj.robot.robot_model import RobotModel
 
-if TYPE_CHECKING:  # the robot layer imports this module, not the other way round
-    from pik_mj.robot.robot import Robot
-
-DEFAULT_TOLERANCE = 3e-3
-"""Height difference [m] under which two points count as equally low (at rest on
-a floor, MuJoCo's soft contacts touch both)."""
-
-CYLINDER_RIM_POINTS = 16
-"""Vertices of the polygon standing for the bottom disc of an upright cylinder."""
-
-_MIN_SOLE_POINTS = 3
-
-_G = mujoco.mjtGeom
-
-
-def _in_pairs(model: mujoco.MjModel) -> np.ndarray:
-    """Mask (ngeom,) of the geoms named by an explicit ``<contact><pair>``."""
-    mask = np.zeros(model.ngeom, dtype=bool)
-    mask[model.pair_geom1] = True
-    mask[model.pair_geom2] = True
-    return mask
-
-
-def is_collision_geom(model: mujoco.MjModel, geom: int) -> bool:
-    """Whether MuJoCo can make contacts with ``geom``: contype or conaffinity
-    non-zero, or named by an explicit ``<contact><pair>`` (Menagerie's MJX models
-    disable every contact but their pairs)."""
-    return bool(model.geom_contype[geom] or model.geom_conaffinity[geom]) or bool(
-        _in_pairs(model)[geom]
-    )
-
-
-def subtree_bodies(model: mujoco.MjModel, body: int) -> np.ndarray:
-    """Ids of ``body`` and of every body below it."""
-    ids = [body]
-    for b in range(body + 1, model.nbody):  # MuJoCo numbers children after parents
-        if model.body_parentid[b] in ids:
-            ids.append(b)
-    return np.array(ids, dtype=int)
-
-
-def collision_geoms(model: mujoco.MjModel, bodies: Sequence[int] | np.ndarray) -> np.ndarray:
-    """Ids of the collision geoms attached to ``bodies`` (planes and height fields excluded)."""
-    on = np.isin(model.geom_bodyid, np.asarray(bodies, dtype=int))
-    collide = (model.geom_contype != 0) | (model.geom_conaffinity != 0) | _in_pairs(model)
-    solid = ~np.isin(model.geom_type, [_G.mjGEOM_PLANE, _G.mjGEOM_HFIELD])
-    return np.flatnonzero(on & collide & solid)
-
-
-def _mesh_vertices(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> np.ndarray:
-    """World positions (n, 3) [m] of a mesh geom's vertices."""
-    mesh = int(model.geom_dataid[geom])
-    start, count = int(model.mesh_vertadr[mesh]), int(model.mesh_vertnum[mesh])
-    v_G = np.asarray(model.mesh_vert[start : start + count], dtype=float)
-    return data.geom_xpos[geom] + v_G @ data.geom_xmat[geom].reshape(3, 3).T
-
-
-def lowest_height(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> float:
-    """Height ``z`` [m] of the lowest point of ``geom`` (formulas in the module docstring).
-
-    Raises:
-        InvalidInput: A plane, height field or SDF geom (no lowest point).
-    """
-    c = data.geom_xpos[geom]
-    R = data.geom_xmat[geom].reshape(3, 3)
-    s = model.geom_size[geom]
-    kind = int(model.geom_type[geom])
-    if kind == _G.mjGEOM_SPHERE:
-        return float(c[2] - s[0])
-    if kind == _G.mjGEOM_BOX:
-        return float(c[2] - np.abs(R[2]) @ s)
-    if kind == _G.mjGEOM_ELLIPSOID:
-        return float(c[2] - np.linalg.norm(R[2] * s))
-    if kind == _G.mjGEOM_CAPSULE:
-        return float(c[2] - abs(R[2, 2]) * s[1] - s[0])
-    if kind == _G.mjGEOM_CYLINDER:
-        return float(c[2] - abs(R[2, 2]) * s[1] - s[0] * np.sqrt(max(1.0 - R[2, 2] ** 2, 0.0)))
-    if kind == _G.mjGEOM_MESH:
-        return float(_mesh_vertices(model, data, geom)[:, 2].min())
-    raise InvalidInput(
-        f"geom {geom} is a {_G(kind).name}: only spheres, capsules, cylinders, boxes, "
-        "ellipsoids and meshes have a lowest point"
-    )
-
-
-def bottom_points(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    geom: int,
-    tolerance: float = DEFAULT_TOLERANCE,
-) -> np.ndarray:
-    """Points (k, 3) [m] of ``geom`` within ``tolerance`` of its lowest height.
-
-    What a floor under the geom touches (module docstring): their convex hull is
-    the geom's contact patch on a floor at its lowest height.
-    """
-    c = data.geom_xpos[geom]
-    R = data.geom_xmat[geom].reshape(3, 3)
-    s = model.geom_size[geom]
-    kind = int(model.geom_type[geom])
-    down = np.array([0.0, 0.0, -1.0])
-    if kind == _G.mjGEOM_SPHERE:
-        return (c + s[0] * down)[None]
-    if kind == _G.mjGEOM_ELLIPSOID:
-        # support point of {R diag(s) u : |u| = 1} in the direction -z
-        d_G = s * (R.T @ down)
-        return (c + R @ (s * d_G / np.linalg.norm(d_G)))[None]
-    if kind == _G.mjGEOM_BOX:
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
-        pts = c + (signs * s) @ R.T
-    elif kind == _G.mjGEOM_MESH:
-        pts = _mesh_vertices(model, data, geom)
-    elif kind in (_G.mjGEOM_CAPSULE, _G.mjGEOM_CYLINDER):
-        axis = R[:, 2]
-        ends = c + np.outer([-s[1], s[1]], axis)
-        if kind == _G.mjGEOM_CAPSULE:
-            pts = ends + s[0] * down
-        else:
-            radial = down - (down @ axis) * axis  # towards the floor, across the axis
-            n = float(np.linalg.norm(radial))
-            if n > 1e-9:
-                pts = ends + s[0] * radial / n
-            else:  # upright: the bottom disc, as a polygon on its rim
-                angle = np.linspace(0.0, 2.0 * np.pi, CYLINDER_RIM_POINTS, endpoint=False)
-                rim = s[0] * (np.outer(np.cos(angle), R[:, 0]) + np.outer(np.sin(angle), R[:, 1]))
-                pts = np.vstack([ends[0] + rim, ends[1] + rim])
-    else:
-        lowest_height(model, data, geom)  # raises with the geom's type
-        raise AssertionError("unreachable")
-    return pts[pts[:, 2] <= pts[:, 2].min() + tolerance]
-
-
-def floor_gap(model: mujoco.MjModel, data: mujoco.MjData, root_body: int | str) -> float:
-    """Height [m] of the lowest collision geom of the robot above the floor ``z = 0``.
-
-    Positive when the robot floats (Robotis OP3's zero pose: 21 mm), negative when
-    it sinks into the floor. Lowering a free-floating root by this much puts the
-    robot down on the floor.
-
-    Args:
-        model: The model.
-        data: Its pose (``geom_xpos``/``geom_xmat`` current, e.g. after ``mj_kinematics``).
-        root_body: The robot's top-level body (name or id): its subtree is the robot.
-
-    Raises:
-        InvalidInput: The robot has no collision geom.
-    """
-    heights = geom_heights(model, data, subtree_bodies(model, _body_id(model, root_body)))
-    return float(min(heights.values()))
-
-
-def geom_heights(
-    model: mujoco.MjModel, data: mujoco.MjData, bodies: Sequence[int] | np.ndarray
-) -> dict[int, float]:
-    """Lowest height [m] of each collision geom of ``bodies``, by geom id.
-
-    Raises:
-        InvalidInput: The bodies carry no collision geom.
-    """
-    geoms = collision_geoms(model, bodies)
-    if geoms.size == 0:
-        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, int(b)) for b in bodies]
-        raise NoCollisionGeometry(
-            f"bodies {names} have no collision geom (contype or conaffinity non-zero): "
-            "nothing of them can touch the floor"
-        )
-    return {int(g): lowest_height(model, data, int(g)) for g in geoms}
-
-
-def touching_geoms(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    root_body: int | str,
-    tolerance: float = DEFAULT_TOLERANCE,
-) -> list[int]:
-    """Collision geoms of the robot within ``tolerance`` [m] of its lowest point:
-    those touching a floor put under the robot."""
-    heights = geom_heights(model, data, subtree_bodies(model, _body_id(model, root_body)))
-    lowest = min(heights.values())
-    return [g for g, h in heights.items() if h <= lowest + tolerance]
-
-
-def sole_polygon(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    foot: int | str,
-    tolerance: float = DEFAULT_TOLERANCE,
-    *,
-    geoms: Sequence[int | str] | None = None,
-) -> np.ndarray:
-    """Contact polygon of one foot on a floor under it, world frame (k, 3) [m].
-
-    The foot is ``foot`` and the bodies below it (toes), or only the collision
-    geoms ``geoms`` when given. Of these geoms, those within ``tolerance`` of the
-    foot's lowest point take part, each with its parts at that height
-    (:func:`bottom_points`); the polygon is the convex hull of these points in the
-    horizontal plane, counter-clockwise seen from above, at their mean height. A
-    foot touching at one point or along a line gives 1 or 2 points.
-
-    Raises:
-        InvalidInput: The foot has no collision geom, or a geom of ``geoms`` is not
-            a collision geom.
-        UnknownName: A geom name that does not exist.
-    """
-    if geoms is None:
-        heights = geom_heights(model, data, subtree_bodies(model, _body_id(model, foot)))
-    else:
-        heights = {}
-        for g in geoms:
-            gid = _element_id(model, "geom", g)
-            if not is_collision_geom(model, gid):
-                raise InvalidInput(
-                    f"sole geom {g!r} is not a collision geom (contype = conaffinity = 0)"
-                )
-            heights[gid] = lowest_height(model, data, gid)
-        if not heights:
-            raise InvalidInput("give at least one sole geom")
-    lowest = min(heights.values())
-    pts = np.vstack(
-        [
-            p
-            for g, h in heights.items()
-            if h <= lowest + tolerance
-            for p in bottom_points(model, data, g, tolerance)
-            if p[2] <= lowest + tolerance
-        ]
-    )
-    hull = convex_hull_2d(pts[:, :2], allow_degenerate=True, tol=1e-6)
-    return np.column_stack([hull, np.full(len(hull), pts[:, 2].mean())])
-
-
-FLAT_TOLERANCE = 0.01
-"""Height [m] above a foot's lowest point within which :func:`sole_normal` takes
-its geoms' bottom points as the sole (a foot tilted by 1° over 20 cm: 3.5 mm)."""
-
-
-def sole_normal(
-    model: mujoco.MjModel, data: mujoco.MjData, geoms: Sequence[int]
-) -> np.ndarray | None:
-    """Upward unit normal (3,) of the sole formed by the collision ``geoms`` of a
-    foot: the plane fitted (least squares, ``np.linalg.svd``) to their bottom
-    points within :data:`FLAT_TOLERANCE` of the lowest (:func:`bottom_points`),
-    or None when these span no area (a point or a line: a ball or a blade).
-
-    ``[0, 0, 1]`` for a foot standing flat; a foot whose sole is tilted by ``θ``
-    gives a normal ``θ`` away from up.
-    """
-    if len(geoms) == 0:
-        return None
-    lowest = min(lowest_height(model, data, int(g)) for g in geoms)
-    pts = np.vstack([bottom_points(model, data, int(g), FLAT_TOLERANCE) for g in geoms])
-    pts = pts[pts[:, 2] <= lowest + FLAT_TOLERANCE]
-    centred = pts - pts.mean(axis=0)
-    if len(pts) < _MIN_SOLE_POINTS:
-        return None
-    _, sv, vt = np.linalg.svd(centred)
-    if sv[1] < 1e-6 * max(sv[0], 1e-12) or sv[1] < 1e-6:  # collinear: no plane
-        return None
-    n = vt[2]
-    return n if n[2] >= 0 else -n
-
-
-def _described_soles(robot: Robot) -> Mapping[str, Sequence[str]]:
-    return {} if robot.description is None else robot.description.soles
+__all__ = [
+    "CYLINDER_RIM_POINTS",
+    "DEFAULT_TOLERANCE",
+    "FLAT_TOLERANCE",
+    "MIN_SOLE_POINTS",
+    "bottom_points",
+    "collision_geoms",
+    "floor_gap",
+    "foot_geoms",
+    "geom_heights",
+    "geom_id",
+    "is_collision_geom",
+    "lowest_height",
+    "sole_normal",
+    "sole_polygon",
+    "sole_polygons",
+    "sole_size",
+    "subtree_bodies",
+    "touching_geoms",
+]
 
 
 def foot_geoms(
-    robot: Robot,
+    robot: RobotModel,
     legs: Sequence[str] = ("rleg", "lleg"),
     *,
     soles: Mapping[str, Sequence[int | str]] | None = None,
 ) -> list[int]:
-    """The collision geoms the robot stands on: per leg, the geoms of ``soles``
-    (default: the robot description's ``[soles]``), else every collision geom of
-    the leg's foot (the body of its end frame and the bodies below it: toes).
+    """The collision geoms the robot stands on (:meth:`~pik_mj.robot.RobotModel.foot_geoms`):
+    per leg, the geoms of ``soles`` (default: the robot description's ``[soles]``),
+    else every collision geom of the leg's foot.
 
     Legs the robot does not have are skipped (a fixed-base arm stands on nothing).
     """
-    soles = _described_soles(robot) if soles is None else soles
-    model = robot.model
-    out: list[int] = []
-    for leg in legs:
-        if leg in soles:
-            out += [_element_id(model, "geom", g) for g in soles[leg]]
-        elif leg in robot.limbs:
-            limb = robot.limbs[leg]
-            body = Frame.find(model, limb.end_frame, limb.end_frame_type).body_id
-            out += collision_geoms(model, subtree_bodies(model, body)).tolist()
-    return list(dict.fromkeys(out))
+    return robot.foot_geoms(legs, soles=soles)
 
 
 def sole_polygons(
-    robot: Robot,
+    robot: RobotModel,
     legs: Sequence[str] = ("rleg", "lleg"),
     tolerance: float = DEFAULT_TOLERANCE,
     *,
@@ -348,13 +89,13 @@ def sole_polygons(
         InvalidInput: A foot without collision geoms, or touching at fewer than 3
             points (no area to stand on).
     """
-    soles = _described_soles(robot) if soles is None else soles
+    soles = robot.described_soles if soles is None else soles
     polys = []
     for leg in legs:
         limb = robot.limb(leg)
         body = Frame.find(robot.model, limb.end_frame, limb.end_frame_type).body_id
         poly = sole_polygon(robot.model, robot.data, body, tolerance, geoms=soles.get(leg))
-        if len(poly) < _MIN_SOLE_POINTS:
+        if len(poly) < MIN_SOLE_POINTS:
             raise InvalidInput(
                 f"the foot of limb {leg!r} (body {robot.model.body(body).name!r}) touches "
                 f"a floor at {len(poly)} point(s) within {tolerance} m of its lowest point: "
@@ -364,7 +105,7 @@ def sole_polygons(
     return polys
 
 
-def sole_size(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[float, float]:
+def sole_size(robot: RobotModel, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[float, float]:
     """Length and width [m] of the soles: the extent of :func:`sole_polygons`
     along the x and y axes of each leg's end frame (the sole frame, at the sole's
     centre), the same for every leg (what walking plans footsteps with).
@@ -389,22 +130,3 @@ def sole_size(robot: Robot, legs: Sequence[str] = ("rleg", "lleg")) -> tuple[flo
         raise InvalidInput(f"the soles of {list(legs)} differ in size: {np.array(sizes)} m")
     length, width = np.mean(sizes, axis=0)
     return float(length), float(width)
-
-
-def _element_id(model: mujoco.MjModel, kind: str, element: int | str) -> int:
-    """Id of a ``"body"`` or ``"geom"`` given by name or id (checked)."""
-    count = model.nbody if kind == "body" else model.ngeom
-    if isinstance(element, str):
-        obj = mujoco.mjtObj.mjOBJ_BODY if kind == "body" else mujoco.mjtObj.mjOBJ_GEOM
-        i = mujoco.mj_name2id(model, obj, element)
-        if i < 0:
-            raise UnknownName(kind, element, names_of(model, kind))
-        return int(i)
-    i = int(element)
-    if not 0 <= i < count:
-        raise InvalidInput(f"{kind} id {i} is out of range [0, {count})")
-    return i
-
-
-def _body_id(model: mujoco.MjModel, body: int | str) -> int:
-    return _element_id(model, "body", body)

@@ -11,10 +11,10 @@ Rule, first match wins:
 4. the zero pose ``qpos0`` (Unitree H1 and dm_control's humanoids have no keyframe).
 
 The chosen pose is returned as it is written, with its gap to the floor
-(:func:`pik_mj.robot.ground.floor_gap`). :meth:`pik_mj.Robot.from_model` makes it a
+(:func:`pik_mj.robot.floor_contact.floor_gap`). :meth:`pik_mj.Robot.from_model` makes it a
 pose standing on the floor: a zero pose whose soles are tilted gets its feet
-turned flat (keyframe ``pik_mj_standing``; dm_control's humanoid, 8 mrad), and
-the robot is put down onto z = 0 (Robotis OP3's zero pose floats 21 mm).
+turned flat (keyframe ``pik_mj_standing``; dm_control's humanoid), and the robot
+is put down onto z = 0 (Robotis OP3's zero pose floats).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput, NoCollisionGeometry, UnknownName
 from pik_mj.frames import robot_root_body
-from pik_mj.robot.ground import floor_gap
+from pik_mj.robot.floor_contact import floor_gap
 
 STANDING_KEYFRAME_NAMES = (
     "stand",

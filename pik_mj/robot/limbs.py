@@ -3,7 +3,7 @@
 In the standing configuration (:func:`pik_mj.robot.keyframes.standing_pose`):
 
 * **legs** end in the bodies whose collision geoms touch the floor: those within
-  3 mm (:data:`pik_mj.robot.ground.DEFAULT_TOLERANCE`) of the robot's lowest point, or
+  3 mm (:data:`pik_mj.robot.floor_contact.DEFAULT_TOLERANCE`) of the robot's lowest point, or
   within :data:`FOOT_TOLERANCE` when they turn a line or a face to the floor (a
   heel or a toe lying flat, not the rounded end of a shank). The touching bodies hang
   off one branching body ``L`` (the pelvis; Booster T1's waist); each branch of
@@ -21,7 +21,7 @@ In the standing configuration (:func:`pik_mj.robot.keyframes.standing_pose`):
 * **torso**: the joints between ``L`` and the arms' branching body ``A``, ending
   at the lower of the two; **head**: a chain with joints hanging off ``A`` that
   is neither arm nor leg and lies on the middle line;
-* a robot with a **fixed base** whose tree is one chain (seed 001's 3-DoF arm)
+* a robot with a **fixed base** whose tree is one chain (the irteus manual's 3-DoF arm)
   is one limb, ``arm``, from its first joint to its leaf.
 
 A limb holds the hinge and slide joints from its first body to its end body and
@@ -47,7 +47,12 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput, LimbsNotFound, NoCollisionGeometry
 from pik_mj.frames import Frame, robot_root_body
-from pik_mj.robot.ground import DEFAULT_TOLERANCE, bottom_points, geom_heights, subtree_bodies
+from pik_mj.robot.floor_contact import (
+    DEFAULT_TOLERANCE,
+    bottom_points,
+    geom_heights,
+    subtree_bodies,
+)
 from pik_mj.robot.keyframes import standing_pose
 from pik_mj.tasks.joint_limit import find_joint
 
@@ -56,9 +61,9 @@ LIMB_NAMES = ("rarm", "larm", "rleg", "lleg", "torso", "head", "arm")
 
 FOOT_TOLERANCE = 0.02
 """Height above the robot's lowest point [m] under which a collision geom lying
-flat touches the floor for leg finding. The CMU humanoid's zero pose has its
-heels (capsules lying along the foot) 12.6 mm above its toes; G1's ankle pitch
-link is 28 mm above its soles."""
+flat touches the floor for leg finding: above the CMU humanoid's heels (capsules
+lying along the foot, 12.6 mm above its toes in its zero pose: part of the sole),
+below G1's ankle pitch link (28 mm above its soles: not)."""
 
 LATERAL = 0.02
 """Distance [m] from the middle plane beyond which a leaf lies on a side."""

@@ -23,6 +23,7 @@ environment is composed by :meth:`pik_mj.Robot.from_model`
 from __future__ import annotations
 
 import difflib
+import importlib.resources
 import os
 from pathlib import Path
 
@@ -30,14 +31,7 @@ import mujoco
 
 from pik_mj.exceptions import InvalidInput, UnknownName
 
-
-def _models_dir() -> Path:
-    import pik_mj.mjcf  # the top-level models/, installed as package data
-
-    return Path(pik_mj.mjcf.__file__).resolve().parent
-
-
-MODELS_DIR = _models_dir()
+MODELS_DIR = Path(str(importlib.resources.files("pik_mj.mjcf"))).resolve()
 """Where the shipped MJCF files are (the source tree's ``models/``, installed as
 ``pik_mj.mjcf``)."""
 

@@ -1,52 +1,52 @@
-"""The robot data layer: irteus' cascaded-link / robot-model on a MuJoCo model.
+"""The robot: a :class:`~pik_mj.robot.robot_model.RobotModel` built from its model
+and standing in its world.
 
-A :class:`Robot` is built from its model with :meth:`Robot.from_model` (a model
-name, an MJCF path or an :class:`mujoco.MjSpec`, optionally placed in an
-environment) and OWNS its kinematic world: ``robot.spec`` (the robot, or the
-robot with the environment attached into it, so the robot's ``qpos`` is a prefix
-of every model built from it), ``robot.model``, ``robot.configuration`` (a
-:class:`mink.Configuration` holding its state) and ``robot.source`` (a
-:class:`RobotSource`: what rebuilds it). It knows which top-level body is the
-robot (its *root body*, :func:`robot_root_body`), the robot's joints and limbs,
-and gives irteus-style accessors: ``angle_vector``, ``link_list``,
-end-effector frames, mass, centroid and centroid Jacobian. MuJoCo computes all
-kinematics.
+A :class:`Robot` is built with :meth:`Robot.from_model` (a model name, an MJCF path
+or an :class:`mujoco.MjSpec`, optionally placed in an environment) and OWNS its
+kinematic world: ``robot.spec`` (the robot, or the robot with the environment
+attached into it, so the robot's ``qpos`` is a prefix of every model built from
+it), ``robot.model``, ``robot.configuration`` (a :class:`mink.Configuration`
+holding its state) and ``robot.source`` (a :class:`RobotSource`: what rebuilds it).
 
 Any MJCF is taken as it is shipped: the start pose is a keyframe chosen by
 :func:`pik_mj.robot.keyframes.choose_keyframe`; a floating-base robot's start pose
 stands on the floor z = 0, its lowest collision geom touching the plane
-(dm_control's humanoids start 0.2 m up, Robotis OP3's zero pose floats 21 mm:
-they are lowered), so the IK's world and the physics' world are the same; the
-limbs are found from the kinematic tree (:func:`pik_mj.robot.limbs.find_limbs`), and
-what the tree does not tell is written in a robot description
-(:mod:`pik_mj.robot.description`).
+(dm_control's humanoids start above it, Robotis OP3's zero pose floats: they are
+lowered), so the IK's world and the physics' world are the same; a zero pose whose
+soles are tilted gets them turned flat (:mod:`pik_mj.robot.stance`). The limbs are
+found from the kinematic tree (:func:`pik_mj.robot.limbs.find_limbs`), and what
+the tree does not tell is written in a robot description
+(:mod:`pik_mj.robot.description`). The spec steps are :mod:`pik_mj.robot.assembly`.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import mink
 import mujoco
 import numpy as np
 
-from pik_mj import inputs
-from pik_mj.exceptions import InvalidInput, LimbsNotFound, NoCollisionGeometry, UnknownName
+from pik_mj.exceptions import LimbsNotFound
 from pik_mj.frames import robot_root_body
-from pik_mj.robot.camera import Camera
-from pik_mj.robot.description import RobotDescription, load_description, robot_limbs
-from pik_mj.robot.ground import floor_gap, foot_geoms, sole_normal, subtree_bodies
-from pik_mj.robot.keyframes import choose_keyframe
-from pik_mj.robot.limbs import LIMB_NAMES, Limb, find_limbs
-from pik_mj.robot.sensors import Bumper, ForceSensor, Imu, RobotSensors
-from pik_mj.robot.source import ModelLike, RobotSource, source_description, source_name
+from pik_mj.robot.assembly import (
+    as_description,
+    compile_spec,
+    environment_of,
+    robot_source,
+    robot_spec,
+    world_of,
+)
+from pik_mj.robot.description import RobotDescription
+from pik_mj.robot.limbs import Limb
+from pik_mj.robot.robot_model import RobotModel
+from pik_mj.robot.source import ModelLike, RobotSource
+from pik_mj.robot.stance import flat_stance
+from pik_mj.robot.world import placement
 
 __all__ = ["Limb", "LimbsNotFound", "Robot", "RobotSource", "robot_root_body"]
 
-FRAME_TYPES = ("site", "body", "geom")
 STANDING_KEYFRAME = "pik_mj_standing"
 """Name of the keyframe :meth:`Robot.from_model` adds for a robot without any
 whose zero pose does not stand flat on its soles (dm_control's humanoid)."""
@@ -55,85 +55,21 @@ GROUND_TOLERANCE = 1e-6
 the floor (above or below) at its start pose is moved onto it by
 :meth:`Robot.from_model`."""
 
-_FRAME_OBJ = {
-    "site": mujoco.mjtObj.mjOBJ_SITE,
-    "body": mujoco.mjtObj.mjOBJ_BODY,
-    "geom": mujoco.mjtObj.mjOBJ_GEOM,
-}
-_FRAME_COUNT = {"site": "nsite", "body": "nbody", "geom": "ngeom"}
-_QPOS_SIZE = {
-    int(mujoco.mjtJoint.mjJNT_FREE): 7,
-    int(mujoco.mjtJoint.mjJNT_BALL): 4,
-    int(mujoco.mjtJoint.mjJNT_SLIDE): 1,
-    int(mujoco.mjtJoint.mjJNT_HINGE): 1,
-}
-_ANGLE_JOINTS = (
-    int(mujoco.mjtJoint.mjJNT_HINGE),
-    int(mujoco.mjtJoint.mjJNT_SLIDE),
-)
 
-
-def _name(model: mujoco.MjModel, obj: mujoco.mjtObj, i: int) -> str:
-    return mujoco.mj_id2name(model, obj, i) or ""
-
-
-def _id(model: mujoco.MjModel, obj: mujoco.mjtObj, name: str) -> int:
-    return mujoco.mj_name2id(model, obj, name)
-
-
-def _description(
-    description: str | os.PathLike[str] | RobotDescription | None,
-) -> RobotDescription | None:
-    if description is None or isinstance(description, RobotDescription):
-        return description
-    if isinstance(description, (str, os.PathLike)):
-        return load_description(description)
-    raise InvalidInput(
-        "description must be a robot description file (.toml or .json) or a "
-        f"RobotDescription, got {type(description).__name__}"
-    )
-
-
-class Robot:
+class Robot(RobotModel):
     """A robot in a MuJoCo model, with its state in a :class:`mink.Configuration`.
 
     Build one with :meth:`Robot.from_model` (it then owns its world: ``spec``,
     ``source``). ``Robot(model)`` wraps a compiled model as it is (no source: no
-    :class:`pik_mj.sim.Scene` can be made from it).
-
-    Args:
-        model: The compiled model (a robot alone or with an environment).
-        root_body: Name of the robot's top-level body (default: the
-            description's, else :func:`robot_root_body`).
-        limbs: Explicit limb table ``{name: Limb}``; None: the description's
-            limbs, the others found from the kinematic tree in the start pose
-            (:func:`pik_mj.robot.description.robot_limbs`; none required).
-        keyframe: Keyframe of the start pose (:meth:`reset_pose`), by name or
-            index (default: the description's, else
-            :func:`pik_mj.robot.keyframes.choose_keyframe`).
-        description: What a robot description file states
-            (:class:`~pik_mj.robot.description.RobotDescription`), or None.
+    :class:`pik_mj.sim.Scene` can be made from it). Arguments, attributes and
+    accessors: :class:`~pik_mj.robot.robot_model.RobotModel`.
 
     Attributes:
-        model: The compiled model.
-        configuration: The robot's state.
         spec: The robot's world as an :class:`mujoco.MjSpec` (never modified; a
             scene copies it), or None for ``Robot(model)``.
         source: The :class:`RobotSource` that rebuilds it, or None.
         placement: ``(x, y, z, yaw)`` [m, rad] where the robot's model frame was
             put (``at``), or None.
-        keyframe: The start pose's keyframe (:meth:`reset_pose`): name, index of an
-            unnamed one, or None for ``qpos0``.
-        keyframe_rule: Why that keyframe (:func:`pik_mj.robot.keyframes.choose_keyframe`).
-        description: The robot description, or None.
-        limbs: ``{name: Limb}``, in the order of :data:`pik_mj.robot.limbs.LIMB_NAMES`.
-        joint_names: The robot's hinge and slide joints (its angle vector), in model order.
-        angle_joint_ids: Their joint ids in :attr:`model`.
-
-    Raises:
-        UnknownName: ``root_body``, ``keyframe`` or a limb's joint/frame does not exist.
-        InvalidInput: ``root_body`` is not a top-level body, or the robot's top
-            level body cannot be chosen.
     """
 
     def __init__(
@@ -145,67 +81,20 @@ class Robot:
         keyframe: str | int | None = None,
         description: RobotDescription | None = None,
     ):
-        if not isinstance(model, mujoco.MjModel):
-            raise InvalidInput(
-                f"Robot(model) takes a compiled mujoco.MjModel, got {type(model).__name__}; "
-                "use Robot.from_model(name, path or MjSpec)"
-            )
-        self.model = model
-        self.configuration = mink.Configuration(model)
+        super().__init__(
+            model, root_body=root_body, limbs=limbs, keyframe=keyframe, description=description
+        )
         self.spec: mujoco.MjSpec | None = None
         self.source: RobotSource | None = None
         self.placement: tuple[float, float, float, float] | None = None
         self._own_nq: int | None = None
-        self._sensors: RobotSensors | None = None
-        self.description = description
-        top_level = [b for b in range(1, model.nbody) if model.body_parentid[b] == 0]
-        if not top_level:
-            raise InvalidInput("the model has no body besides the world")
-        if limbs is not None and not (
-            isinstance(limbs, Mapping) and all(isinstance(x, Limb) for x in limbs.values())
-        ):
-            raise InvalidInput(f"limbs must be a mapping of names to Limb, got {limbs!r}")
-        if root_body is None and description is not None:
-            root_body = description.root_body
-        if root_body is not None and not isinstance(root_body, str):
-            raise InvalidInput(f"root_body must be a body name, got {type(root_body).__name__}")
-        self._root_id = robot_root_body(model, root_body)
-        if self._root_id not in top_level:
-            names = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in top_level]
-            raise InvalidInput(
-                f"root_body {root_body!r} is not a top-level body (a child of "
-                f"the world). Top-level bodies: {names}"
-            )
-        in_robot = model.body_rootid[model.jnt_bodyid] == self._root_id
-        self._robot_joint_ids = np.flatnonzero(in_robot)
-        angle = np.isin(model.jnt_type, _ANGLE_JOINTS)
-        self.angle_joint_ids = np.flatnonzero(in_robot & angle)
-        self.joint_names: list[str] = [
-            _name(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self.angle_joint_ids
-        ]
-        self._joint_index = {n: i for i, n in enumerate(self.joint_names)}
-        if keyframe is None and description is not None:
-            keyframe = description.keyframe
-        self._key_index, self.keyframe_rule = choose_keyframe(model, keyframe)
-        self.reset_pose()
-        if limbs is None:
-            limbs = robot_limbs(
-                model, description, self.configuration.q, root_body=self._root_id, required=()
-            )
-        else:
-            for limb in limbs.values():
-                self._check_limb(limb)
-        order = [n for n in LIMB_NAMES if n in limbs] + [n for n in limbs if n not in LIMB_NAMES]
-        self.limbs: dict[str, Limb] = {name: limbs[name] for name in order}
 
     @property
-    def keyframe(self) -> str | int | None:
-        """The start pose's keyframe (:meth:`reset_pose`): its name, its index when it
-        has none, or None for ``qpos0``; chosen by
-        :func:`pik_mj.robot.keyframes.choose_keyframe` (:attr:`keyframe_rule` says why)."""
-        if self._key_index is None:
-            return None
-        return self.model.key(self._key_index).name or self._key_index
+    def own_nq(self) -> int:
+        """Length of the robot's own part of ``q``: its MJCF's joints (the robot's,
+        and those of other top-level bodies its MJCF has) come first, the
+        environment's (e.g. the room's kettle) after them."""
+        return super().own_nq if self._own_nq is None else self._own_nq
 
     @classmethod
     def from_model(
@@ -236,9 +125,12 @@ class Robot:
         ``qpos`` is a prefix of the world's and the robot and the environment's
         objects (e.g. the room's ``kettle_handle`` site) share one world frame. A
         floating-base robot is first moved along z so that its lowest collision
-        geom touches z = 0 at its start pose (:func:`pik_mj.robot.ground.floor_gap`,
-        when it is farther than :data:`GROUND_TOLERANCE`; Robotis OP3's zero pose
-        floats 21 mm), in its qpos0 and its keyframes.
+        geom touches z = 0 at its start pose
+        (:func:`pik_mj.robot.floor_contact.floor_gap`, when it is farther than
+        :data:`GROUND_TOLERANCE`: Robotis OP3's zero pose floats), in its qpos0 and
+        its keyframes. A floating-base robot without keyframe whose zero pose has
+        tilted soles gets the keyframe :data:`STANDING_KEYFRAME`, its soles turned
+        flat (:func:`pik_mj.robot.stance.flat_stance`).
 
         Args:
             model: Model name (:func:`pik_mj.robot.loading.available_models`, a MuJoCo
@@ -268,71 +160,42 @@ class Robot:
                 or description.
             LimbsNotFound: A limb of ``required_limbs`` is not there.
         """
-        from pik_mj.robot.world import (
-            as_spec,
-            attach_environment,
-            name_unnamed,
-            place_root,
-            placement,
-        )
-
-        described = _description(description)
+        described = as_description(description)
         if model is None and described is not None and described.model is not None:
             model = described.model
-        for what, value in (("model", model), ("environment", environment)):
-            if not isinstance(value, (str, os.PathLike, mujoco.MjSpec)) and (
-                value is not None or what == "model"
-            ):
-                raise InvalidInput(
-                    f"{what} must be a model name, an MJCF path or a mujoco.MjSpec, got {value!r}"
-                    + (" (or a description whose 'model' names it)" if what == "model" else "")
-                )
-        spec = as_spec(model)
-        name_unnamed(spec)
-        try:
-            alone = spec.compile()
-        except ValueError as err:
-            raise InvalidInput(f"model {spec.modelname!r} does not compile: {err}") from err
+        spec = robot_spec(model, environment)
+        alone = compile_spec(spec, f"model {spec.modelname!r}")
         robot = cls(
             alone, root_body=root_body, limbs=limbs, keyframe=keyframe, description=described
         )
-        if robot.keyframe is None and robot.has_floating_base:
-            flat = robot._flat_stance()
-            if flat is not None:  # the zero pose with its soles made flat: a keyframe
-                spec.add_key(name=STANDING_KEYFRAME, qpos=flat.tolist())
-                alone = spec.compile()
-                robot = cls(
-                    alone,
-                    root_body=root_body,
-                    limbs=limbs,
-                    keyframe=STANDING_KEYFRAME,
-                    description=described,
-                )
-                robot.keyframe_rule = "zero pose, soles made flat"
+        flat = flat_stance(robot) if robot.keyframe is None else None
+        if flat is not None:  # the zero pose with its soles made flat: a keyframe
+            spec.add_key(name=STANDING_KEYFRAME, qpos=flat.tolist())
+            alone = spec.compile()
+            robot = cls(
+                alone,
+                root_body=root_body,
+                limbs=limbs,
+                keyframe=STANDING_KEYFRAME,
+                description=described,
+            )
+            robot.keyframe_rule = "zero pose, soles made flat"
         robot.require_limbs(required_limbs)
-        env_spec = None if environment is None else as_spec(environment)
-        env_model = None
-        if env_spec is not None:
-            try:
-                env_model = env_spec.copy().compile()
-            except ValueError as err:
-                raise InvalidInput(
-                    f"environment {env_spec.modelname!r} does not compile: {err}"
-                ) from err
+        env_spec, env_model = environment_of(environment)
         p_WR, yaw = (np.zeros(3), 0.0) if at is None else placement(at, env_model)
         dz = -robot.floor_gap() if robot.has_floating_base else 0.0
         if not abs(dz) > GROUND_TOLERANCE:  # within tolerance, or NaN: no collision geom
             dz = 0.0
-        world = alone
-        if at is not None or dz != 0.0 or env_spec is not None:
-            if at is not None or dz != 0.0:
-                place_root(spec, alone, robot.root_body_id, p_WR + np.array([0.0, 0.0, dz]), yaw)
-            if env_spec is not None:
-                spec = attach_environment(spec, env_spec)
-            try:
-                world = spec.compile()
-            except ValueError as err:
-                raise InvalidInput(f"the robot's world does not compile: {err}") from err
+        world, spec = world_of(
+            spec,
+            alone,
+            robot.root_body_id,
+            p_WR,
+            yaw,
+            placed=at is not None,
+            dz=dz,
+            environment=env_spec,
+        )
         out = cls(
             world,
             root_body=robot.root_body,
@@ -343,14 +206,7 @@ class Robot:
         out.keyframe_rule = robot.keyframe_rule
         out.spec = spec
         out._own_nq = int(alone.nq)
-        out.source = RobotSource(
-            source_name(model),
-            None if environment is None else source_name(environment),
-            at if at is None or isinstance(at, str) else tuple(float(x) for x in at),
-            keyframe,
-            root_body,
-            source_description(description),
-        )
+        out.source = robot_source(model, environment, at, keyframe, root_body, description)
         if at is not None:
             out.placement = (float(p_WR[0]), float(p_WR[1]), float(p_WR[2]), float(yaw))
         return out
@@ -367,450 +223,4 @@ class Robot:
             keyframe=source.keyframe,
             root_body=source.root_body,
             description=source.description,
-        )
-
-    def _flat_stance(self, tolerance: float = 1e-4) -> np.ndarray | None:
-        """The start configuration with each foot turned so that its sole is
-        horizontal (:func:`pik_mj.robot.ground.sole_normal`), or None when the soles
-        already are within ``tolerance`` [rad] (or there are no legs).
-
-        dm_control's humanoid stands in its zero pose on capsules tilted by
-        8 mrad: held in physics it rocks onto them and drifts 15 mm. The feet are
-        turned by the leg joints (:func:`pik_mj.ik.inverse_kinematics`: each
-        foot's orientation ``R_c R_WF``, ``R_c`` the smallest rotation taking the
-        sole's normal to up, and its horizontal position), the rest of the robot
-        as it is.
-        """
-        from pik_mj.ik import inverse_kinematics  # the IK is built on the robot
-
-        legs = [x for x in ("rleg", "lleg") if x in self.limbs]
-        targets = []
-        tilt = 0.0
-        for leg in legs:
-            limb = self.limbs[leg]
-            n = sole_normal(self.model, self.data, foot_geoms(self, [leg]))
-            if n is None:
-                return None
-            axis = np.cross(n, [0.0, 0.0, 1.0])
-            angle = float(np.arctan2(np.linalg.norm(axis), n[2]))
-            tilt = max(tilt, angle)
-            R_c = mink.SO3.exp(axis / max(np.linalg.norm(axis), 1e-12) * angle)
-            X = self.frame_pose(limb.end_frame, limb.end_frame_type)
-            targets.append((X.translation(), (R_c @ X.rotation()).wxyz))
-        if not legs or tilt <= tolerance:
-            return None
-        q0 = self.configuration.q.copy()
-        try:
-            result = inverse_kinematics(
-                self,
-                targets,
-                limbs=legs,
-                translation_axis="z",  # the height is free: the robot is put down after
-                thre=1e-4,
-                rthre=1e-4,
-                stop=50,
-                revert_if_fail=True,
-            )
-            if not result.converged:
-                return None
-            q = self.configuration.q.copy()
-            adr = self._free_qposadr()
-            q[adr : adr + 7] = q0[adr : adr + 7]  # the base stays exactly where it was
-            return q
-        finally:
-            self.configuration.update(q0)
-
-    def floor_gap(self) -> float:
-        """Height [m] of the robot's lowest collision geom above the floor z = 0 in
-        its current configuration (:func:`pik_mj.robot.ground.floor_gap`; negative: it
-        sinks in), NaN for a robot without collision geoms."""
-        try:
-            return floor_gap(self.model, self.data, self._root_id)
-        except NoCollisionGeometry:
-            return math.nan
-
-    # ------------------------------------------------------------------ limbs
-    def _check_limb(self, limb: Limb) -> None:
-        for joint in limb.joints:
-            self._angle_joint_id(joint)
-        for frame, kind in (
-            (limb.end_frame, limb.end_frame_type),
-            (limb.root_body, "body"),
-        ):
-            if self.model.body_rootid[self._frame_body_id(frame, kind)] != self._root_id:
-                raise InvalidInput(f"limb {limb.name!r}: {kind} {frame!r} is not on the robot")
-
-    def _limb_search(self, names: Sequence[str]) -> LimbsNotFound | None:
-        """Why the limbs ``names`` are missing: the error :func:`find_limbs` gives
-        when asked for them in the start pose (what it saw and found), or None."""
-        missing = [n for n in names if n not in self.limbs]
-        if not missing:
-            return None
-        q = self.configuration.q.copy()
-        self.reset_pose()
-        try:
-            find_limbs(self.model, self.configuration.q, root_body=self._root_id, required=missing)
-        except LimbsNotFound as err:
-            return LimbsNotFound(str(err.args[0]).split("\n")[0], self.limbs, err.details)
-        finally:
-            self.configuration.update(q)
-        return LimbsNotFound(f"the robot has no limb {missing}", self.limbs, [])
-
-    def require_limbs(self, names: Sequence[str]) -> None:
-        """Raise :class:`~pik_mj.robot.limbs.LimbsNotFound` (what was found, how to
-        describe the limbs) unless the robot has every limb in ``names``."""
-        if isinstance(names, str):
-            names = [names]
-        error = self._limb_search(list(names))
-        if error is not None:
-            raise error
-
-    def limb(self, name: str) -> Limb:
-        """The limb called ``name`` (irteus ``(send robot :rarm)``).
-
-        Raises:
-            UnknownName: No limb ``name`` (lists the robot's limbs; for a name
-                :func:`~pik_mj.robot.limbs.find_limbs` gives, such as ``larm``, how to
-                describe it). :meth:`require_limbs` says what the search saw.
-        """
-        try:
-            return self.limbs[name]
-        except KeyError:
-            err = UnknownName("limb", name, self.limbs)
-            if name in LIMB_NAMES:
-                err.args = (
-                    f"{err.args[0]}; the robot's tree does not give it: name it in a robot "
-                    "description (Robot.from_model(..., description=PATH))",
-                )
-            raise err from None
-
-    # ------------------------------------------------- sensors and cameras
-    def bodies(self, limb: str | None = None) -> list[str]:
-        """Names of the robot's bodies (the subtree of its root body), or of
-        ``limb``'s: the subtree of its first link (a leg with its foot) without
-        the other limbs that start inside it (a torso without the arms and head).
-
-        Raises:
-            UnknownName: No limb ``limb``.
-        """
-        if limb is None:
-            ids = subtree_bodies(self.model, self._root_id)
-        else:
-            own = self.model.body(self.limb(limb).root_body).id
-            ids = subtree_bodies(self.model, own)
-            for other in self.limbs.values():
-                start = self.model.body(other.root_body).id
-                if start != own and start in ids:
-                    ids = np.setdiff1d(ids, subtree_bodies(self.model, start))
-        return [self.model.body(int(b)).name for b in np.sort(ids)]
-
-    def sensors(self, limb: str | None = None) -> RobotSensors:
-        """The MJCF sensors on the robot's bodies: force/torque sensors, IMUs
-        and bumpers (:class:`pik_mj.robot.sensors.RobotSensors`; seed ``(send robot
-        :force-sensors)``), or only those on ``limb``'s bodies (seed ``(send
-        robot :rleg :force-sensors)``). An environment's sensors are not the
-        robot's.
-
-        Raises:
-            UnknownName: No limb ``limb``.
-        """
-        if self._sensors is None:
-            self._sensors = RobotSensors.from_model(self.model, bodies=self.bodies())
-        if limb is None:
-            return self._sensors
-        return self._sensors.by_limb({limb: self.bodies(limb)})[limb]
-
-    @property
-    def force_sensors(self) -> tuple[ForceSensor, ...]:
-        """The robot's 6-axis force/torque sensors (seed ``:force-sensors``)."""
-        return self.sensors().force_sensors
-
-    @property
-    def imu_sensors(self) -> tuple[Imu, ...]:
-        """The robot's IMUs (seed ``:imu-sensors``)."""
-        return self.sensors().imu_sensors
-
-    @property
-    def bumpers(self) -> tuple[Bumper, ...]:
-        """The robot's touch sensors read on/off (seed ``bumper-model``)."""
-        return self.sensors().bumpers
-
-    @property
-    def cameras(self) -> tuple[Camera, ...]:
-        """The perspective MJCF cameras on the robot's bodies, in model order
-        (seed ``:cameras``), each with its MJCF resolution (:class:`pik_mj.robot.camera.Camera`)."""
-        mine = set(subtree_bodies(self.model, self._root_id).tolist())
-        perspective = int(mujoco.mjtProjection.mjPROJ_PERSPECTIVE)
-        return tuple(
-            Camera(self.model, self.model.camera(c).name)
-            for c in range(self.model.ncam)
-            if int(self.model.cam_bodyid[c]) in mine
-            and int(self.model.cam_projection[c]) == perspective
-        )
-
-    def camera(self, name: str) -> Camera:
-        """The robot's camera ``name`` (seed ``(send robot :camera name)``).
-
-        Raises:
-            UnknownName: Not one of :attr:`cameras` (lists them).
-        """
-        cameras = {c.name: c for c in self.cameras}
-        if name not in cameras:
-            raise UnknownName("camera of the robot", name, cameras)
-        return cameras[name]
-
-    # ---------------------------------------------------------------- state
-    @property
-    def data(self) -> mujoco.MjData:
-        """The configuration's :class:`mujoco.MjData` (kinematics kept current)."""
-        return self.configuration.data
-
-    @property
-    def root_body(self) -> str:
-        """Name of the robot's top-level body."""
-        return _name(self.model, mujoco.mjtObj.mjOBJ_BODY, self._root_id)
-
-    @property
-    def root_body_id(self) -> int:
-        """Id of the robot's top-level body."""
-        return int(self._root_id)
-
-    @property
-    def own_nq(self) -> int:
-        """Length of the robot's own part of ``q``: its MJCF's joints (the robot's,
-        and those of other top-level bodies its MJCF has) come first, the
-        environment's (e.g. the room's kettle) after them."""
-        if self._own_nq is not None:
-            return self._own_nq
-        ends = [
-            int(self.model.jnt_qposadr[j]) + _QPOS_SIZE[int(self.model.jnt_type[j])]
-            for j in self._robot_joint_ids
-        ]
-        return max(ends, default=0)
-
-    @property
-    def has_floating_base(self) -> bool:
-        """Whether the root body's first joint is a free joint."""
-        return self._free_qposadr() is not None
-
-    def _free_qposadr(self) -> int | None:
-        j = self.model.body_jntadr[self._root_id]
-        if j >= 0 and self.model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE:
-            return int(self.model.jnt_qposadr[j])
-        return None
-
-    def _angle_joint_id(self, name: str) -> int:
-        """Id of the robot's hinge or slide joint ``name``."""
-        i = self._joint_index.get(name)
-        if i is not None:
-            return int(self.angle_joint_ids[i])
-        j = _id(self.model, mujoco.mjtObj.mjOBJ_JOINT, name)
-        if j >= 0 and j in self._robot_joint_ids:
-            kind = mujoco.mjtJoint(self.model.jnt_type[j]).name
-            raise InvalidInput(
-                f"joint {name!r} is a {kind} joint; angle vectors hold only hinge "
-                "and slide joints (use set_root_pose for the free joint)"
-            )
-        raise UnknownName("joint", name, self.joint_names)
-
-    def _qposadr(self, names: Sequence[str] | None) -> np.ndarray:
-        if names is None:
-            return self.model.jnt_qposadr[self.angle_joint_ids]
-        names = inputs.names(names, "names (of joints)")
-        return np.array([self.model.jnt_qposadr[self._angle_joint_id(n)] for n in names], dtype=int)
-
-    def angle_vector(self, names: Sequence[str] | None = None) -> np.ndarray:
-        """Joint positions [rad or m] (irteus ``:angle-vector``).
-
-        Args:
-            names: Hinge/slide joint names; all of :attr:`joint_names` if None.
-
-        Returns:
-            Array of shape (len(names),), a copy.
-        """
-        return self.data.qpos[self._qposadr(names)].copy()
-
-    def set_angle_vector(
-        self, values: Sequence[float] | np.ndarray, names: Sequence[str] | None = None
-    ) -> None:
-        """Set joint positions [rad or m] and update the kinematics.
-
-        Values are written as given (limits are not enforced; see
-        :meth:`joint_limits`), within ``±``:data:`pik_mj.inputs.Q_LIMIT`.
-
-        Args:
-            values: One value per joint.
-            names: Hinge/slide joint names; all of :attr:`joint_names` if None.
-
-        Raises:
-            InvalidInput: Not numbers, wrong length, non-finite values or beyond
-                ``Q_LIMIT``, or a ball/free joint.
-            UnknownName: A joint name the robot does not have.
-        """
-        adr = self._qposadr(names)
-        v = inputs.vector(values, adr.size, f"angle vector (one value per joint, {adr.size})")
-        far = np.flatnonzero(np.abs(v) > inputs.Q_LIMIT)
-        if far.size:
-            joint = (self.joint_names if names is None else list(names))[far[0]]
-            raise InvalidInput(
-                f"angle vector: joint {joint!r} at {v[far[0]]:g} is beyond "
-                f"{inputs.Q_LIMIT:g} [rad or m]: an overflow or a units mistake"
-            )
-        q = self.configuration.q
-        q[adr] = v
-        self.configuration.update(q)
-
-    def root_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """Pose of the root body B in the world W.
-
-        Returns:
-            ``(p_WB, quat_WB)``: position (3,) [m] and quaternion (4,) (w, x, y, z).
-        """
-        b = self._root_id
-        return self.data.xpos[b].copy(), self.data.xquat[b].copy()
-
-    def set_root_pose(
-        self, p_WB: Sequence[float] | np.ndarray, quat_WB: Sequence[float] | np.ndarray
-    ) -> None:
-        """Set the free joint of the root body (quaternion normalized).
-
-        Args:
-            p_WB: Position (3,) of the root body in the world [m].
-            quat_WB: Orientation (4,) (w, x, y, z), any non-zero norm.
-
-        Raises:
-            InvalidInput: No floating base, wrong shapes, non-finite values or a
-                zero quaternion.
-        """
-        adr = self._free_qposadr()
-        if adr is None:
-            raise InvalidInput(
-                f"robot root body {self.root_body!r} has no free joint; its pose is fixed"
-            )
-        p = inputs.vector(p_WB, 3, "p_WB (the root position)", unit="m")
-        if np.any(np.abs(p) > inputs.Q_LIMIT):
-            raise InvalidInput(
-                f"p_WB {p.tolist()} is beyond {inputs.Q_LIMIT:g} m: an overflow or a units mistake"
-            )
-        quat = inputs.quaternion(quat_WB, "quat_WB")
-        q = self.configuration.q
-        q[adr : adr + 3] = p
-        q[adr + 3 : adr + 7] = quat
-        self.configuration.update(q)
-
-    def start_q(self) -> np.ndarray:
-        """The start configuration (nq,): keyframe :attr:`keyframe`, or ``qpos0``; a copy."""
-        k = self._key_index
-        return (self.model.qpos0 if k is None else self.model.key_qpos[k]).copy()
-
-    def reset_pose(self) -> None:
-        """Go to the start pose: keyframe :attr:`keyframe`, or ``qpos0`` without one."""
-        self.configuration.update(self.start_q())
-
-    # ------------------------------------------------------------- frames
-    def _frame_body_id(self, name: str, frame_type: str) -> int:
-        if not isinstance(name, str):
-            raise InvalidInput(f"a frame name must be a string, got {name!r}")
-        if frame_type not in _FRAME_OBJ:
-            raise InvalidInput(f"frame_type {frame_type!r} is not one of {list(FRAME_TYPES)}")
-        i = _id(self.model, _FRAME_OBJ[frame_type], name)
-        if i < 0:
-            n = getattr(self.model, _FRAME_COUNT[frame_type])
-            valid = [_name(self.model, _FRAME_OBJ[frame_type], k) for k in range(n)]
-            raise UnknownName(frame_type, name, [v for v in valid if v])
-        if frame_type == "site":
-            return int(self.model.site_bodyid[i])
-        if frame_type == "geom":
-            return int(self.model.geom_bodyid[i])
-        return i
-
-    def link_list(self, frame: str, frame_type: str = "site") -> list[str]:
-        """Bodies from the robot's root body down to the body holding ``frame``.
-
-        Like irteus ``(send robot :link-list (send end-coords :parent))``, but the
-        root body is included even when it carries no joint (irteus omits a
-        fixed root link: for the 3-DoF arm it gives ``(l2 l3 l4)``, this gives
-        ``["l1", "l2", "l3", "l4"]``).
-
-        Raises:
-            UnknownName: No frame of that type and name.
-            InvalidInput: The frame is not on the robot.
-        """
-        b = self._frame_body_id(frame, frame_type)
-        if self.model.body_rootid[b] != self._root_id:
-            raise InvalidInput(
-                f"{frame_type} {frame!r} is not on the robot (root body {self.root_body!r})"
-            )
-        chain = []
-        while b != 0:
-            chain.append(_name(self.model, mujoco.mjtObj.mjOBJ_BODY, b))
-            b = int(self.model.body_parentid[b])
-        return chain[::-1]
-
-    def joint_list(self, frame: str, frame_type: str = "site") -> list[str]:
-        """Hinge/slide joints on the chain :meth:`link_list` ``(frame)``, root first."""
-        bodies = {self.model.body(n).id for n in self.link_list(frame, frame_type)}
-        return [
-            self.joint_names[i]
-            for i, j in enumerate(self.angle_joint_ids)
-            if self.model.jnt_bodyid[j] in bodies
-        ]
-
-    def frame_pose(self, name: str, frame_type: str = "site") -> mink.SE3:
-        """Pose ``X_WF`` of frame F (site, body or geom) in the world."""
-        self._frame_body_id(name, frame_type)
-        return self.configuration.get_transform_frame_to_world(name, frame_type)
-
-    # ------------------------------------------------------------- mass, CoM
-    @property
-    def mass(self) -> float:
-        """Total mass of the robot's bodies [kg]."""
-        return float(self.model.body_subtreemass[self._root_id])
-
-    def com(self) -> np.ndarray:
-        """Centroid of the robot p_WG [m], shape (3,).
-
-        .. math::
-
-            p_{WG} = \\frac{1}{M} \\sum_{i \\in robot} m_i\\, p_{W i}
-        """
-        return self.data.subtree_com[self._root_id].copy()
-
-    def com_jacobian(self) -> np.ndarray:
-        """Centroid Jacobian J_com [m/rad or m/m], shape (3, nv).
-
-        .. math::
-
-            \\dot p_{WG} = J_{com}\\, v,
-            \\qquad J_{com} = \\frac{1}{M} \\sum_{i \\in robot} m_i J_{p,i}
-
-        with ``v`` MuJoCo's generalized velocity (the free joint's angular part in
-        the body frame). Computed by ``mj_jacSubtreeCom`` for the root body.
-        """
-        J_com = np.zeros((3, self.model.nv))
-        mujoco.mj_jacSubtreeCom(self.model, self.data, J_com, self._root_id)
-        return J_com
-
-    def joint_limits(self, names: Sequence[str] | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper joint limits [rad or m]; ±inf where unlimited.
-
-        Args:
-            names: Hinge/slide joint names; all of :attr:`joint_names` if None.
-        """
-        if names is None:
-            ids = self.angle_joint_ids
-        else:
-            names = inputs.names(names, "names (of joints)")
-            ids = np.array([self._angle_joint_id(n) for n in names], dtype=int)
-        limited = self.model.jnt_limited[ids].astype(bool)
-        lower = np.where(limited, self.model.jnt_range[ids, 0], -np.inf)
-        upper = np.where(limited, self.model.jnt_range[ids, 1], np.inf)
-        return lower, upper
-
-    def __repr__(self) -> str:
-        model_name = self.model.names[: self.model.names.index(b"\0")].decode()
-        return (
-            f"Robot(model={model_name!r}, root_body={self.root_body!r}, "
-            f"floating_base={self.has_floating_base}, joints={len(self.joint_names)}, "
-            f"nv={self.model.nv}, limbs={list(self.limbs)}, mass={self.mass:.3f} kg)"
         )

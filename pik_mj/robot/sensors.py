@@ -1,9 +1,9 @@
-"""A robot's MJCF sensors (seed 001 ``:force-sensors``, ``:imu-sensors``,
+"""A robot's MJCF sensors (irteus manual: ``:force-sensors``, ``:imu-sensors``,
 ``bumper-model``) and the ZMP from foot force sensors
 (``:calc-zmp-from-forces-moments``).
 
 MuJoCo computes every reading (``data.sensordata``, after ``mj_forward`` or
-``mj_step``); this module names them, groups them the way the seed does, and
+``mj_step``); this module names them, groups them the way irteus does, and
 turns force/torque readings into the wrench the environment applies.
 
 * **Force sensor** (:class:`ForceSensor`): a MuJoCo ``force`` and ``torque``
@@ -26,7 +26,7 @@ turns force/torque readings into the wrench the environment applies.
   frame [rad/s]) and ``framequat`` (orientation ``q_WS``, w x y z) on one site.
 * **Bumper** (:class:`Bumper`): a MuJoCo ``touch`` sensor, the normal force [N]
   of the contacts inside its site's volume, read on/off with a threshold (the
-  seed's bumper returns 1/0; its threshold is a distance, MuJoCo's touch
+  irteus bumper returns 1/0; its threshold is a distance, MuJoCo's touch
   sensor measures force).
 * **ZMP** (:func:`zmp_from_wrenches`, :func:`zmp_from_force_sensors`): the
   point of the floor plane ``z = h`` about which the horizontal moment of the
@@ -40,12 +40,12 @@ turns force/torque readings into the wrench the environment applies.
 
   One wrench gives one foot's centre of pressure; the ZMP of double support is
   the same formula over both feet (equal to the ``f_z``-weighted mean of the
-  feet's centres of pressure, as the seed computes it). A sensor whose
+  feet's centres of pressure, as irteus computes it). A sensor whose
   ``f_z`` is below a threshold takes no part; with none left the ZMP is
-  undefined (the seed returns nil, this module None).
+  undefined (irteus returns nil, this module None).
 
 Sensors that a robot's MJCF lacks are added to its ``MjSpec`` on the sites the
-caller names with :func:`add_sensors`.
+caller names with :func:`~pik_mj.robot.sensor_channels.add_sensors`.
 """
 
 from __future__ import annotations
@@ -61,6 +61,15 @@ import numpy as np
 from pik_mj.dynamics import zmp_from_wrench
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import names_of
+from pik_mj.robot.sensor_channels import (
+    FORCE_TORQUE,
+    IMU,
+    KINDS,
+    TOUCH,
+    SensorChannel,
+    add_sensors,
+    site_channels,
+)
 
 __all__ = [
     "DEFAULT_BUMPER_THRESHOLD",
@@ -83,116 +92,17 @@ __all__ = [
     "zmp_from_wrenches",
 ]
 
-KINDS: dict[str, mujoco.mjtSensor] = {
-    "force": mujoco.mjtSensor.mjSENS_FORCE,
-    "torque": mujoco.mjtSensor.mjSENS_TORQUE,
-    "accelerometer": mujoco.mjtSensor.mjSENS_ACCELEROMETER,
-    "gyro": mujoco.mjtSensor.mjSENS_GYRO,
-    "framequat": mujoco.mjtSensor.mjSENS_FRAMEQUAT,
-    "touch": mujoco.mjtSensor.mjSENS_TOUCH,
-}
-"""The MuJoCo sensor types this module reads, by their MJCF element name."""
-
-_UNITS = {
-    "force": "N",
-    "torque": "N·m",
-    "accelerometer": "m/s²",
-    "gyro": "rad/s",
-    "framequat": "1",
-    "touch": "N",
-}
-
-FORCE_TORQUE = ("force", "torque")
-"""Kinds of a 6-axis force/torque sensor."""
-IMU = ("accelerometer", "gyro", "framequat")
-"""Kinds of an IMU."""
-TOUCH = ("touch",)
-"""Kind of a bumper."""
-
 DEFAULT_BUMPER_THRESHOLD = 1.0
 """Touch force [N] at and above which a bumper reads on."""
 
 DEFAULT_FZ_THRESHOLD = 1.0
 """Normal force [N] below which a force sensor takes no part in the ZMP (the
-seed's ``fz-thre``; 1 N rather than its 1 mN, because a compensated swing foot
+irteus manual's ``fz-thre``, 1 mN there; 1 N here because a compensated swing foot
 still reads its own ``m_D a_D``)."""
 
 
 # ----------------------------------------------------------------------------
-# one MuJoCo sensor
-# ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class SensorChannel:
-    """One MuJoCo sensor of a kind in :data:`KINDS`, on a site.
-
-    Attributes:
-        name: MJCF sensor name.
-        kind: ``"force"``, ``"torque"``, ``"accelerometer"``, ``"gyro"``,
-            ``"framequat"`` or ``"touch"``.
-        id: Sensor id.
-        adr: First index in ``data.sensordata``.
-        dim: Number of values.
-        site: The site it sits on.
-        site_id: Its id.
-        body: The site's body.
-        body_id: Its id.
-        frame: What the values are expressed in: ``"site"`` (the site frame), or
-            ``"world"`` for ``framequat`` (the orientation ``q_WS`` of the site).
-        unit: SI unit of the values.
-    """
-
-    name: str
-    kind: str
-    id: int
-    adr: int
-    dim: int
-    site: str
-    site_id: int
-    body: str
-    body_id: int
-    frame: str
-    unit: str
-
-    def read(self, data: mujoco.MjData) -> np.ndarray:
-        """The values ``(dim,)`` in :attr:`unit` (a copy of ``data.sensordata``)."""
-        return data.sensordata[self.adr : self.adr + self.dim].copy()
-
-
-def _channels(model: mujoco.MjModel) -> list[SensorChannel]:
-    """Every sensor of a kind in :data:`KINDS` attached to a site (framequat: of a
-    site, with no reference frame)."""
-    kind_of = {int(t): k for k, t in KINDS.items()}
-    out = []
-    for i in range(model.nsensor):
-        kind = kind_of.get(int(model.sensor_type[i]))
-        if kind is None or int(model.sensor_objtype[i]) != int(mujoco.mjtObj.mjOBJ_SITE):
-            continue
-        if kind == "framequat" and int(model.sensor_refid[i]) >= 0:
-            continue
-        site = int(model.sensor_objid[i])
-        body = int(model.site_bodyid[site])
-        out.append(
-            SensorChannel(
-                name=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i) or f"sensor {i}",
-                kind=kind,
-                id=i,
-                adr=int(model.sensor_adr[i]),
-                dim=int(model.sensor_dim[i]),
-                site=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, site) or f"site {site}",
-                site_id=site,
-                body=mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"body {body}",
-                body_id=body,
-                frame="world" if kind == "framequat" else "site",
-                unit=_UNITS[kind],
-            )
-        )
-    return out
-
-
-# ----------------------------------------------------------------------------
-# sensors as the seed groups them
+# sensors as irteus groups them
 # ----------------------------------------------------------------------------
 
 
@@ -309,7 +219,7 @@ class Imu:
 
 @dataclass(frozen=True)
 class Bumper:
-    """A touch sensor read as on/off (seed ``bumper-model``). Named after the site.
+    """A touch sensor read as on/off (irteus manual: ``bumper-model``). Named after the site.
 
     Attributes:
         name: The site's name (its volume is the sensing zone).
@@ -330,7 +240,7 @@ class Bumper:
         return float(self.touch.read(data)[0])
 
     def is_on(self, data: mujoco.MjData) -> bool:
-        """The seed's reading: True (1) when the force reaches the threshold."""
+        """irteus' reading: True (1) when the force reaches the threshold."""
         return self.force(data) >= self.threshold
 
 
@@ -371,7 +281,7 @@ class RobotSensors:
         """
         if not (math.isfinite(bumper_threshold) and bumper_threshold >= 0):
             raise InvalidInput(f"bumper_threshold must be >= 0 [N], got {bumper_threshold}")
-        channels = _channels(model)
+        channels = site_channels(model)
         if bodies is not None:
             keep = set()
             for name in bodies:
@@ -411,11 +321,11 @@ class RobotSensors:
 
     # ----------------------------------------------------------- look-ups
     def force_sensor(self, name: str) -> ForceSensor:
-        """The force sensor on site ``name`` (seed ``:force-sensor``)."""
+        """The force sensor on site ``name`` (irteus manual: ``:force-sensor``)."""
         return _by_name("force sensor", self.force_sensors, name)
 
     def imu_sensor(self, name: str) -> Imu:
-        """The IMU on site ``name`` (seed ``:imu-sensor``)."""
+        """The IMU on site ``name`` (irteus manual: ``:imu-sensor``)."""
         return _by_name("IMU", self.imu_sensors, name)
 
     def bumper(self, name: str) -> Bumper:
@@ -423,8 +333,8 @@ class RobotSensors:
         return _by_name("bumper", self.bumpers, name)
 
     def by_limb(self, limbs: Mapping[str, Iterable[str]]) -> dict[str, RobotSensors]:
-        """The sensors of each limb, given as ``{limb: its body names}`` (seed
-        ``(send robot :rleg :force-sensors)``). A sensor belongs to the limb
+        """The sensors of each limb, given as ``{limb: its body names}`` (irteus
+        manual: ``(send robot :rleg :force-sensors)``). A sensor belongs to the limb
         holding its site's body; sensors of no limb are left out."""
         limb_of: dict[str, str] = {}
         for limb, bodies in limbs.items():
@@ -491,7 +401,7 @@ def _by_name(kind: str, items: Sequence, name: str):
 
 
 # ----------------------------------------------------------------------------
-# ZMP (seed :calc-zmp-from-forces-moments)
+# ZMP (irteus manual: :calc-zmp-from-forces-moments)
 # ----------------------------------------------------------------------------
 
 
@@ -537,7 +447,7 @@ def zmp_from_force_sensors(
     fz_threshold: float = DEFAULT_FZ_THRESHOLD,
     compensate: bool = True,
 ) -> SensorZmp | None:
-    """The ZMP from foot force sensors (seed ``:calc-zmp-from-forces-moments``).
+    """The ZMP from foot force sensors (irteus manual: ``:calc-zmp-from-forces-moments``).
 
     Each sensor's :meth:`ForceSensor.contact_wrench` whose ``f_z`` reaches
     ``fz_threshold`` takes part; its centre of pressure and the combined ZMP
@@ -578,56 +488,3 @@ def zmp_from_force_sensors(
         cops={name: zmp_from_wrenches([w], z) for name, w in used.items()},
         normal_forces=normal,
     )
-
-
-# ----------------------------------------------------------------------------
-# adding sensors to a model
-# ----------------------------------------------------------------------------
-
-
-def add_sensors(
-    spec: mujoco.MjSpec, sites: Iterable[str], kinds: Iterable[str] = FORCE_TORQUE
-) -> list[str]:
-    """Add MuJoCo sensors of ``kinds`` on each named site of ``spec``, named
-    ``<site>_<kind>`` (the naming of ``models/sample_humanoid.xml``).
-
-    E.g. ``add_sensors(spec, ["rleg_end", "lleg_end"])`` gives a robot
-    without force sensors 6-axis sensors at its soles, and
-    ``add_sensors(spec, ["imu"], IMU)`` an IMU. A touch sensor senses the
-    contacts inside its site's volume: give it a site enclosing the part.
-
-    Args:
-        spec: The robot's spec (edited in place).
-        sites: Names of existing sites.
-        kinds: Sensor kinds from :data:`KINDS`.
-
-    Returns:
-        The names of the added sensors.
-
-    Raises:
-        UnknownName: A site or kind that does not exist.
-        InvalidInput: A sensor of that name exists already (nothing is added).
-    """
-    kinds = list(kinds)
-    sites = list(sites)
-    for kind in kinds:
-        if kind not in KINDS:
-            raise UnknownName("sensor kind", kind, KINDS)
-    valid = [s.name for s in spec.sites]
-    for site in sites:
-        if site not in valid:
-            raise UnknownName("site", site, valid)
-    existing = {s.name for s in spec.sensors}
-    names = [f"{site}_{kind}" for site in sites for kind in kinds]
-    clash = [n for n in names if n in existing]
-    if clash:
-        raise InvalidInput(f"the spec already has sensors named {clash}")
-    for site in sites:
-        for kind in kinds:
-            spec.add_sensor(
-                name=f"{site}_{kind}",
-                type=KINDS[kind],
-                objtype=mujoco.mjtObj.mjOBJ_SITE,
-                objname=site,
-            )
-    return names
