@@ -160,7 +160,8 @@ def test_playback_walks_to_the_goal(walk, tmp_path):
     out = tmp_path / "walk.rrd"
     scene = Scene.from_robot(robot, contact=WALK_CONTACT)
     with Recorder.to_file(out) as rec:
-        report = play_walk_pattern(pattern, scene, recorder=rec, record_every=10)
+        log = rec.walk_logger(every=10)
+        report = log.finish(play_walk_pattern(pattern, scene, callback=log))
     print(f"\nplayback: {report.to_dict()}")
     assert not report.fell
     assert report.height_ratio_min >= 0.8
