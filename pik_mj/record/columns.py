@@ -31,7 +31,7 @@ import pyarrow as pa
 import rerun as rr
 from rerun import bindings
 from rerun.chunk import Chunk
-from rerun.recording_stream import RecordingStream, get_application_id
+from rerun.recording_stream import get_application_id
 
 from pik_mj.exceptions import PikError
 
@@ -495,7 +495,20 @@ class _Capture:
 
 def blueprint_entities(blueprint: Any) -> list[BlueprintEntity]:
     """The entities rerun logs for ``blueprint`` (an ``rrb.Blueprint``, view or
-    container), in its order, by rerun's own blueprint classes."""
+    container), in its order, by rerun's own blueprint classes.
+
+    The one use of a private rerun name in pik_mj: rerun 0.41 has no public call
+    that gives a blueprint's entities. Its blueprint classes log themselves
+    through ``Blueprint._log_to_stream(stream)``, which only calls
+    ``stream.log(path, *archetypes, static=...)``; the public calls that use it
+    (``RecordingStream.send_blueprint``, ``rerun.blueprint.api.create_in_memory_blueprint``)
+    log every entity into a new blueprint stream on each call and give back an
+    opaque memory sink. Capturing the entities once per layout
+    (:func:`pik_mj.record.blueprint.send_blueprint_for`) lets each recording
+    send them again, its cameras replaced, in one call. A public
+    ``Blueprint.log_to_stream`` or a way to read a blueprint's chunks would
+    replace this.
+    """
     capture = _Capture()
     blueprint.to_blueprint()._log_to_stream(capture)
     return capture.entities
@@ -505,24 +518,25 @@ def send_blueprint_entities(stream: rr.RecordingStream, entities: list[Blueprint
     """Send ``entities`` (:func:`blueprint_entities`) as a blueprint of
     ``stream``'s application, made active and default, as
     ``stream.send_blueprint`` does: on a new blueprint stream, at
-    ``blueprint`` = 0 and the current ``log_time``, in one ``rr.send_chunks``."""
+    ``blueprint`` = 0 and the current ``log_time``, one chunk per entity."""
     application_id = get_application_id(recording=stream)
     if application_id is None:
         raise PikError("the recording stream has no application id to send a blueprint for")
-    blueprint_stream = RecordingStream._from_native(
-        bindings.new_blueprint(
-            application_id=application_id,
-            make_default=False,
-            make_thread_default=False,
-            default_enabled=True,
-        )
+    blueprint_stream = bindings.new_blueprint(
+        application_id=application_id,
+        make_default=False,
+        make_thread_default=False,
+        default_enabled=True,
     )
     now = np.array([time.time_ns()], dtype="datetime64[ns]")
     index = [rr.TimeColumn("blueprint", sequence=[0]), rr.TimeColumn("log_time", timestamp=now)]
-    chunks = [
-        Chunk.from_columns(path, [] if static else index, columns)
-        for path, static, columns in entities
-    ]
-    rr.send_chunks(chunks, recording=blueprint_stream)
-    storage = blueprint_stream.memory_recording().storage
+    timelines = {t.timeline_name(): t.as_arrow_array() for t in index}
+    for path, static, columns in entities:
+        bindings.send_arrow_chunk(
+            path,
+            timelines={} if static else timelines,
+            components={c.component_descriptor(): c.as_arrow_array() for c in columns},
+            recording=blueprint_stream,
+        )
+    storage = bindings.memory_recording(recording=blueprint_stream)
     bindings.send_blueprint(storage, True, True, recording=stream.to_native())
