@@ -6,13 +6,13 @@ entity's rows become one chunk (``rerun.chunk.Chunk.from_columns``) and one
 ``rr.send_chunks`` sends them all (:class:`Outbox`). A :class:`RowKind` says how
 rows of one archetype become columns: Arrow arrays of the types of rerun's
 component batches, built directly from the stacked rows (the same columns as
-``<Archetype>.columns(...)``, a fraction of its cost) and sliced per entity
-without copies (pyarrow). A style (a point's radius and colour, a frame's axis
-length) goes with each row, in the chunk of its data: its column is made once
-per style and sliced.
+``<Archetype>.columns(...)``, without building and checking every field of the
+archetype per call) and sliced per entity without copies (pyarrow). A style (a
+point's radius and colour, a frame's axis length) goes with each row, in the
+chunk of its data: its column is made once per style and sliced.
 
 Blueprints are sent here too: what rerun's blueprint classes log, captured
-(:func:`blueprint_entities`), then sent as one chunk per entity in one call
+(:func:`blueprint_entities`), then sent again as one chunk per entity
 (:func:`send_blueprint_entities`).
 
 Nothing else in pik_mj touches ``rerun.chunk`` or pyarrow for writing: a new
@@ -24,7 +24,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -34,9 +34,7 @@ from rerun.chunk import Chunk
 from rerun.recording_stream import get_application_id
 
 from pik_mj.exceptions import PikError
-
-if TYPE_CHECKING:
-    from pik_mj.record.geometry import BodyFrames, GeomGroup
+from pik_mj.record.geometry import BodyFrames, GeomGroup
 
 __all__ = [
     "ARROW",
@@ -118,9 +116,8 @@ class RowKind:
 
 
 # Columns are built as Arrow arrays directly, of the Arrow types of rerun's
-# component batches (the same columns as ``<Archetype>.columns(...)``, a
-# fraction of its cost: it builds and checks every field of the archetype per
-# call).
+# component batches (the same columns as ``<Archetype>.columns(...)``, which
+# builds and checks every field of the archetype per call).
 
 
 def _arrow_type(batch: Any, zero: np.ndarray) -> pa.DataType:
@@ -293,9 +290,7 @@ class Outbox:
     Rows of one kind (all poses, all scalars, ...) that share their time stamps
     become one Arrow array per component (:meth:`RowKind.columns`), sliced per
     entity (zero-copy); each entity's slices become one chunk
-    (:meth:`rerun.chunk.Chunk.from_columns`, ~20 us an entity, about half of
-    ``Chunk.from_record_batch`` on one batch of all entities and a third of one
-    ``send_columns`` per entity).
+    (:meth:`rerun.chunk.Chunk.from_columns`), and all chunks go in one call.
     """
 
     def __init__(self) -> None:

@@ -1,18 +1,19 @@
-"""Gait timing, ZMP reference, swing trajectories and CoM (seed 001, "歩行動作生成").
+"""Gait timing, ZMP reference, swing trajectories and CoM (irteus manual, "歩行動作生成").
 
-Seed: ``:calc-walk-pattern-from-footstep-list`` and the ``gait-generator`` it runs.
+irteus manual: ``:calc-walk-pattern-from-footstep-list`` and the ``gait-generator``
+it runs.
 This module produces everything except the joint angles: per tick the ZMP
 reference, both feet, the support state and the CoM from the preview controller.
 The whole-body IK per tick is done elsewhere on top of a :class:`GaitPlan`.
 
-Mapping to the seed's ``footstep-list``: the seed's first element only names the
+Mapping to the irteus manual's ``footstep-list``: its first element only names the
 leg that is considered already placed (its coordinates are taken from the robot,
 not from the element), and stepping starts at the second element. Here the
 current stance of every limb is given explicitly as ``initial_feet`` and
-``footsteps`` holds only the executed steps, i.e. the seed's
+``footsteps`` holds only the executed steps, i.e. the manual's
 ``(cdr footstep-list)``.
 
-Timeline (seed ``gait-generator``), with step time :math:`T`, double support
+Timeline (irteus manual: ``gait-generator``), with step time :math:`T`, double support
 ratio :math:`r` and :math:`S` footsteps: phase 0 stands for :math:`T` with the ZMP
 at its start point, phases :math:`1 \\ldots S` execute one footstep each, and
 phase :math:`S+1` stands for :math:`T` with the ZMP at its end point, so
@@ -156,7 +157,7 @@ def normalize_feet(
 
 
 def mid_frame(feet: Mapping[str, Footstep]) -> tuple[np.ndarray, float]:
-    """Mid-feet frame (seed ``:foot-midcoords``): mean position and mean heading.
+    """Mid-feet frame (irteus manual: ``:foot-midcoords``): mean position and mean heading.
 
     .. math::
 
@@ -198,13 +199,14 @@ def _finite(
 
 @dataclass(frozen=True)
 class GaitParameters:
-    """Parameters of :func:`plan_gait` (seed ``:calc-walk-pattern-from-footstep-list``).
+    """Parameters of :func:`plan_gait` (irteus manual:
+    ``:calc-walk-pattern-from-footstep-list``).
 
     Attributes:
-        step_time: Duration of one step T in [s] (seed ``default-step-time``).
+        step_time: Duration of one step T in [s] (irteus manual: ``default-step-time``).
         step_height: Cycloid height h of the swing foot in [m].
-        dt: Sampling time of the plan and of preview control in [s] (the seed's
-            default is 0.1 s; 0.01 s gives smooth trajectories).
+        dt: Sampling time of the plan and of preview control in [s] (the irteus
+            manual's default is 0.1 s; 0.01 s gives smooth trajectories).
         double_support_ratio: Fraction r of each step in double support, in [0, 1);
             half at the start, half at the end of the step.
         zmp_offsets: ZMP reference point per limb in its sole frame (3,) in [m];
@@ -355,7 +357,7 @@ def plan_gait(
 
     Args:
         initial_feet: Stance of both limbs, ``{limb: Footstep | (p_W, yaw)}``.
-        footsteps: Executed steps (the seed's footstep-list without its first
+        footsteps: Executed steps (the irteus manual's footstep-list without its first
             element).
         params: Gait parameters; defaults to :class:`GaitParameters()`.
         com_height: CoM height above the ground plane in [m].

@@ -1,4 +1,5 @@
-"""Whole-body walking pattern (seed 001 ``:calc-walk-pattern-from-footstep-list``).
+"""Whole-body walking pattern (irteus manual:
+``:calc-walk-pattern-from-footstep-list``).
 
 :func:`pik_mj.walking.gait.plan_gait` gives, per tick, both sole poses, the ZMP
 reference and the preview-control CoM. Here every tick is turned into a whole-body
@@ -11,7 +12,7 @@ from the previous tick:
   root body upright with the mid-feet heading;
 * level 3: posture towards the initial pose.
 
-The result is checked with the ZMP of the *generated motion* (seed ``calc-zmp``):
+The result is checked with the ZMP of the *generated motion* (irteus manual: ``calc-zmp``):
 joint velocities and accelerations by finite differences, MuJoCo's inverse
 dynamics for the wrench the ground must apply to the floating base, and the ZMP
 of that wrench (:func:`pik_mj.dynamics.zmp_of_motion`).
@@ -276,13 +277,14 @@ def calc_walk_pattern(
     qp_solver: object = "daqp",
     callback: Callable[[int, Robot], None] | None = None,
 ) -> WalkPattern:
-    """Whole-body walking pattern from a footstep list (seed ``calc-walk-pattern-...``).
+    """Whole-body walking pattern from a footstep list (irteus manual:
+    ``:calc-walk-pattern-from-footstep-list``).
 
     The initial feet are the robot's current sole poses; the CoM height is that
     of the current pose above the mean sole height unless given. Each tick k
     sets the targets of the levels (module docstring) to the plan's row k and
     runs :func:`pik_mj.solve.solve` from the previous tick's solution; tick 0
-    gets ``init_stop`` iterations (the seed's ``init-pose-function``: CoM over
+    gets ``init_stop`` iterations (the irteus manual's ``init-pose-function``: CoM over
     the feet). The robot is left in the last tick's configuration.
 
     The second differences taken by :func:`pik_mj.dynamics.zmp_of_motion` amplify
@@ -306,8 +308,8 @@ def calc_walk_pattern(
         ik_thre: Sole and CoM position tolerance [m].
         ik_rthre: Sole and upright rotation tolerance [rad].
         qp_solver: QP solver of :func:`pik_mj.solve.solve`. The exact active-set
-            ``"daqp"`` by default: OSQP's approximate solutions (eps 1e-5) leave
-            ~1e-5 m of tick-to-tick jitter, ~1 cm of ZMP noise at dt = 0.02 s.
+            ``"daqp"`` by default: OSQP's approximate solutions leave a
+            tick-to-tick jitter that the ZMP's second differences amplify.
         callback: Called as ``callback(k, robot)`` after tick k.
 
     Returns:

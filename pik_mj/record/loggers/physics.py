@@ -38,7 +38,7 @@ class HoldLogger:
     """Logs a physics hold on ``sim_time`` (a ``scene.hold`` callback).
 
     Made by :meth:`Recorder.hold_logger`. Every ``every``-th call (the first
-    one included) logs, from the :class:`HoldSample`: the body poses, the CoM,
+    one included) logs, from the :class:`~pik_mj.sim.HoldSample`: the body poses, the CoM,
     the support polygon, the contact points and forces on the robot, and the
     series ``hold/drift``, ``hold/slip``, ``hold/margin`` [m] and
     ``hold/contact_force_z`` (total vertical contact force [N]). The first call

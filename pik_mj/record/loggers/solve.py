@@ -56,7 +56,7 @@ _BALANCE_SERIES = (
 )
 """The static check's series: name under ``balance/``, colour, legend label
 (the contact count and the equilibrium flag share a plot, so they get colours
-apart rather than rerun's hashed ones, which drew both purple)."""
+apart rather than rerun's colours hashed from their paths, which can coincide)."""
 
 
 def _quat_wxyz(R: np.ndarray) -> np.ndarray:
