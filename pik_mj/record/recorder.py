@@ -91,6 +91,11 @@ class Recorder(Canvas):
     :meth:`close` sends one blueprint laid out for everything that was logged
     (:func:`pik_mj.record.blueprint.blueprint_for`), then closes the stream.
 
+    Its drawing primitives, timelines and lifetime are the :class:`Canvas`'s
+    (points, frames, polygons, contacts, series, text; :meth:`close`); here the
+    model's geometry and body poses, the CoM, the solves' targets and errors,
+    the runs (solves on ``iteration``, physics on ``sim_time``) and the loggers.
+
     Args:
         stream: The recording stream to log to, passed explicitly (the
             Recorder never logs to rerun's global stream on its own), e.g. the
@@ -102,11 +107,6 @@ class Recorder(Canvas):
         owns_stream: Whether :meth:`close` disconnects ``stream`` (finalizing its
             file sinks). A stream you pass in is only flushed by default.
         paths: Entity-path table.
-
-    Its drawing primitives, timelines and lifetime are the :class:`Canvas`'s
-    (points, frames, polygons, contacts, series, text; :meth:`close`); here the
-    model's geometry and body poses, the CoM, the solves' targets and errors,
-    the runs (solves on ``iteration``, physics on ``sim_time``) and the loggers.
 
     Attributes:
         paths: Entity-path table.
@@ -126,7 +126,7 @@ class Recorder(Canvas):
         flush_interval: float | None = 0.2,
         owns_stream: bool = False,
         paths: EntityPaths = PATHS,
-    ):
+    ) -> None:
         super().__init__(
             stream,
             flush_every=flush_every,
