@@ -74,22 +74,22 @@ class Canvas:
     @property
     def stream(self) -> rr.RecordingStream:
         """The rerun recording stream logged to."""
-        return self.rows.stream
+        return self._rows.stream
 
     @property
     def flush_every(self) -> int:
         """Rows buffered per entity before they are sent."""
-        return self.rows.flush_every
+        return self._rows.flush_every
 
     @property
     def flush_interval(self) -> float | None:
         """Longest time [s] rows stay buffered, or None."""
-        return self.rows.flush_interval
+        return self._rows.flush_interval
 
     @property
     def closed(self) -> bool:
         """Whether :meth:`close` ran (logging then raises)."""
-        return self.rows.closed
+        return self._rows.closed
 
     @property
     def lift(self) -> float:
@@ -125,7 +125,7 @@ class Canvas:
         if not (math.isfinite(r) and r > 0):
             raise InvalidInput(f"radius of point {path!r} must be > 0 [m], got {radius}")
         style = (r, tuple(int(c) for c in color), None if label is None else str(label))
-        self.rows.append((path,), p.reshape(1, 3), POINT, style)
+        self._rows.append((path,), p.reshape(1, 3), POINT, style)
 
     def log_polygon(
         self,
@@ -155,7 +155,7 @@ class Canvas:
         for p, verts, c in loops:
             v = finite_array(verts, (-1, 3), "polygon vertices of", p) + np.array([0.0, 0.0, lift])
             strips = [np.vstack([v, v[:1]])] if len(v) else []
-            self.rows.log(
+            self._rows.log(
                 p, rr.LineStrips3D(strips, colors=[tuple(c)], radii=[style.OUTLINE_RADIUS])
             )
 
@@ -178,11 +178,11 @@ class Canvas:
         scale = self.force_scale if scale is None else scale
         if not (math.isfinite(scale) and scale > 0):
             raise InvalidInput(f"contact force scale must be > 0 [m/N], got {scale}")
-        self.rows.log(
+        self._rows.log(
             self.paths.contact_points,
             rr.Points3D(p, radii=[style.CONTACT_RADIUS], colors=[style.CONTACT]),
         )
-        self.rows.log(
+        self._rows.log(
             self.paths.contact_forces,
             rr.Arrows3D(origins=p, vectors=f * scale, colors=[style.CONTACT]),
         )
@@ -228,35 +228,35 @@ class Canvas:
         poses = np.empty((n, 7))
         poses[:, :3] = p
         poses[:, 3:] = q / norms[:, None]
-        self.rows.append(paths, poses, TRANSFORM, (length,))
+        self._rows.append(paths, poses, TRANSFORM, (length,))
 
     def hide_frames(self, paths: Iterable[str]) -> None:
         """Draw no axes for the frames ``paths`` from the current time on (a
         frame without a pose at the current time is drawn at the origin)."""
         for path in paths:
-            self.rows.log(path, rr.TransformAxes3D(axis_length=0.0))
+            self._rows.log(path, rr.TransformAxes3D(axis_length=0.0))
 
     def log_scalar(self, path: str, value: float) -> None:
         """Log one value of the scalar series at ``path`` (buffered)."""
         v = float(value)
         if not math.isfinite(v):
             raise InvalidInput(f"scalar {path!r} must be finite, got {value}")
-        self.rows.append((path,), np.array([[v]]), SCALAR)
+        self._rows.append((path,), np.array([[v]]), SCALAR)
 
     def log_series_style(self, path: str, color: tuple[int, ...], name: str) -> None:
         """A plotted series' line colour (RGB) and legend name, static."""
-        self.rows.log_static(path, rr.SeriesLines(colors=[color], names=[name]))
+        self._rows.log_static(path, rr.SeriesLines(colors=[color], names=[name]))
 
     def log_static(self, path: str, *archetypes: Any) -> None:
         """Log ``archetypes`` (rerun archetypes) at ``path`` once, static: sent
         with the buffered rows."""
-        self.rows.log_static(path, *archetypes)
+        self._rows.log_static(path, *archetypes)
 
     def log_text(self, message: str, level: str = "INFO") -> None:
         """Log ``message`` to the run's text log at the current time."""
         if level not in _TEXT_LEVELS:
             raise InvalidInput(f"text level must be one of {_TEXT_LEVELS}, got {level!r}")
-        self.rows.log(self.paths.events, rr.TextLog(str(message), level=level))
+        self._rows.log(self.paths.events, rr.TextLog(str(message), level=level))
 
     def set_time(self, timeline: str, value: float, *, kind: str | None = None) -> None:
         """Set the current time of ``timeline`` for every following log call.
@@ -267,11 +267,11 @@ class Canvas:
             value: Iteration number, or time in [s].
             kind: ``"sequence"`` or ``"duration"``; fixed once a timeline is used.
         """
-        self.rows.set_time(timeline, value, kind=kind)
+        self._rows.set_time(timeline, value, kind=kind)
 
     def disable_timeline(self, timeline: str) -> None:
         """Stop stamping following rows with ``timeline`` (e.g. after the solve)."""
-        self.rows.disable_timeline(timeline)
+        self._rows.disable_timeline(timeline)
 
     def __enter__(self) -> Self:
         return self
@@ -292,15 +292,15 @@ class Canvas:
 
     def flush(self) -> None:
         """Send every buffered row and wait until the stream has written them."""
-        self.rows.send()
+        self._rows.send()
         self.stream.flush()
 
     def send_buffered(self) -> None:
         """Send every buffered row without waiting: the stream encodes and writes
         them on its own threads while the caller goes on (e.g. builds the
         blueprint before :meth:`close`)."""
-        self.rows.check_open()
-        self.rows.send()
+        self._rows.check_open()
+        self._rows.send()
         self.stream.flush(timeout_sec=0.0)  # start the pipeline, do not wait
 
     def close(self, *, blueprint: bool = True) -> None:
@@ -311,30 +311,30 @@ class Canvas:
         if self.closed:
             return
         try:
-            self.rows.send()
+            self._rows.send()
             # the stream writes the rows on its threads while the blueprint is built
             self.stream.flush(timeout_sec=0.0)
             if blueprint:
                 send_blueprint_for(
-                    self.stream, self.rows.logged_paths(), self.paths, framing=self._framing()
+                    self.stream, self._rows.logged_paths(), self.paths, framing=self._framing()
                 )
             if not self.owns_stream:
                 self.stream.flush()
         finally:
-            self.rows.mark_closed()
+            self._rows.mark_closed()
             if self.owns_stream:
                 self.stream.disconnect()
 
     def logged(self) -> dict[str, set[str]]:
         """Every entity path logged so far (static data left out) -> the
         timelines its rows carry."""
-        return self.rows.logged()
+        return self._rows.logged()
 
     def blueprint(self) -> rrb.Blueprint:
         """The blueprint of what was logged so far (what :meth:`close` sends):
         :func:`~pik_mj.record.blueprint.blueprint_for`, each 3D view framed on
         the robot's body positions seen on its timeline."""
-        return blueprint_for(self.rows.logged_paths(), self.paths, framing=self._framing())
+        return blueprint_for(self._rows.logged_paths(), self.paths, framing=self._framing())
 
     def send_blueprint(
         self, levels: Iterable[int] | None = None, extra: Sequence[tuple[str, str]] = ()
@@ -343,10 +343,10 @@ class Canvas:
         (:meth:`blueprint`), or the layout of ``levels`` and ``extra`` series
         (:func:`~pik_mj.record.blueprint.blueprint`). :meth:`close` sends the
         blueprint of everything logged after it."""
-        self.rows.check_open()
+        self._rows.check_open()
         if levels is None:
             send_blueprint_for(
-                self.stream, self.rows.logged_paths(), self.paths, framing=self._framing()
+                self.stream, self._rows.logged_paths(), self.paths, framing=self._framing()
             )
         else:
             self.stream.send_blueprint(blueprint(list(levels), self.paths, extra=extra))

@@ -411,10 +411,11 @@ class Recorder(Canvas):
     def _append_poses(self, frames: BodyFrames, poses: np.ndarray) -> None:
         """Buffer the body poses of ``frames``; the geoms' poses follow from them
         when they are sent (at once when unbuffered)."""
-        self.rows.append((frames.path,), poses, BODY_FRAME)
-        if self.flush_every == 1:
+        rows = self.rows
+        rows.append((frames.path,), poses, BODY_FRAME)
+        if rows.flush_every == 1:
             for group, instances in frames.geometry(poses[None]):
-                self.rows.append((group.path,), instances[0], INSTANCE_POSES[group.archetype])
+                rows.append((group.path,), instances[0], INSTANCE_POSES[group.archetype])
 
     def log_reference_geometry(self, model: mujoco.MjModel) -> None:
         """Log the robot's geoms of ``model`` a second time, static, at
