@@ -36,7 +36,8 @@ def run(
     if not quiet:
         print(pattern)
     scene = Scene.from_robot(robot, contact=WALK_CONTACT)
-    walk = play_walk_pattern(pattern, scene, recorder=recorder)
+    log = recorder.walk_logger()
+    walk = log.finish(play_walk_pattern(pattern, scene, callback=log))
     result.robot = robot
     result.figures, checks = evaluate_walk(pattern, walk)
     result.walk = walk_motion(pattern, walk)

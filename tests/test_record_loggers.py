@@ -425,7 +425,8 @@ def walked(tmp_path_factory):
     pattern = calc_walk_pattern(robot, steps, GaitParameters(dt=0.05, step_time=0.8))
     scene = Scene.from_robot(robot, contact=WALK_CONTACT)
     with Recorder.to_file(path, "test_walk") as rec:
-        report = play_walk_pattern(pattern, scene, recorder=rec, settle_time=0.3)
+        log = rec.walk_logger()
+        report = log.finish(play_walk_pattern(pattern, scene, callback=log, settle_time=0.3))
         lift = rec.lift
     return {"path": path, "pattern": pattern, "report": report, "lift": lift, "robot": robot}
 

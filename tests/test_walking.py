@@ -160,8 +160,15 @@ def test_playback_walks_to_the_goal(walk, tmp_path):
     out = tmp_path / "walk.rrd"
     scene = Scene.from_robot(robot, contact=WALK_CONTACT)
     with Recorder.to_file(out) as rec:
-        report = play_walk_pattern(pattern, scene, recorder=rec, record_every=10)
+        log = rec.walk_logger(every=10)
+        samples = []  # each callback gets every sample, in order
+        seen = [log, lambda s: samples.append((s.k, s.time, s.com.copy(), s.zmp.copy()))]
+        report = log.finish(play_walk_pattern(pattern, scene, callback=seen))
     print(f"\nplayback: {report.to_dict()}")
+    assert [k for k, _, _, _ in samples] == list(range(len(report.t)))
+    np.testing.assert_array_equal([t for _, t, _, _ in samples], report.t)
+    np.testing.assert_array_equal([c for _, _, c, _ in samples], report.com)
+    np.testing.assert_array_equal([z for _, _, _, z in samples], report.zmp)
     assert not report.fell
     assert report.height_ratio_min >= 0.8
     assert report.final_midfeet_error < 0.05  # [m]

@@ -1,4 +1,4 @@
-"""Rerun recordings of solves, physics holds and walks (DESIGN.md §6).
+"""Rerun recordings of solves, physics holds, motions and walks.
 
 One ``.rrd`` per run: the robot's geometry once (static), then per solver
 iteration (timeline ``iteration``) or per simulation sample (``sim_time``) the
@@ -7,10 +7,15 @@ error; one blueprint, sent when the recording closes, lays out what was
 logged. Modules:
 
 * :mod:`~pik_mj.record.paths`: the one entity-path table (:data:`PATHS`).
-* :mod:`~pik_mj.record.recorder`: :class:`Recorder`, the logging calls.
-* :mod:`~pik_mj.record.loggers`: per-iteration callbacks of a solve
-  (:meth:`Recorder.solve_logger`) and of a physics hold
-  (:meth:`Recorder.hold_logger`); a walk's series (:meth:`Recorder.log_walk`).
+* :mod:`~pik_mj.record.recorder`: :class:`Recorder`, the logging calls; its
+  generic half (stream, timelines, points, frames, series, text, lifetime) is
+  :class:`~pik_mj.record.canvas.Canvas`.
+* :mod:`~pik_mj.record.loggers`: the callbacks of a solve
+  (:meth:`Recorder.solve_logger`), a physics hold (:meth:`Recorder.hold_logger`),
+  a motion (:meth:`Recorder.motion_logger`) and a walk
+  (:meth:`Recorder.walk_logger`).
+* :mod:`~pik_mj.record.stream`: rows buffered and sent as chunks, the timelines.
+* :mod:`~pik_mj.record.drawing`: what a model is drawn as; the views' framing.
 * :mod:`~pik_mj.record.geometry`: MuJoCo geoms as rerun primitives.
 * :mod:`~pik_mj.record.columns`: rerun 0.41's chunk API (buffered rows).
 * :mod:`~pik_mj.record.blueprint`: viewer layouts.
@@ -18,6 +23,8 @@ logged. Modules:
 * :mod:`~pik_mj.record.style`: colours and sizes of the overlays.
 * :mod:`~pik_mj.record.screenshot`: pictures of a recording by rerun's
   headless viewer (``pik-mj screenshot``).
+
+See docs/recording.md.
 """
 
 from pik_mj.record.blueprint import blueprint

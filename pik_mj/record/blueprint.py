@@ -201,156 +201,161 @@ def layout_of(logged: Mapping[str, set[str]], paths: EntityPaths = PATHS) -> Lay
     """The layout of everything ``logged`` (entity path -> the timelines of its
     rows, what a :class:`~pik_mj.record.recorder.Recorder` logged); see the
     module docstring."""
-    tabs: list[Tab] = []
-
-    prefix = f"{paths.errors}/level_"
-    levels = sorted(
-        {int(p[len(prefix) :].split("/")[0]) for p in _under(logged, paths.errors, "iteration")}
-    )
-    if levels:
-        plots = []
-        for k in levels:
-            if k == 0 and len(levels) > 1:
-                continue  # hard rows: what the levels above keep
-            log10 = bool(_under(logged, paths.level_errors(k, log10=True)))
-            plots.append(
-                Plot(
-                    f"level {k}: " + ("log10 of each task's error" if log10 else "task errors"),
-                    paths.level_errors(k, log10=log10),
-                )
-            )
-        if paths.balance_metric("margin") in logged:
-            plots.append(
-                Plot(
-                    "static check: CoM margin to the support polygon [m]",
-                    paths.balance,
-                    (paths.balance_metric("margin"),),
-                )
-            )
-        counts = [p for p in ("contacts", "feasible") if paths.balance_metric(p) in logged]
-        if counts:
-            plots.append(
-                Plot(
-                    "static check: contacts [count], equilibrium (1 = yes)",
-                    paths.balance,
-                    tuple(paths.balance_metric(p) for p in counts),
-                )
-            )
-        on_iterations = set(_under(logged, paths.cameras, "iteration"))
-        tabs.append(
-            Tab(
-                "solve (timeline: iteration)",
-                "solve: robot, targets, balance",
-                "iteration",
-                plots=tuple(plots),
-                hidden=tuple(p for p in _under(logged, paths.cameras) if p not in on_iterations),
-            )
-        )
-    motion = _under(logged, paths.motion, "sim_time")
-    if motion:
-        metres = [
-            p
-            for p in motion
-            if p.rsplit("/", 1)[1] in _HOLD_METRES or p.startswith(f"{paths.motion}/frame_error/")
-        ]
-        plots = [
-            Plot(title, paths.motion, tuple(series))
-            for title, series in (
-                ("motion: joint tracking error [rad]", [paths.motion_metric("tracking_error")]),
-                (
-                    "motion: root drift from the reference, foot slip, CoM margin, "
-                    "task-frame errors [m]",
-                    metres,
-                ),
-                (
-                    "motion: waypoint (IK iterate) the reference passed [index]",
-                    [paths.motion_metric("waypoint")],
-                ),
-            )
-            if set(series) & set(motion)
-        ]
-        images = [p for p in _under(logged, paths.cameras, "sim_time") if p.endswith("/image")]
-        tabs.append(
-            Tab(
-                "motion (timeline: sim_time)",
-                "motion: physical robot, IK reference (translucent)",
-                "sim_time",
-                plots=tuple(plots),
-                cameras=tuple(images),
-            )
-        )
-    sensors = _under(logged, paths.sensors, "sim_time")
-    if sensors:
-        plots = [
-            Plot(
-                title,
-                f"{paths.sensors}/{groups[0]}",
-                tuple(
-                    p for g in groups for p in _under(logged, f"{paths.sensors}/{g}", "sim_time")
-                ),
-            )
-            for groups, title in (
-                (("force", "touch"), "sensors: contact force at force sensors and bumpers [N]"),
-                (("bumper",), "sensors: bumpers (1 = on)"),
-                (("imu_acceleration",), "sensors: IMU acceleration a - g, sensor frame [m/s²]"),
-                (("imu_angular_velocity",), "sensors: IMU angular velocity, sensor frame [rad/s]"),
-            )
-            if any(_under(logged, f"{paths.sensors}/{g}", "sim_time") for g in groups)
-        ]
-        tabs.append(
-            Tab(
-                "sensors (timeline: sim_time)",
-                "sensors: the physical robot",
-                "sim_time",
-                plots=tuple(plots),
-            )
-        )
-    hold = _under(logged, paths.hold, "sim_time")
-    if hold:
-        metres = [p for p in hold if p.rsplit("/", 1)[1] in _HOLD_METRES]
-        newtons = [p for p in hold if p not in metres]
-        plots = [
-            Plot(
-                "hold: "
-                + ", ".join(
-                    _HOLD_NAMES.get(p.rsplit("/", 1)[1], p.rsplit("/", 1)[1]) for p in series
-                )
-                + f" [{unit}]",
-                paths.hold,
-                tuple(series),
-            )
-            for series, unit in ((metres, "m"), (newtons, "N"))
-            if series
-        ]
-        tabs.append(
-            Tab("physics hold (timeline: sim_time)", "physics hold", "sim_time", plots=tuple(plots))
-        )
-    walk = _under(logged, paths.walk, "sim_time")
-    if walk:
-        plots = [
-            Plot(title, f"{paths.walk}/{group}")
-            for group, title in (
-                ("x", "walk: ZMP and CoM, x [m]"),
-                ("y", "walk: ZMP and CoM, y [m]"),
-                ("margin", "walk: ZMP margin to the support polygon [m]"),
-            )
-            if _under(logged, f"{paths.walk}/{group}")
-        ]
-        tabs.append(
-            Tab(
-                "walking (timeline: sim_time)",
-                "walking",
-                "sim_time",
-                WALK_VIEW,
-                plots=tuple(plots),
-            )
-        )
+    makers = (_solve_tab, _motion_tab, _sensors_tab, _hold_tab, _walk_tab)
+    tabs = [tab for tab in (make(logged, paths) for make in makers) if tab is not None]
     timeline = tabs[0].timeline if tabs else None
     if not tabs:
         tabs.append(Tab("world", "world", None))
     if paths.events in logged:  # the text log in the first tab
         tabs[0] = dataclasses.replace(tabs[0], events=True)
     return Layout(tuple(tabs), timeline)
+
+
+def _solve_tab(logged: Mapping[str, set[str]], paths: EntityPaths) -> Tab | None:
+    """The solves' tab (``iteration``): one plot per level's errors, the static
+    check's margin and counts."""
+    prefix = f"{paths.errors}/level_"
+    levels = sorted(
+        {int(p[len(prefix) :].split("/")[0]) for p in _under(logged, paths.errors, "iteration")}
+    )
+    if not levels:
+        return None
+    plots = []
+    for k in levels:
+        if k == 0 and len(levels) > 1:
+            continue  # hard rows: what the levels above keep
+        log10 = bool(_under(logged, paths.level_errors(k, log10=True)))
+        plots.append(
+            Plot(
+                f"level {k}: " + ("log10 of each task's error" if log10 else "task errors"),
+                paths.level_errors(k, log10=log10),
+            )
+        )
+    if paths.balance_metric("margin") in logged:
+        plots.append(
+            Plot(
+                "static check: CoM margin to the support polygon [m]",
+                paths.balance,
+                (paths.balance_metric("margin"),),
+            )
+        )
+    counts = [p for p in ("contacts", "feasible") if paths.balance_metric(p) in logged]
+    if counts:
+        plots.append(
+            Plot(
+                "static check: contacts [count], equilibrium (1 = yes)",
+                paths.balance,
+                tuple(paths.balance_metric(p) for p in counts),
+            )
+        )
+    on_iterations = set(_under(logged, paths.cameras, "iteration"))
+    return Tab(
+        "solve (timeline: iteration)",
+        "solve: robot, targets, balance",
+        "iteration",
+        plots=tuple(plots),
+        hidden=tuple(p for p in _under(logged, paths.cameras) if p not in on_iterations),
+    )
+
+
+def _motion_tab(logged: Mapping[str, set[str]], paths: EntityPaths) -> Tab | None:
+    """The motions' tab (``sim_time``): tracking, drift and slip, waypoints,
+    and the cameras' images."""
+    motion = _under(logged, paths.motion, "sim_time")
+    if not motion:
+        return None
+    metres = [
+        p
+        for p in motion
+        if p.rsplit("/", 1)[1] in _HOLD_METRES or p.startswith(f"{paths.motion}/frame_error/")
+    ]
+    plots = [
+        Plot(title, paths.motion, tuple(series))
+        for title, series in (
+            ("motion: joint tracking error [rad]", [paths.motion_metric("tracking_error")]),
+            (
+                "motion: root drift from the reference, foot slip, CoM margin, "
+                "task-frame errors [m]",
+                metres,
+            ),
+            (
+                "motion: waypoint (IK iterate) the reference passed [index]",
+                [paths.motion_metric("waypoint")],
+            ),
+        )
+        if set(series) & set(motion)
+    ]
+    images = [p for p in _under(logged, paths.cameras, "sim_time") if p.endswith("/image")]
+    return Tab(
+        "motion (timeline: sim_time)",
+        "motion: physical robot, IK reference (translucent)",
+        "sim_time",
+        plots=tuple(plots),
+        cameras=tuple(images),
+    )
+
+
+def _sensors_tab(logged: Mapping[str, set[str]], paths: EntityPaths) -> Tab | None:
+    """The sensors' tab (``sim_time``): forces, bumpers, IMUs."""
+    if not _under(logged, paths.sensors, "sim_time"):
+        return None
+    plots = [
+        Plot(
+            title,
+            f"{paths.sensors}/{groups[0]}",
+            tuple(p for g in groups for p in _under(logged, f"{paths.sensors}/{g}", "sim_time")),
+        )
+        for groups, title in (
+            (("force", "touch"), "sensors: contact force at force sensors and bumpers [N]"),
+            (("bumper",), "sensors: bumpers (1 = on)"),
+            (("imu_acceleration",), "sensors: IMU acceleration a - g, sensor frame [m/s²]"),
+            (("imu_angular_velocity",), "sensors: IMU angular velocity, sensor frame [rad/s]"),
+        )
+        if any(_under(logged, f"{paths.sensors}/{g}", "sim_time") for g in groups)
+    ]
+    return Tab(
+        "sensors (timeline: sim_time)",
+        "sensors: the physical robot",
+        "sim_time",
+        plots=tuple(plots),
+    )
+
+
+def _hold_tab(logged: Mapping[str, set[str]], paths: EntityPaths) -> Tab | None:
+    """The physics holds' tab (``sim_time``): metres and newtons apart."""
+    hold = _under(logged, paths.hold, "sim_time")
+    if not hold:
+        return None
+    metres = [p for p in hold if p.rsplit("/", 1)[1] in _HOLD_METRES]
+    newtons = [p for p in hold if p not in metres]
+    plots = [
+        Plot(
+            "hold: "
+            + ", ".join(_HOLD_NAMES.get(p.rsplit("/", 1)[1], p.rsplit("/", 1)[1]) for p in series)
+            + f" [{unit}]",
+            paths.hold,
+            tuple(series),
+        )
+        for series, unit in ((metres, "m"), (newtons, "N"))
+        if series
+    ]
+    return Tab("physics hold (timeline: sim_time)", "physics hold", "sim_time", plots=tuple(plots))
+
+
+def _walk_tab(logged: Mapping[str, set[str]], paths: EntityPaths) -> Tab | None:
+    """The walks' tab (``sim_time``): ZMP and CoM along x and y, ZMP margin."""
+    if not _under(logged, paths.walk, "sim_time"):
+        return None
+    plots = [
+        Plot(title, f"{paths.walk}/{group}")
+        for group, title in (
+            ("x", "walk: ZMP and CoM, x [m]"),
+            ("y", "walk: ZMP and CoM, y [m]"),
+            ("margin", "walk: ZMP margin to the support polygon [m]"),
+        )
+        if _under(logged, f"{paths.walk}/{group}")
+    ]
+    return Tab("walking (timeline: sim_time)", "walking", "sim_time", WALK_VIEW, plots=tuple(plots))
 
 
 def _build(

@@ -6,13 +6,13 @@ entity's rows become one chunk (``rerun.chunk.Chunk.from_columns``) and one
 ``rr.send_chunks`` sends them all (:class:`Outbox`). A :class:`RowKind` says how
 rows of one archetype become columns: Arrow arrays of the types of rerun's
 component batches, built directly from the stacked rows (the same columns as
-``<Archetype>.columns(...)``, a fraction of its cost) and sliced per entity
-without copies (pyarrow). A style (a point's radius and colour, a frame's axis
-length) goes with each row, in the chunk of its data: its column is made once
-per style and sliced.
+``<Archetype>.columns(...)``, without building and checking every field of the
+archetype per call) and sliced per entity without copies (pyarrow). A style (a
+point's radius and colour, a frame's axis length) goes with each row, in the
+chunk of its data: its column is made once per style and sliced.
 
 Blueprints are sent here too: what rerun's blueprint classes log, captured
-(:func:`blueprint_entities`), then sent as one chunk per entity in one call
+(:func:`blueprint_entities`), then sent again as one chunk per entity
 (:func:`send_blueprint_entities`).
 
 Nothing else in pik_mj touches ``rerun.chunk`` or pyarrow for writing: a new
@@ -24,19 +24,17 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
 import rerun as rr
 from rerun import bindings
 from rerun.chunk import Chunk
-from rerun.recording_stream import RecordingStream, get_application_id
+from rerun.recording_stream import get_application_id
 
 from pik_mj.exceptions import PikError
-
-if TYPE_CHECKING:
-    from pik_mj.record.geometry import BodyFrames, GeomGroup
+from pik_mj.record.geometry import BodyFrames, GeomGroup
 
 __all__ = [
     "ARROW",
@@ -118,9 +116,8 @@ class RowKind:
 
 
 # Columns are built as Arrow arrays directly, of the Arrow types of rerun's
-# component batches (the same columns as ``<Archetype>.columns(...)``, a
-# fraction of its cost: it builds and checks every field of the archetype per
-# call).
+# component batches (the same columns as ``<Archetype>.columns(...)``, which
+# builds and checks every field of the archetype per call).
 
 
 def _arrow_type(batch: Any, zero: np.ndarray) -> pa.DataType:
@@ -293,9 +290,7 @@ class Outbox:
     Rows of one kind (all poses, all scalars, ...) that share their time stamps
     become one Arrow array per component (:meth:`RowKind.columns`), sliced per
     entity (zero-copy); each entity's slices become one chunk
-    (:meth:`rerun.chunk.Chunk.from_columns`, ~20 us an entity, about half of
-    ``Chunk.from_record_batch`` on one batch of all entities and a third of one
-    ``send_columns`` per entity).
+    (:meth:`rerun.chunk.Chunk.from_columns`), and all chunks go in one call.
     """
 
     def __init__(self) -> None:
@@ -495,7 +490,20 @@ class _Capture:
 
 def blueprint_entities(blueprint: Any) -> list[BlueprintEntity]:
     """The entities rerun logs for ``blueprint`` (an ``rrb.Blueprint``, view or
-    container), in its order, by rerun's own blueprint classes."""
+    container), in its order, by rerun's own blueprint classes.
+
+    The one use of a private rerun name in pik_mj: rerun 0.41 has no public call
+    that gives a blueprint's entities. Its blueprint classes log themselves
+    through ``Blueprint._log_to_stream(stream)``, which only calls
+    ``stream.log(path, *archetypes, static=...)``; the public calls that use it
+    (``RecordingStream.send_blueprint``, ``rerun.blueprint.api.create_in_memory_blueprint``)
+    log every entity into a new blueprint stream on each call and give back an
+    opaque memory sink. Capturing the entities once per layout
+    (:func:`pik_mj.record.blueprint.send_blueprint_for`) lets each recording
+    send them again, its cameras replaced, in one call. A public
+    ``Blueprint.log_to_stream`` or a way to read a blueprint's chunks would
+    replace this.
+    """
     capture = _Capture()
     blueprint.to_blueprint()._log_to_stream(capture)
     return capture.entities
@@ -505,24 +513,25 @@ def send_blueprint_entities(stream: rr.RecordingStream, entities: list[Blueprint
     """Send ``entities`` (:func:`blueprint_entities`) as a blueprint of
     ``stream``'s application, made active and default, as
     ``stream.send_blueprint`` does: on a new blueprint stream, at
-    ``blueprint`` = 0 and the current ``log_time``, in one ``rr.send_chunks``."""
+    ``blueprint`` = 0 and the current ``log_time``, one chunk per entity."""
     application_id = get_application_id(recording=stream)
     if application_id is None:
         raise PikError("the recording stream has no application id to send a blueprint for")
-    blueprint_stream = RecordingStream._from_native(
-        bindings.new_blueprint(
-            application_id=application_id,
-            make_default=False,
-            make_thread_default=False,
-            default_enabled=True,
-        )
+    blueprint_stream = bindings.new_blueprint(
+        application_id=application_id,
+        make_default=False,
+        make_thread_default=False,
+        default_enabled=True,
     )
     now = np.array([time.time_ns()], dtype="datetime64[ns]")
     index = [rr.TimeColumn("blueprint", sequence=[0]), rr.TimeColumn("log_time", timestamp=now)]
-    chunks = [
-        Chunk.from_columns(path, [] if static else index, columns)
-        for path, static, columns in entities
-    ]
-    rr.send_chunks(chunks, recording=blueprint_stream)
-    storage = blueprint_stream.memory_recording().storage
+    timelines = {t.timeline_name(): t.as_arrow_array() for t in index}
+    for path, static, columns in entities:
+        bindings.send_arrow_chunk(
+            path,
+            timelines={} if static else timelines,
+            components={c.component_descriptor(): c.as_arrow_array() for c in columns},
+            recording=blueprint_stream,
+        )
+    storage = bindings.memory_recording(recording=blueprint_stream)
     bindings.send_blueprint(storage, True, True, recording=stream.to_native())

@@ -1,4 +1,4 @@
-"""Walking pattern generation (seed 001, "歩行動作生成"): preview control of the
+"""Walking pattern generation (irteus manual, "歩行動作生成"): preview control of the
 cart-table model, gait timing with cycloid swing feet, and footstep planning.
 
 Pure numpy; the whole-body IK per tick is applied on top of a :class:`GaitPlan`.

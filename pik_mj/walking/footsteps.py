@@ -1,6 +1,6 @@
-"""Footstep planning (seed 001 ``:go-pos-params->footstep-list``).
+"""Footstep planning (irteus manual: ``:go-pos-params->footstep-list``).
 
-The seed moves a mid-feet frame M towards the goal, at most
+The irteus manual's planner moves a mid-feet frame M towards the goal, at most
 ``forward-offset-length`` / ``outside-offset-length`` / ``rotate-rad`` per step,
 and places the swing leg at M shifted sideways by half the foot separation; the
 lateral part of the motion is taken only on the steps of the leg on the side of
@@ -24,7 +24,7 @@ smallest count for which every step is within the reach limits
 (:func:`relative_step`, :class:`ReachLimits`). When the turn alone carries the
 mid frame past the goal's lateral offset (e.g. ``go_pos(0.5, 0.15, 45 deg)``),
 :math:`\\Delta y` comes out slightly inward, which ``max_inward`` bounds; if no
-count fits with the seed's first leg, the other leg leads at that count.
+count fits with the irteus manual's first leg, the other leg leads at that count.
 """
 
 from __future__ import annotations
@@ -65,10 +65,10 @@ class ReachLimits:
         |\\Delta\\psi| \\le max\\_turn.
 
     Attributes:
-        max_stride_x: Forward/backward offset between the feet in [m] (the seed's
-            ``forward-offset-length``).
+        max_stride_x: Forward/backward offset between the feet in [m] (the irteus
+            manual's ``forward-offset-length``).
         max_stride_y: Sideways widening beyond the nominal separation in [m] (the
-            seed's ``outside-offset-length``).
+            irteus manual's ``outside-offset-length``).
         max_turn: Heading change between the feet in [rad] (``rotate-rad``).
         max_inward: Allowed narrowing below the nominal separation in [m].
     """
@@ -192,7 +192,7 @@ def go_pos(
     foot_separation: float | None = None,
     max_steps: int = 200,
 ) -> list[Footstep]:
-    """Footsteps that end with both feet side by side at a goal (seed ``go-pos``).
+    """Footsteps that end with both feet side by side at a goal (irteus manual: ``go-pos``).
 
     Args:
         x: Goal forward in the initial mid-feet frame in [m].
@@ -223,9 +223,9 @@ def go_pos(
     feet, sides, p_M, yaw_M, sep = _prepare(initial_feet, foot_separation)
     if np.all(np.abs(values) < 1e-12):
         return []
-    # Seed: lead with the leg on the side of the motion, else of the turn; the
-    # other leg leads only if no step count within max_steps fits the limits
-    # with the seed's choice at that count.
+    # As the irteus manual: lead with the leg on the side of the motion, else of
+    # the turn; the other leg leads only if no step count within max_steps fits
+    # the limits with that choice at that count.
     if abs(y) > 1e-12:
         lead_side = 1.0 if y > 0 else -1.0
     else:
@@ -299,7 +299,7 @@ def straight_steps(
     Step i = 1..n puts the alternating swing foot (starting with ``first_limb``)
     at :math:`p_{M_0} + i \\cdot stride \\cdot e_x(\\psi_{M_0})` plus its half
     separation; a final step brings the other foot alongside. With
-    ``straight_steps(4, 0.1, feet)`` this is the seed's first walking example
+    ``straight_steps(4, 0.1, feet)`` this is the irteus manual's first walking example
     (lleg +100, rleg +200, lleg +300, rleg +400, lleg +400 [mm]).
 
     Args:

@@ -1,18 +1,19 @@
-"""Gait timing, ZMP reference, swing trajectories and CoM (seed 001, "歩行動作生成").
+"""Gait timing, ZMP reference, swing trajectories and CoM (irteus manual, "歩行動作生成").
 
-Seed: ``:calc-walk-pattern-from-footstep-list`` and the ``gait-generator`` it runs.
+irteus manual: ``:calc-walk-pattern-from-footstep-list`` and the ``gait-generator``
+it runs.
 This module produces everything except the joint angles: per tick the ZMP
 reference, both feet, the support state and the CoM from the preview controller.
 The whole-body IK per tick is done elsewhere on top of a :class:`GaitPlan`.
 
-Mapping to the seed's ``footstep-list``: the seed's first element only names the
+Mapping to the irteus manual's ``footstep-list``: its first element only names the
 leg that is considered already placed (its coordinates are taken from the robot,
 not from the element), and stepping starts at the second element. Here the
 current stance of every limb is given explicitly as ``initial_feet`` and
-``footsteps`` holds only the executed steps, i.e. the seed's
+``footsteps`` holds only the executed steps, i.e. the manual's
 ``(cdr footstep-list)``.
 
-Timeline (seed ``gait-generator``), with step time :math:`T`, double support
+Timeline (irteus manual: ``gait-generator``), with step time :math:`T`, double support
 ratio :math:`r` and :math:`S` footsteps: phase 0 stands for :math:`T` with the ZMP
 at its start point, phases :math:`1 \\ldots S` execute one footstep each, and
 phase :math:`S+1` stands for :math:`T` with the ZMP at its end point, so
@@ -156,7 +157,7 @@ def normalize_feet(
 
 
 def mid_frame(feet: Mapping[str, Footstep]) -> tuple[np.ndarray, float]:
-    """Mid-feet frame (seed ``:foot-midcoords``): mean position and mean heading.
+    """Mid-feet frame (irteus manual: ``:foot-midcoords``): mean position and mean heading.
 
     .. math::
 
@@ -198,13 +199,14 @@ def _finite(
 
 @dataclass(frozen=True)
 class GaitParameters:
-    """Parameters of :func:`plan_gait` (seed ``:calc-walk-pattern-from-footstep-list``).
+    """Parameters of :func:`plan_gait` (irteus manual:
+    ``:calc-walk-pattern-from-footstep-list``).
 
     Attributes:
-        step_time: Duration of one step T in [s] (seed ``default-step-time``).
+        step_time: Duration of one step T in [s] (irteus manual: ``default-step-time``).
         step_height: Cycloid height h of the swing foot in [m].
-        dt: Sampling time of the plan and of preview control in [s] (the seed's
-            default is 0.1 s; 0.01 s gives smooth trajectories).
+        dt: Sampling time of the plan and of preview control in [s] (the irteus
+            manual's default is 0.1 s; 0.01 s gives smooth trajectories).
         double_support_ratio: Fraction r of each step in double support, in [0, 1);
             half at the start, half at the end of the step.
         zmp_offsets: ZMP reference point per limb in its sole frame (3,) in [m];
@@ -355,7 +357,7 @@ def plan_gait(
 
     Args:
         initial_feet: Stance of both limbs, ``{limb: Footstep | (p_W, yaw)}``.
-        footsteps: Executed steps (the seed's footstep-list without its first
+        footsteps: Executed steps (the irteus manual's footstep-list without its first
             element).
         params: Gait parameters; defaults to :class:`GaitParameters()`.
         com_height: CoM height above the ground plane in [m].
@@ -373,56 +375,118 @@ def plan_gait(
             raise InvalidInput(f"footsteps[{i}] must be a Footstep, got {type(step).__name__}")
         if step.limb not in limbs:
             raise UnknownName("limb", step.limb, limbs)
-    n_steps = len(steps)
-    offsets = params.zmp_offsets
+    stances = _stances(feet0, steps)
+    T, dt = params.step_time, params.dt
+    n_samples = int(np.floor((len(steps) + 2) * T / dt + 1e-9)) + 1
+    t = np.arange(n_samples) * dt
+    phase = np.minimum(np.floor(t / T + 1e-9).astype(int), len(steps) + 1)
+    tau = t - phase * T
+    zmp_ref = _zmp_reference(_support_points(stances, steps, params), phase, tau, params)
+    feet_p, feet_yaw, support, swing_phase = _feet(stances, steps, phase, tau, params)
+    controller = PreviewController(
+        dt,
+        com_height,
+        q=params.q,
+        r=params.r,
+        preview_time=params.preview_time,
+        gravity=STANDARD_GRAVITY if params.gravity is None else params.gravity,
+    )
+    result = controller.run(zmp_ref[:, :2])
+    final_feet = {lb: Footstep(lb, stances[-1][lb].p_W, stances[-1][lb].yaw) for lb in limbs}
+    return GaitPlan(
+        t=t,
+        dt=dt,
+        zmp_ref=zmp_ref[:, :2],
+        feet_p=feet_p,
+        feet_yaw=feet_yaw,
+        support=support,
+        swing_phase=swing_phase,
+        step_index=phase,
+        com=result.com,
+        com_vel=result.com_vel,
+        com_acc=result.com_acc,
+        zmp=result.zmp,
+        com_height=com_height,
+        ground_z=float(np.mean([f.p_W[2] for f in feet0.values()])),
+        footsteps=steps,
+        initial_feet=feet0,
+        final_feet=final_feet,
+        final_midpoint=np.mean([f.p_W for f in final_feet.values()], axis=0),
+        params=params,
+    )
+
+
+def _stances(feet0: dict[str, Footstep], steps: tuple[Footstep, ...]) -> list[dict[str, Footstep]]:
+    """The stance after each footstep, ``stances[0]`` the initial one; a foot's
+    heading stays continuous (no 2 pi jumps)."""
+    stances = [dict(feet0)]
+    for step in steps:
+        stance = dict(stances[-1])
+        src = stance[step.limb]
+        yaw = src.yaw + float(wrap_angle(step.yaw - src.yaw))
+        stance[step.limb] = Footstep(step.limb, step.p_W, yaw)
+        stances.append(stance)
+    return stances
+
+
+def _support_points(
+    stances: list[dict[str, Footstep]], steps: tuple[Footstep, ...], params: GaitParameters
+) -> np.ndarray:
+    """The ZMP support point of each phase (S + 2, 3) [m]: the mean of the ZMP
+    points of its support feet (module docstring)."""
+    limbs, offsets, n_steps = params.all_limbs, params.zmp_offsets, len(steps)
 
     def zmp_point(feet: Mapping[str, Footstep], support: Sequence[str]) -> np.ndarray:
         return np.mean([feet[lb].point(offsets[lb]) for lb in support], axis=0)
 
-    # stances[j]: stance after footstep j (stances[0] = initial), and the ZMP
-    # support point of each phase.
-    stances = [dict(feet0)]
-    for step in steps:
-        stance = dict(stances[-1])
-        src = stance[step.limb]  # keep the heading continuous (no 2 pi jumps)
-        yaw = src.yaw + float(wrap_angle(step.yaw - src.yaw))
-        stance[step.limb] = Footstep(step.limb, step.p_W, yaw)
-        stances.append(stance)
     z = np.empty((n_steps + 2, 3))
     if params.start_with_double_support or n_steps == 0:
-        z[0] = zmp_point(feet0, limbs)
+        z[0] = zmp_point(stances[0], limbs)
     else:
-        z[0] = zmp_point(feet0, [lb for lb in limbs if lb != steps[0].limb])
+        z[0] = zmp_point(stances[0], [lb for lb in limbs if lb != steps[0].limb])
     for j, step in enumerate(steps, start=1):
         z[j] = zmp_point(stances[j - 1], [lb for lb in limbs if lb != step.limb])
     if params.end_with_double_support or n_steps == 0:
         z[-1] = zmp_point(stances[-1], limbs)
     else:
         z[-1] = zmp_point(stances[-1], [lb for lb in limbs if lb != steps[-1].limb])
+    return z
 
+
+def _zmp_reference(
+    z: np.ndarray, phase: np.ndarray, tau: np.ndarray, params: GaitParameters
+) -> np.ndarray:
+    """The ZMP reference (K, 3) [m] at the samples of ``phase`` (index) and
+    ``tau`` (local time [s]): the support points ``z`` joined linearly over
+    each double support (module docstring)."""
     T = params.step_time
-    dt = params.dt
     t_m = 0.5 * params.double_support_ratio * T
-    t_ss = T - 2.0 * t_m
-    total = (n_steps + 2) * T
-    n_samples = int(np.floor(total / dt + 1e-9)) + 1
-    t = np.arange(n_samples) * dt
-    phase = np.minimum(np.floor(t / T + 1e-9).astype(int), n_steps + 1)
-    tau = t - phase * T
-
-    # ZMP reference.
     cur = z[phase]
     prev = z[np.maximum(phase - 1, 0)]
-    nxt = z[np.minimum(phase + 1, n_steps + 1)]
+    nxt = z[np.minimum(phase + 1, len(z) - 1)]
     zmp_ref = cur.copy()
     if t_m > 0.0:
         a = tau < t_m
         zmp_ref[a] += ((t_m - tau[a]) / (2.0 * t_m))[:, None] * (prev[a] - cur[a])
         e = tau > T - t_m
         zmp_ref[e] += ((tau[e] - (T - t_m)) / (2.0 * t_m))[:, None] * (nxt[e] - cur[e])
+    return zmp_ref
 
-    # Feet and support state.
-    sigma = np.clip((tau - t_m) / t_ss, 0.0, 1.0)
+
+def _feet(
+    stances: list[dict[str, Footstep]],
+    steps: tuple[Footstep, ...],
+    phase: np.ndarray,
+    tau: np.ndarray,
+    params: GaitParameters,
+) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray], np.ndarray, np.ndarray]:
+    """Both feet at every sample (``feet_p`` (K, 3) [m], ``feet_yaw`` (K,)
+    [rad]), the support label and the swing phase (:class:`GaitPlan`): the
+    swing foot on its cycloid (module docstring), the others on their stance."""
+    limbs, n_steps, T = params.all_limbs, len(steps), params.step_time
+    t_m = 0.5 * params.double_support_ratio * T
+    n_samples = len(phase)
+    sigma = np.clip((tau - t_m) / (T - 2.0 * t_m), 0.0, 1.0)
     stepping = (phase >= 1) & (phase <= n_steps)
     swing_phase = np.where(stepping, sigma, 0.0)
     eps = 1e-9 * T  # samples on a phase boundary up to rounding count as on it
@@ -450,36 +514,4 @@ def plan_gait(
             feet_yaw[lb][rows] = src.yaw + sj * (dst.yaw - src.yaw)
         if swing is not None:
             support[rows & single] = next(lb for lb in limbs if lb != swing)
-
-    ground_z = float(np.mean([f.p_W[2] for f in feet0.values()]))
-    controller = PreviewController(
-        dt,
-        com_height,
-        q=params.q,
-        r=params.r,
-        preview_time=params.preview_time,
-        gravity=STANDARD_GRAVITY if params.gravity is None else params.gravity,
-    )
-    result = controller.run(zmp_ref[:, :2])
-    final_feet = {lb: Footstep(lb, stances[-1][lb].p_W, stances[-1][lb].yaw) for lb in limbs}
-    return GaitPlan(
-        t=t,
-        dt=dt,
-        zmp_ref=zmp_ref[:, :2],
-        feet_p=feet_p,
-        feet_yaw=feet_yaw,
-        support=support,
-        swing_phase=swing_phase,
-        step_index=phase,
-        com=result.com,
-        com_vel=result.com_vel,
-        com_acc=result.com_acc,
-        zmp=result.zmp,
-        com_height=com_height,
-        ground_z=ground_z,
-        footsteps=steps,
-        initial_feet=feet0,
-        final_feet=final_feet,
-        final_midpoint=np.mean([f.p_W for f in final_feet.values()], axis=0),
-        params=params,
-    )
+    return feet_p, feet_yaw, support, swing_phase

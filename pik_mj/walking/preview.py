@@ -1,6 +1,6 @@
-"""Preview control of the cart-table model (seed 001, "歩行動作生成"; Kajita 2003).
+"""Preview control of the cart-table model (irteus manual, "歩行動作生成"; Kajita 2003).
 
-Seed classes: ``riccati-equation``, ``preview-controller``,
+irteus manual classes: ``riccati-equation``, ``preview-controller``,
 ``extended-preview-controller`` and ``preview-control-cart-table-cog-trajectory-
 generator``. One axis (x or y) of the CoM is the cart-table system with jerk input
 
@@ -88,7 +88,7 @@ def cart_table_model(
 def extended_system(
     A: np.ndarray, b: np.ndarray, c: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Extended (error) system of the seed, state :math:`x^*_k = [p_k, \\Delta x_k]`.
+    """Extended (error) system of the irteus manual, state :math:`x^*_k = [p_k, \\Delta x_k]`.
 
     .. math::
 
@@ -129,7 +129,7 @@ def solve_riccati_by_iteration(
     rtol: float = 1e-14,
     max_iterations: int = 1_000_000,
 ) -> tuple[np.ndarray, int]:
-    """Stationary solution of the seed's Riccati recursion, iterated from P = 0.
+    """Stationary solution of the irteus manual's Riccati recursion, iterated from P = 0.
 
     .. math::
 
@@ -192,7 +192,7 @@ def preview_gains(
     r: float,
     n_preview: int,
 ) -> PreviewGains:
-    """Riccati solution, feedback gain and preview gains of the seed.
+    """Riccati solution, feedback gain and preview gains of the irteus manual.
 
     .. math::
 
@@ -267,7 +267,7 @@ class PreviewResult:
 class PreviewController:
     """Extended preview controller of the cart-table model, applied per axis.
 
-    Seed: ``preview-control-cart-table-cog-trajectory-generator`` with
+    irteus manual: ``preview-control-cart-table-cog-trajectory-generator`` with
     ``extended-preview-controller`` (q = 1, r = 1e-6, delay = 1.6 s).
 
     Args:
@@ -392,7 +392,7 @@ class PreviewController:
     def run(self, zmp_ref: np.ndarray, com0: np.ndarray | float | None = None) -> PreviewResult:
         """CoM trajectory whose cart-table ZMP tracks ``zmp_ref``.
 
-        The reference beyond its end is held at its last value (the seed's queue
+        The reference beyond its end is held at its last value (the irteus manual's queue
         is flushed with the last reference). Row k of every output is the state at
         tick k; row 0 is the initial state at rest over ``com0``.
 

@@ -1,4 +1,5 @@
-"""Whole-body walking pattern (seed 001 ``:calc-walk-pattern-from-footstep-list``).
+"""Whole-body walking pattern (irteus manual:
+``:calc-walk-pattern-from-footstep-list``).
 
 :func:`pik_mj.walking.gait.plan_gait` gives, per tick, both sole poses, the ZMP
 reference and the preview-control CoM. Here every tick is turned into a whole-body
@@ -11,7 +12,7 @@ from the previous tick:
   root body upright with the mid-feet heading;
 * level 3: posture towards the initial pose.
 
-The result is checked with the ZMP of the *generated motion* (seed ``calc-zmp``):
+The result is checked with the ZMP of the *generated motion* (irteus manual: ``calc-zmp``):
 joint velocities and accelerations by finite differences, MuJoCo's inverse
 dynamics for the wrench the ground must apply to the floating base, and the ZMP
 of that wrench (:func:`pik_mj.dynamics.zmp_of_motion`).
@@ -22,6 +23,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import mink
 import numpy as np
@@ -192,15 +194,71 @@ def feet_from_robot(
     return out
 
 
-def _com_task(configuration: mink.Configuration, threshold: float) -> CentroidTask:
-    """CoM task of level 2: all three axes matched (xy on the plan, z constant)."""
-    return CentroidTask(
-        configuration,
-        np.zeros(3),
-        translation_axis=True,
-        centroid_thre=threshold,
-        name="com",
-    )
+@dataclass(frozen=True)
+class _WalkTasks:
+    """The IK stack of a walk's ticks (module docstring) and its tasks."""
+
+    feet: dict[str, FrameTask]
+    com: CentroidTask
+    upright: FrameTask
+    levels: list[list[Any]]
+
+    @classmethod
+    def of(
+        cls,
+        robot: Robot,
+        initial_feet: Mapping[str, Footstep],
+        feet_frames: Mapping[str, str],
+        upright_body: str,
+        thre: float,
+        rthre: float,
+    ) -> _WalkTasks:
+        configuration, model = robot.configuration, robot.model
+        feet = {
+            lb: FrameTask(
+                configuration,
+                site,
+                (initial_feet[lb].p_W, np.eye(3)),
+                move_target_type="site",
+                thre=thre,
+                rthre=rthre,
+                name=f"foot:{lb}",
+            )
+            for lb, site in feet_frames.items()
+        }
+        # all three axes of the CoM matched: xy on the plan, z constant
+        com = CentroidTask(
+            configuration, np.zeros(3), translation_axis=True, centroid_thre=thre, name="com"
+        )
+        upright = FrameTask(
+            configuration,
+            upright_body,
+            (np.zeros(3), np.eye(3)),
+            move_target_type="body",
+            translation_axis=None,
+            rthre=rthre,
+            name=f"upright:{upright_body}",
+        )
+        posture = mink.PostureTask(model, cost=1e-2)
+        posture.set_target(configuration.q.copy())
+        levels: list[list[Any]] = [
+            [MinkLimit(mink.ConfigurationLimit(model))],
+            list(feet.values()),
+            [com, upright],
+            [MinkTask(posture, name="posture", check=False)],
+        ]
+        return cls(feet, com, upright, levels)
+
+    def aim(self, plan: GaitPlan, k: int, com_ref: np.ndarray) -> None:
+        """Set the targets to the plan's tick ``k``: the soles' poses, the CoM
+        ``com_ref`` [m], the root upright with the mid-feet heading."""
+        yaw_mid = 0.0
+        for lb, task in self.feet.items():
+            yaw = float(plan.feet_yaw[lb][k])
+            task.set_target((plan.feet_p[lb][k], rot_z(yaw)))
+            yaw_mid += yaw / len(self.feet)
+        self.com.set_target(com_ref)
+        self.upright.set_target((np.zeros(3), rot_z(yaw_mid)))
 
 
 def calc_walk_pattern(
@@ -219,13 +277,14 @@ def calc_walk_pattern(
     qp_solver: object = "daqp",
     callback: Callable[[int, Robot], None] | None = None,
 ) -> WalkPattern:
-    """Whole-body walking pattern from a footstep list (seed ``calc-walk-pattern-...``).
+    """Whole-body walking pattern from a footstep list (irteus manual:
+    ``:calc-walk-pattern-from-footstep-list``).
 
     The initial feet are the robot's current sole poses; the CoM height is that
     of the current pose above the mean sole height unless given. Each tick k
     sets the targets of the levels (module docstring) to the plan's row k and
     runs :func:`pik_mj.solve.solve` from the previous tick's solution; tick 0
-    gets ``init_stop`` iterations (the seed's ``init-pose-function``: CoM over
+    gets ``init_stop`` iterations (the irteus manual's ``init-pose-function``: CoM over
     the feet). The robot is left in the last tick's configuration.
 
     The second differences taken by :func:`pik_mj.dynamics.zmp_of_motion` amplify
@@ -249,8 +308,8 @@ def calc_walk_pattern(
         ik_thre: Sole and CoM position tolerance [m].
         ik_rthre: Sole and upright rotation tolerance [rad].
         qp_solver: QP solver of :func:`pik_mj.solve.solve`. The exact active-set
-            ``"daqp"`` by default: OSQP's approximate solutions (eps 1e-5) leave
-            ~1e-5 m of tick-to-tick jitter, ~1 cm of ZMP noise at dt = 0.02 s.
+            ``"daqp"`` by default: OSQP's approximate solutions leave a
+            tick-to-tick jitter that the ZMP's second differences amplify.
         callback: Called as ``callback(k, robot)`` after tick k.
 
     Returns:
@@ -277,37 +336,7 @@ def calc_walk_pattern(
     plan = plan_gait(initial_feet, footsteps, params, com_height=com_height)
     upright_body = robot.root_body if upright_body is None else upright_body
 
-    feet_tasks = {
-        lb: FrameTask(
-            configuration,
-            site,
-            (initial_feet[lb].p_W, np.eye(3)),
-            move_target_type="site",
-            thre=ik_thre,
-            rthre=ik_rthre,
-            name=f"foot:{lb}",
-        )
-        for lb, site in feet_frames.items()
-    }
-    com = _com_task(configuration, ik_thre)
-    upright = FrameTask(
-        configuration,
-        upright_body,
-        (np.zeros(3), np.eye(3)),
-        move_target_type="body",
-        translation_axis=None,
-        rthre=ik_rthre,
-        name=f"upright:{upright_body}",
-    )
-    posture = mink.PostureTask(model, cost=1e-2)
-    posture.set_target(configuration.q.copy())
-    levels = [
-        [MinkLimit(mink.ConfigurationLimit(model))],
-        list(feet_tasks.values()),
-        [com, upright],
-        [MinkTask(posture, name="posture", check=False)],
-    ]
-
+    tasks = _WalkTasks.of(robot, initial_feet, feet_frames, upright_body, ik_thre, ik_rthre)
     K = len(plan.t)
     q = np.empty((K, model.nq))
     com_achieved = np.empty((K, 3))
@@ -318,16 +347,10 @@ def calc_walk_pattern(
     com_ref = plan.com_W
     t0 = time.perf_counter()
     for k in range(K):
-        yaw_mid = 0.0
-        for lb, task in feet_tasks.items():
-            yaw = float(plan.feet_yaw[lb][k])
-            task.set_target((plan.feet_p[lb][k], rot_z(yaw)))
-            yaw_mid += yaw / len(feet_tasks)
-        com.set_target(com_ref[k])
-        upright.set_target((np.zeros(3), rot_z(yaw_mid)))
+        tasks.aim(plan, k, com_ref[k])
         result = solve(
             configuration,
-            levels,
+            tasks.levels,
             stop=init_stop if k == 0 else stop,
             min_loop=init_stop if k == 0 else min(min_loop, stop),
             revert_if_fail=False,
