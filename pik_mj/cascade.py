@@ -61,8 +61,10 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
-from pik_mj.qp import LevelProblem, OSQPBackend, QPBackend, QPSolution, QpsolversBackend
-from pik_mj.qp_daqp import DAQPBackend, HierarchicalProblem
+from pik_mj.qp.backend import QPBackend
+from pik_mj.qp.hierarchy import HierarchicalProblem
+from pik_mj.qp.make import as_backend
+from pik_mj.qp.problem import LevelProblem, QPSolution
 from pik_mj.tasks.task import TaskRows
 
 DEFAULT_RELAXATION = 1e-5
@@ -697,8 +699,10 @@ def solve_cascade(
             can make it so.
         QPFailure: Another level's QP failed; carries the level and the problem.
     """
+    backend = as_backend(backend)
     errors = [rows.squared_error() for rows in levels]
-    hierarchical = hasattr(backend, "solve_hierarchy")
+    hierarchical = backend.solves_hierarchy
+    closed_form = closed_form and backend.allows_closed_form
     if hierarchical:
         lambdas = [0.0] * len(levels)
     else:
@@ -706,9 +710,6 @@ def solve_cascade(
             reg.weight(e) + rows.damping
             for rows, reg, e in zip(levels, regularization, errors, strict=True)
         ]
-        closed_form = closed_form and isinstance(
-            backend, (OSQPBackend, DAQPBackend, QpsolversBackend)
-        )
     if role == "correction" and closed_form and len(levels) == 1:
         x = _projection(hard, levels[0], lambdas[0])
         if x is not None:
@@ -791,11 +792,10 @@ def _exact(hard: TaskRows, levels: Sequence[TaskRows], errors: list[float]) -> C
 
 
 def _solve_hierarchy(
-    hard: TaskRows, levels: Sequence[TaskRows], errors: list[float], backend
+    hard: TaskRows, levels: Sequence[TaskRows], errors: list[float], backend: QPBackend
 ) -> CascadeStep:
-    problem = HierarchicalProblem.from_rows(
-        hard, list(levels), getattr(backend, "layouts", None), getattr(backend, "zero_rows", None)
-    )
+    """Every level in one call of a hierarchical backend."""
+    problem = backend.hierarchy_problem(hard, levels)
     solution: QPSolution = backend.solve_hierarchy(problem)
     if not solution.ok or solution.z is None:
         if solution.infeasible:

@@ -595,7 +595,7 @@ def solve(
     n_solved = len(task_levels) - 1
     backend = make_backend(qp_solver, qp_args)
     options = {"regular": regular, "regular_rel": regular_rel, "regular_max": regular_max}
-    if hasattr(backend, "solve_hierarchy"):
+    if backend.solves_hierarchy:
         given = [k for k, v in {**options, "relaxation": relaxation}.items() if v is not None]
         if given:
             raise InvalidInput(
@@ -609,8 +609,7 @@ def solve(
         DEFAULT_RELAXATION if relaxation is None else inputs.real(relaxation, "relaxation", low=0.0)
     )
 
-    if hasattr(backend, "start"):
-        backend.start()  # a shared backend's workspaces start cold: repeatable solves
+    backend.start()  # a shared backend's workspaces start cold: repeatable solves
     model = configuration.model
     q0 = configuration.q.copy()
     stacks = [_Stack(level) for level in task_levels]

@@ -30,8 +30,15 @@ from pik_mj.cascade import (
     _psd_solve,
     solve_cascade,
 )
-from pik_mj.qp import OSQPBackend, QPSolution, QpsolversBackend, make_backend
-from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend, HierarchicalProblem
+from pik_mj.qp import (
+    DAQPBackend,
+    HierarchicalBackend,
+    HierarchicalProblem,
+    OSQPBackend,
+    QPSolution,
+    QpsolversBackend,
+    make_backend,
+)
 
 NV = 8
 # eps_prim_inf well below τ (1e-9): see OSQP_DEFAULTS.
