@@ -507,7 +507,7 @@ def captured_cmu_cascades(monkeypatch, n_targets=3):
 
     import pik_mj
 
-    solve_module = importlib.import_module("pik_mj.solve")
+    solve_module = importlib.import_module("pik_mj.solve.step")
     model = cases.cmu_humanoid()
     targets = cases.reachable_hand_targets(model, n_targets, seed=1)
     seen = []
