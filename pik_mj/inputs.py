@@ -31,6 +31,7 @@ __all__ = [
     "Q_LIMIT",
     "configuration",
     "flag",
+    "flat_vector",
     "integer",
     "names",
     "options",
@@ -144,6 +145,20 @@ def vector(value: Any, n: int, what: str, *, unit: str = "") -> np.ndarray:
     if not np.all(np.isfinite(v)):
         raise InvalidInput(f"{what} must be {valid}, got NaN or inf: {_show(value)}")
     return v
+
+
+def flat_vector(value: Any, n: int, what: str, *, unit: str = "") -> np.ndarray:
+    """``value`` flattened (a column, a row, nested lists), as :func:`vector`
+    of length ``n``.
+
+    Raises:
+        InvalidInput: Not ``n`` numbers, or NaN/inf among them.
+    """
+    try:
+        flat: Any = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        flat = value  # refused by vector(), which names it
+    return vector(flat, n, what, unit=unit)
 
 
 def quaternion(value: Any, what: str) -> np.ndarray:
