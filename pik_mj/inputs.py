@@ -22,6 +22,7 @@ from collections.abc import Callable, Iterable, Sequence, Set
 from pathlib import Path
 from typing import Any
 
+import mink
 import mujoco
 import numpy as np
 
@@ -29,6 +30,7 @@ from pik_mj.exceptions import InvalidInput, UnknownName
 
 __all__ = [
     "Q_LIMIT",
+    "as_pose",
     "configuration",
     "flag",
     "flat_vector",
@@ -38,6 +40,7 @@ __all__ = [
     "output_path",
     "quaternion",
     "real",
+    "rotation_matrix",
     "vector",
     "wrenches",
 ]
@@ -176,6 +179,68 @@ def quaternion(value: Any, what: str) -> np.ndarray:
         )
     quat = quat / scale
     return quat / np.linalg.norm(quat)
+
+
+def rotation_matrix(value: Any, what: str, also: str = "") -> np.ndarray:
+    """A rotation ``R`` (3x3) from a ``mink.SO3``, a wxyz quaternion (normalized)
+    or a proper orthonormal 3x3 matrix; :class:`InvalidInput` naming ``what``
+    otherwise (a zero or non-finite quaternion named as such). ``also`` lists
+    the caller's other valid values for the message."""
+    if isinstance(value, mink.SO3):
+        return value.as_matrix()
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.zeros(0)
+    if arr.shape == (4,):
+        if not (np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0):
+            raise InvalidInput(
+                f"{what}: the quaternion {value!r} has zero length or is not finite; "
+                "give a non-zero wxyz quaternion"
+            )
+        return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
+    if (
+        arr.shape == (3, 3)
+        and np.all(np.isfinite(arr))
+        and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
+        and np.linalg.det(arr) > 0
+    ):
+        return arr
+    valid = f"{also}, " if also else ""
+    raise InvalidInput(
+        f"{what} {value!r} is not valid; use {valid}a wxyz quaternion, a rotation matrix "
+        "or a mink.SO3"
+    )
+
+
+def as_pose(value: Any, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
+    """``(p_W (3,), R_W (3,3))`` from a ``mink.SE3``, a 4x4 matrix, or
+    ``(position, quaternion wxyz)``."""
+    if isinstance(value, mink.SE3):
+        p, R = value.translation(), value.rotation().as_matrix()
+    elif isinstance(value, np.ndarray) and value.shape == (4, 4):
+        p, R = value[:3, 3], value[:3, :3]
+    elif isinstance(value, (tuple, list)) and len(value) == 2:
+        p = np.asarray(value[0], dtype=float)
+        quat = np.asarray(value[1], dtype=float)
+        if quat.shape == (3, 3):
+            R = quat
+        elif quat.shape == (4,) and np.linalg.norm(quat) > 0:
+            R = mink.SO3(quat / np.linalg.norm(quat)).as_matrix()
+        else:
+            raise InvalidInput(f"{what}: orientation must be a wxyz quaternion or 3x3 matrix")
+    else:
+        raise InvalidInput(
+            f"{what} must be a mink.SE3, a 4x4 matrix or (position, quat_wxyz); "
+            f"got {type(value).__name__}"
+        )
+    p = np.asarray(p, dtype=float).reshape(-1)
+    R = np.asarray(R, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)) or not np.all(np.isfinite(R)):
+        raise InvalidInput(f"{what}: position must be 3 finite numbers, rotation finite")
+    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
+        raise InvalidInput(f"{what}: rotation is not orthonormal")
+    return p, R
 
 
 def names(value: Any, what: str) -> tuple[str, ...]:

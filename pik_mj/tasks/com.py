@@ -31,7 +31,9 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame, robot_root_body
-from pik_mj.tasks.frame import AxisSpec, constrained_axes, rotation_matrix, skew
+from pik_mj.inputs import rotation_matrix
+from pik_mj.spatial import skew
+from pik_mj.tasks.frame import AxisSpec, constrained_axes
 from pik_mj.tasks.task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]

@@ -33,7 +33,8 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
-from pik_mj.tasks.frame import ONE_DEGREE, skew
+from pik_mj.spatial import skew
+from pik_mj.tasks.frame import ONE_DEGREE
 from pik_mj.tasks.task import EqualityTask, clamp_norm, diagonal_weights
 
 

@@ -37,8 +37,8 @@ import numpy as np
 from pik_mj.balance import SupportRegion, convex_hull_2d, plane_basis, support_polygon
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
+from pik_mj.spatial import skew
 from pik_mj.tasks.com import com_jacobian, com_position, robot_root_body
-from pik_mj.tasks.frame import skew
 from pik_mj.tasks.task import Task, TaskRows
 
 PolygonSpec = Any
