@@ -9,8 +9,9 @@ saying what was wrong and what is valid::
 Numbers are Python or numpy numbers (``np.float64(0.1)``, ``np.int64(50)``);
 booleans and strings are never numbers. :func:`configuration` checks a whole
 ``qpos`` joint by joint (NaN/inf, overflow, zero quaternions) and names the
-joint; :func:`output_path` checks that a file can be written before any work
-starts.
+joint, :func:`mink_configuration` the ``mink.Configuration`` a solve starts
+from (the same checks, and the model's joint ranges); :func:`output_path`
+checks that a file can be written before any work starts.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from __future__ import annotations
 import inspect
 import math
 import os
+import warnings
 from collections.abc import Callable, Iterable, Sequence, Set
 from pathlib import Path
 from typing import Any
@@ -35,6 +37,7 @@ __all__ = [
     "flag",
     "flat_vector",
     "integer",
+    "mink_configuration",
     "names",
     "options",
     "output_path",
@@ -319,6 +322,15 @@ _JOINT_WIDTH = {
     int(mujoco.mjtJoint.mjJNT_SLIDE): 1,
     int(mujoco.mjtJoint.mjJNT_HINGE): 1,
 }
+# joint types compared as ints (a pybind enum makes numpy loop in Python):
+# free 0 and ball 1 hold quaternions, slide 2 and hinge 3 have ranges
+_FREE, _SLIDE = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+
+RANGE_TOLERANCE = 1e-5
+"""[rad or m] How far past its range a joint may start a solve without a
+warning: the QP solvers' accuracy on a limit row (OSQP's
+``eps_abs + eps_rel·|row|``, 1e-6 each), so that a solve started where the
+previous one ended is not warned of its own solver's rounding."""
 
 
 def joint_name(model: mujoco.MjModel, j: int) -> str:
@@ -329,7 +341,8 @@ def joint_name(model: mujoco.MjModel, j: int) -> str:
 def configuration(
     model: mujoco.MjModel, q: Any, what: str = "q", *, sizes: Sequence[int] = ()
 ) -> np.ndarray:
-    """``q`` as a configuration of ``model`` (a copy), checked joint by joint.
+    """``q`` as a configuration of ``model`` (a copy), checked joint by joint
+    (:func:`check_joint_values`).
 
     Args:
         model: The model ``q`` belongs to.
@@ -353,32 +366,127 @@ def configuration(
             f"{what} must be {model.nq} numbers (the model's nq), got {q!r}"
         ) from None
     if v.ndim != 1 or len(v) not in valid:
-        lengths = " or ".join(str(n) for n in dict.fromkeys(valid))
-        raise InvalidInput(
-            f"{what} has shape {v.shape}, but this model's configuration has {lengths} "
-            "numbers: a pose of another model?"
-        )
-    for j in range(model.njnt):
-        a = int(model.jnt_qposadr[j])
-        width = _JOINT_WIDTH[int(model.jnt_type[j])]
-        if a >= len(v):
-            break
-        values = v[a : a + width]
-        if not np.all(np.isfinite(values)):
-            raise InvalidInput(
-                f"{what}: joint {joint_name(model, j)!r} holds NaN or inf ({values.tolist()})"
-            )
-        if np.any(np.abs(values) > Q_LIMIT):
-            raise InvalidInput(
-                f"{what}: joint {joint_name(model, j)!r} is at {values.tolist()}, beyond "
-                f"{Q_LIMIT:g} [rad or m]: an overflow or a units mistake"
-            )
-        if width >= 4 and np.linalg.norm(values[-4:]) < 1e-9:
-            raise InvalidInput(
-                f"{what}: joint {joint_name(model, j)!r} has a zero quaternion "
-                f"{values[-4:].tolist()}; give a non-zero quaternion (w, x, y, z)"
-            )
+        _wrong_shape(model, v, what, valid)
+    check_joint_values(model, v, what)
     return v
+
+
+def _wrong_shape(model: mujoco.MjModel, v: np.ndarray, what: str, valid: Sequence[int]) -> None:
+    lengths = " or ".join(str(n) for n in dict.fromkeys(valid))
+    raise InvalidInput(
+        f"{what} has shape {v.shape}, but this model's configuration has {lengths} "
+        "numbers: a pose of another model?"
+    )
+
+
+def check_joint_values(model: mujoco.MjModel, v: np.ndarray, what: str) -> None:
+    """Refuse a configuration ``v`` (``nq`` numbers, or a prefix of them) of
+    ``model`` holding a meaningless value, naming the first joint (in model
+    order) that holds one: NaN or inf, ``|q_i| >`` :data:`Q_LIMIT` (an
+    overflow or a units mistake), or a free or ball joint's zero quaternion.
+
+    Raises:
+        InvalidInput: The fault, the joint and the entry of ``what`` named.
+    """
+    n = len(v)
+    kind, adr = model.jnt_type, model.jnt_qposadr
+    # the first fault of each kind: (joint, 0 = value / 1 = quaternion, entry)
+    faults: list[tuple[int, int, int]] = []
+    if n and not float(np.abs(v).max()) <= Q_LIMIT:  # (NaN fails too)
+        i = int(np.argmax(~np.isfinite(v) | (np.abs(v) > Q_LIMIT)))
+        faults.append((int(np.searchsorted(adr, i, side="right")) - 1, 0, i))
+    for j in np.flatnonzero(kind < _SLIDE).tolist():
+        a = int(adr[j]) + (3 if kind[j] == _FREE else 0)
+        if a + 4 > n:
+            break
+        w, x, y, z = v[a : a + 4].tolist()
+        if w * w + x * x + y * y + z * z < 1e-18:  # ‖quaternion‖ < 1e-9
+            faults.append((j, 1, a))
+            break
+    if not faults:
+        return
+    j, fault, i = min(faults)
+    name = joint_name(model, j)
+    a = int(adr[j])
+    values = v[a : a + _JOINT_WIDTH[int(kind[j])]]
+    if fault == 1:
+        quat = values[-4:].tolist()
+        raise InvalidInput(
+            f"joint {name!r}: its quaternion in {what} is zero; give a unit quaternion "
+            f"(w, x, y, z) ({what}: joint {name!r} has a zero quaternion {quat})"
+        )
+    finite = np.isfinite(values)
+    if not finite.all():
+        i = a + int(np.argmin(finite))
+        fault_text = "NaN" if np.isnan(v[i]) else "inf"
+        joint_text = "holds NaN or inf"
+    else:
+        fault_text = f"{v[i]:.3g}"
+        joint_text = (
+            f"is at {values.tolist()}, beyond {Q_LIMIT:g} [rad or m]: an overflow or a "
+            "units mistake"
+        )
+    raise InvalidInput(
+        f"{what}[{i}] (joint {name!r}) is {fault_text}; every entry must be finite with "
+        f"|q| <= {Q_LIMIT:g} (rad or m) ({what}: joint {name!r} {joint_text})"
+    )
+
+
+def mink_configuration(value: object) -> mink.Configuration:
+    """A :class:`mink.Configuration` with a usable ``q`` and model, or raise
+    (the configuration a solve starts from).
+
+    Refused: another type (e.g. the ``MjModel`` itself); a ``q`` that
+    :func:`check_joint_values` refuses; a joint whose range is inverted.
+    Warned (:class:`RuntimeWarning`): limited joints outside their range by more
+    than :data:`RANGE_TOLERANCE` (a joint-limit row then pulls them back in;
+    with ``revert_if_fail`` an unsatisfied solve returns to this out-of-range
+    start).
+
+    Raises:
+        InvalidInput: The fault named.
+    """
+    if not isinstance(value, mink.Configuration):
+        hint = (
+            "; build one with mink.Configuration(model)"
+            if isinstance(value, (mujoco.MjModel, mujoco.MjData))
+            else ""
+        )
+        raise InvalidInput(
+            f"configuration must be a mink.Configuration, got {type(value).__name__}{hint}"
+        )
+    model = value.model
+    q = value.q
+    if q.shape != (model.nq,):
+        _wrong_shape(model, q, "configuration.q", (model.nq,))
+    check_joint_values(model, q, "configuration.q")
+    kind = model.jnt_type
+    ranged = np.flatnonzero((kind >= _SLIDE) & (model.jnt_limited != 0))
+    lo, hi = model.jnt_range[ranged].T
+    inverted = ranged[lo > hi]
+    if inverted.size:
+        j = int(inverted[0])
+        raise InvalidInput(
+            f"joint {joint_name(model, j)!r} has an inverted range "
+            f"[{model.jnt_range[j, 0]:g}, {model.jnt_range[j, 1]:g}]; the lower limit "
+            "must not exceed the upper"
+        )
+    values = q[model.jnt_qposadr[ranged]]
+    outside = (values < lo - RANGE_TOLERANCE) | (values > hi + RANGE_TOLERANCE)
+    if outside.any():
+        listed = ", ".join(
+            f"{model.joint(int(j)).name} {v:.4g} not in [{a:.4g}, {b:.4g}]"
+            for j, v, a, b in zip(
+                ranged[outside], values[outside], lo[outside], hi[outside], strict=True
+            )
+        )
+        warnings.warn(
+            f"the start configuration is outside the joint ranges: {listed}; joint-limit "
+            "rows pull these joints back in range",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return value
 
 
 def output_path(path: Any, what: str) -> Path:

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import pik_mj
-from pik_mj.checks import RANGE_TOLERANCE
+from pik_mj.inputs import RANGE_TOLERANCE
 from pik_mj.qp import QPSolution
 from pik_mj.solve import TrustRegion
 from pik_mj.solve.evaluation import RowStack

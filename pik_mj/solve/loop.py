@@ -14,7 +14,7 @@ import numpy as np
 from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.cascade.step import DEFAULT_RELAXATION, Regularization, per_level
-from pik_mj.checks import check_configuration, normalize_levels
+from pik_mj.checks import normalize_levels
 from pik_mj.exceptions import InvalidInput, QPFailure
 from pik_mj.qp.backend import QPBackend
 from pik_mj.qp.make import make_backend
@@ -101,7 +101,7 @@ def solve(
     Warns:
         RuntimeWarning: The start configuration is outside joint ranges.
     """
-    check_configuration(configuration)
+    inputs.mink_configuration(configuration)
     stop = inputs.integer(stop, "stop", low=1)
     min_loop = inputs.integer(min_loop, "min_loop", low=0)
     if min_loop > stop:
@@ -250,6 +250,6 @@ def revert_unless_converged(
 
 def _check_after_callback(configuration: mink.Configuration) -> None:
     try:
-        check_configuration(configuration)
+        inputs.mink_configuration(configuration)
     except InvalidInput as exc:
         raise InvalidInput(f"after a callback: {exc}") from None
