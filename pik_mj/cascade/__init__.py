@@ -1,5 +1,5 @@
-"""One step of the priority cascade: one QP per level (seed 000,
-``prioritized-inverse-kinematics``).
+"""One step of the priority cascade: one QP per level (prioritized-IK manual:
+``prioritized-inverse-kinematics``; docs/priority.md).
 
 Level ``k >= 1`` solves, over ``x = Δq`` (length ``nv``) and slacks ``ω_k`` for its
 own inequality rows:

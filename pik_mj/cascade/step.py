@@ -27,7 +27,7 @@ primal feasibility tolerance."""
 
 @dataclass(frozen=True)
 class Regularization:
-    """Seed ``regular``, ``regular-rel``, ``regular-max`` for one level.
+    """``regular``, ``regular-rel``, ``regular-max`` (prioritized-IK manual) for one level.
 
     ``λ = min(w + w_r · e, w_max)`` where ``e`` is the level's squared error.
     """
@@ -41,7 +41,8 @@ class Regularization:
 
 
 def per_level(value: float | Sequence[float], n_levels: int, name: str) -> list[float]:
-    """Seed convention: a float is shared by every level, a list gives one per level."""
+    """The prioritized-IK manual's convention: a float is shared by every level, a
+    list gives one per level."""
     if type(value) is float:  # the common case, without numpy calls
         values = [value] * n_levels
     else:
@@ -120,7 +121,8 @@ def solve_cascade(
             that cache per problem.
         closed_form: Solve a level in closed form when no inequality is active
             (False: every level goes to the backend). A backend given as an
-            object or a function (seed ``qp-solver``) always gets every level.
+            object or a function (prioritized-IK manual: ``qp-solver``) always
+            gets every level (:attr:`~pik_mj.qp.QPBackend.allows_closed_form`).
 
     Raises:
         InfeasibleHardConstraints: Level 1 is infeasible: only level 0's hard rows

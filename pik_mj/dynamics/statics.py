@@ -47,7 +47,8 @@ def static_balance_point(
         external_forces: Forces (k, 3) [N].
         external_moments: Moments (k, 3) [N·m] (empty: zeros).
         points: Application points (k, 3) [m].
-        z: Height of the balance point [m] (seed ``static-balance-point-height``).
+        z: Height of the balance point [m] (irteus manual:
+            ``static-balance-point-height``).
         gravity: Gravitational acceleration [m/s²] (``|model.opt.gravity|``).
 
     Returns:
@@ -82,7 +83,7 @@ def force_from_joint_torque(J: np.ndarray, tau: np.ndarray) -> np.ndarray:
     """End-effector wrench from joint torques (irteus ``:calc-force-from-joint-torque``).
 
     The joints holding torques ``τ`` against a wrench ``w`` that the end effector
-    EXERTS on the environment satisfy ``τ = Jᵀ w`` (gravity excluded); the seed
+    EXERTS on the environment satisfy ``τ = Jᵀ w`` (gravity excluded); irteus
     inverts it with the pseudo-inverse:
 
     .. math::
