@@ -23,6 +23,8 @@ from mink.tasks.task import BaseTask
 from pik_mj.exceptions import InvalidInput
 from pik_mj.tasks.task import Task, TaskRows, TaskState, no_equality, no_inequality
 
+_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+
 
 class MinkTask(Task):
     """A :class:`BaseTask` used as an equality task of the cascade.
@@ -157,11 +159,11 @@ class MinkTask(Task):
 def _posture_jacobian(model: mujoco.MjModel) -> np.ndarray:
     """A :class:`mink.PostureTask`'s Jacobian on ``model``, as its
     ``compute_jacobian`` makes it at any configuration: ``I`` (nv) with the
-    free joints' columns (``mink.get_freejoint_dims``) zeroed; read-only."""
+    free joints' columns zeroed (the six dofs from each free joint's
+    ``jnt_dofadr``, as ``mink.get_freejoint_dims`` lists them); read-only."""
     J = np.eye(model.nv)
-    _, free_dofs = mink.get_freejoint_dims(model)
-    if free_dofs:
-        J[:, free_dofs] = 0.0
+    for a in model.jnt_dofadr[model.jnt_type == _FREE].tolist():
+        J[:, a : a + 6] = 0.0
     J.flags.writeable = False
     return J
 
