@@ -13,7 +13,8 @@ from fd import fd_jacobian
 
 from pik_mj import FrameTask, InvalidInput
 from pik_mj.robot.loading import load_model
-from pik_mj.tasks.frame import _twist_distances, constrained_axes, ljacinv
+from pik_mj.tasks.frame import constrained_axes, ljacinv
+from pik_mj.tasks.twist import twist_distances
 
 TRANSLATION_AXES = [True, "x", "y", "z", "xy", "yz", "zx", None]
 ROTATION_AXES = [True, "x", "y", "z", None]
@@ -279,7 +280,7 @@ def test_twist_toward_a_robot_frame_is_minks_relative_frame_task(humanoid_cfg):
 
 
 def test_twist_distances_match_the_split_error_at_any_angle():
-    """``_twist_distances`` turns ``(ρ, φ)`` back into the distance between the
+    """``twist_distances`` turns ``(ρ, φ)`` back into the distance between the
     origins and the angle, on both sides of its series (1e-2 rad) and near π."""
     rng = np.random.default_rng(3)
     for angle in (0.0, 1e-7, 3e-3, 9.9e-3, 1.01e-2, 0.4, 2.0, np.pi - 1e-6):
@@ -288,7 +289,7 @@ def test_twist_distances_match_the_split_error_at_any_angle():
         p = rng.normal(size=3)
         T = mink.SE3.from_rotation_and_translation(mink.SO3.exp(angle * axis), p)
         twist = T.log()
-        n_t, n_r = _twist_distances(*twist.tolist())
+        n_t, n_r = twist_distances(*twist.tolist())
         assert n_t == pytest.approx(np.linalg.norm(p), rel=1e-12)
         assert n_r == pytest.approx(angle, rel=1e-12, abs=1e-15)
 

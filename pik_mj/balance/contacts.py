@@ -223,7 +223,15 @@ def wrench_constraints(contact: ContactConstraint) -> tuple[np.ndarray, np.ndarr
     rows: list[list[float]] = []
     d: list[float] = []
 
-    def row(fx=0.0, fy=0.0, fz=0.0, nx=0.0, ny=0.0, nz=0.0, const=0.0) -> None:
+    def row(
+        fx: float = 0.0,
+        fy: float = 0.0,
+        fz: float = 0.0,
+        nx: float = 0.0,
+        ny: float = 0.0,
+        nz: float = 0.0,
+        const: float = 0.0,
+    ) -> None:
         rows.append([fx, fy, fz, nx, ny, nz])
         d.append(const)
 

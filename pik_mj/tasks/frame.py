@@ -82,7 +82,7 @@ from pik_mj.tasks.task import (
     tolerance,
     within,
 )
-from pik_mj.tasks.twist import Twist
+from pik_mj.tasks.twist import Twist, twist_distances
 
 AxisSpec = bool | str | None
 
@@ -232,7 +232,9 @@ class FrameTask(EqualityTask):
         return requested
 
     # -- configuration ------------------------------------------------------
-    def set_target(self, target: Any, target_type: str | None = None, model=None) -> None:
+    def set_target(
+        self, target: Any, target_type: str | None = None, model: mujoco.MjModel | None = None
+    ) -> None:
         """Change the target: a pose, a robot frame name, or a callable."""
         self.target_frame, self.target_fn, self.target_pose = None, None, None
         if isinstance(target, str):
@@ -283,7 +285,9 @@ class FrameTask(EqualityTask):
             return R_WM if option == "local" else np.eye(3)
         return option
 
-    def _errors_world(self, configuration: mink.Configuration):
+    def _errors_world(
+        self, configuration: mink.Configuration
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(e_tW, e_rW, R_WM, R_e)``: world-frame errors [m, rad] and rotations."""
         data = configuration.data
         p_WM, R_WM = self.move_target.position(data), self.move_target.rotation(data)
@@ -344,7 +348,9 @@ class FrameTask(EqualityTask):
         self._twist_toward(configuration)
         return self._twist.error(configuration, jacobian, negated)
 
-    def error_and_jacobian(self, configuration: mink.Configuration):
+    def error_and_jacobian(
+        self, configuration: mink.Configuration
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
         if self.error_type == "twist":
             return self._twist_error(configuration)
@@ -396,7 +402,7 @@ class FrameTask(EqualityTask):
         return e, J
 
     def _local_error(
-        self, configuration
+        self, configuration: mink.Configuration
     ) -> tuple[tuple[float, float, float, float, float, float], np.ndarray, list[float]]:
         """The default case's split error as six Python floats, with ``p_WT``
         and ``R_WM`` (row-major floats), see :meth:`_local`."""
@@ -426,7 +432,7 @@ class FrameTask(EqualityTask):
         tz = r2 * dx + r5 * dy + r8 * dz
         return (tx, ty, tz, rx, ry, rz), p_WT, R
 
-    def _local(self, configuration) -> tuple[tuple[float, ...], np.ndarray]:
+    def _local(self, configuration: mink.Configuration) -> tuple[tuple[float, ...], np.ndarray]:
         """The default case (errors in the move target's frame, fixed or callable
         target): ``(e, J)`` with the error's six components as Python floats
         and the full Jacobian (6, nv). With ``R = R_WM``, ``e_t = R^T (p_WM - p_WT)``,
@@ -490,7 +496,7 @@ class FrameTask(EqualityTask):
             if self.thre.ndim or self.rthre.ndim:  # per-axis tolerances
                 split = self.pose_error(configuration)
                 return TaskState(rows, math.sqrt(float(split @ split)), self.satisfied_by(split))
-            n_t, n_r = _twist_distances(*e6)
+            n_t, n_r = twist_distances(*e6)
             return TaskState(
                 rows,
                 math.sqrt(n_t * n_t + n_r * n_r),
@@ -549,25 +555,6 @@ class FrameTask(EqualityTask):
 
 
 _TargetTerms = tuple[np.ndarray, tuple[float, float, float], tuple[float, float, float, float]]
-
-
-def _twist_distances(
-    ux: float, uy: float, uz: float, rx: float, ry: float, rz: float
-) -> tuple[float, float]:
-    """``(‖p_WM - p_WT‖ [m], θ [rad])`` from the twist ``(ρ, φ)``: ``θ = ‖φ‖``
-    and the translation ``J_l(φ) ρ``, with ``J_l(φ) = I + (1 - cos θ)/θ² [φ]×
-    + (θ - sin θ)/θ³ [φ]×²`` (series below ``θ = 10^{-2}``); Python floats."""
-    theta2 = rx * rx + ry * ry + rz * rz
-    if theta2 < 1e-4:
-        a, b = 0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0
-    else:
-        theta = math.sqrt(theta2)
-        a = (1.0 - math.cos(theta)) / theta2
-        b = (theta - math.sin(theta)) / (theta2 * theta)
-    cx, cy, cz = ry * uz - rz * uy, rz * ux - rx * uz, rx * uy - ry * ux  # φ × ρ
-    dx, dy, dz = ry * cz - rz * cy, rz * cx - rx * cz, rx * cy - ry * cx  # φ × (φ × ρ)
-    px, py, pz = ux + a * cx + b * dx, uy + a * cy + b * dy, uz + a * cz + b * dz
-    return math.sqrt(px * px + py * py + pz * pz), math.sqrt(theta2)
 
 
 def _point_and_conjugate(p: np.ndarray, R: np.ndarray) -> _TargetTerms:

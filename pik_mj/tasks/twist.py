@@ -16,6 +16,8 @@ target, target pose identity) with this one.
 
 from __future__ import annotations
 
+import math
+
 import mink
 import numpy as np
 
@@ -91,3 +93,22 @@ class Twist:
         if opposite:
             np.negative(J, out=J)
         return e, J
+
+
+def twist_distances(
+    ux: float, uy: float, uz: float, rx: float, ry: float, rz: float
+) -> tuple[float, float]:
+    """``(‖p_WM - p_WT‖ [m], θ [rad])`` from the twist ``(ρ, φ)``: ``θ = ‖φ‖``
+    and the translation ``J_l(φ) ρ``, with ``J_l(φ) = I + (1 - cos θ)/θ² [φ]×
+    + (θ - sin θ)/θ³ [φ]×²`` (series below ``θ = 10^{-2}``); Python floats."""
+    theta2 = rx * rx + ry * ry + rz * rz
+    if theta2 < 1e-4:
+        a, b = 0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0
+    else:
+        theta = math.sqrt(theta2)
+        a = (1.0 - math.cos(theta)) / theta2
+        b = (theta - math.sin(theta)) / (theta2 * theta)
+    cx, cy, cz = ry * uz - rz * uy, rz * ux - rx * uz, rx * uy - ry * ux  # φ × ρ
+    dx, dy, dz = ry * cz - rz * cy, rz * cx - rx * cz, rx * cy - ry * cx  # φ × (φ × ρ)
+    px, py, pz = ux + a * cx + b * dx, uy + a * cy + b * dy, uz + a * cz + b * dz
+    return math.sqrt(px * px + py * py + pz * pz), math.sqrt(theta2)
