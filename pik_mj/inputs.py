@@ -9,8 +9,9 @@ saying what was wrong and what is valid::
 Numbers are Python or numpy numbers (``np.float64(0.1)``, ``np.int64(50)``);
 booleans and strings are never numbers. :func:`configuration` checks a whole
 ``qpos`` joint by joint (NaN/inf, overflow, zero quaternions) and names the
-joint; :func:`output_path` checks that a file can be written before any work
-starts.
+joint, :func:`mink_configuration` the ``mink.Configuration`` a solve starts
+from (the same checks, and the model's joint ranges); :func:`output_path`
+checks that a file can be written before any work starts.
 """
 
 from __future__ import annotations
@@ -18,10 +19,12 @@ from __future__ import annotations
 import inspect
 import math
 import os
+import warnings
 from collections.abc import Callable, Iterable, Sequence, Set
 from pathlib import Path
 from typing import Any
 
+import mink
 import mujoco
 import numpy as np
 
@@ -29,14 +32,18 @@ from pik_mj.exceptions import InvalidInput, UnknownName
 
 __all__ = [
     "Q_LIMIT",
+    "as_pose",
     "configuration",
     "flag",
+    "flat_vector",
     "integer",
+    "mink_configuration",
     "names",
     "options",
     "output_path",
     "quaternion",
     "real",
+    "rotation_matrix",
     "vector",
     "wrenches",
 ]
@@ -146,6 +153,20 @@ def vector(value: Any, n: int, what: str, *, unit: str = "") -> np.ndarray:
     return v
 
 
+def flat_vector(value: Any, n: int, what: str, *, unit: str = "") -> np.ndarray:
+    """``value`` flattened (a column, a row, nested lists), as :func:`vector`
+    of length ``n``.
+
+    Raises:
+        InvalidInput: Not ``n`` numbers, or NaN/inf among them.
+    """
+    try:
+        flat: Any = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        flat = value  # refused by vector(), which names it
+    return vector(flat, n, what, unit=unit)
+
+
 def quaternion(value: Any, what: str) -> np.ndarray:
     """``value`` as a unit quaternion (w, x, y, z): 4 finite numbers of non-zero
     norm, normalized (without overflow: scaled by its largest entry first).
@@ -161,6 +182,68 @@ def quaternion(value: Any, what: str) -> np.ndarray:
         )
     quat = quat / scale
     return quat / np.linalg.norm(quat)
+
+
+def rotation_matrix(value: Any, what: str, also: str = "") -> np.ndarray:
+    """A rotation ``R`` (3x3) from a ``mink.SO3``, a wxyz quaternion (normalized)
+    or a proper orthonormal 3x3 matrix; :class:`InvalidInput` naming ``what``
+    otherwise (a zero or non-finite quaternion named as such). ``also`` lists
+    the caller's other valid values for the message."""
+    if isinstance(value, mink.SO3):
+        return value.as_matrix()
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.zeros(0)
+    if arr.shape == (4,):
+        if not (np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0):
+            raise InvalidInput(
+                f"{what}: the quaternion {value!r} has zero length or is not finite; "
+                "give a non-zero wxyz quaternion"
+            )
+        return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
+    if (
+        arr.shape == (3, 3)
+        and np.all(np.isfinite(arr))
+        and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
+        and np.linalg.det(arr) > 0
+    ):
+        return arr
+    valid = f"{also}, " if also else ""
+    raise InvalidInput(
+        f"{what} {value!r} is not valid; use {valid}a wxyz quaternion, a rotation matrix "
+        "or a mink.SO3"
+    )
+
+
+def as_pose(value: Any, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
+    """``(p_W (3,), R_W (3,3))`` from a ``mink.SE3``, a 4x4 matrix, or
+    ``(position, quaternion wxyz)``."""
+    if isinstance(value, mink.SE3):
+        p, R = value.translation(), value.rotation().as_matrix()
+    elif isinstance(value, np.ndarray) and value.shape == (4, 4):
+        p, R = value[:3, 3], value[:3, :3]
+    elif isinstance(value, (tuple, list)) and len(value) == 2:
+        p = np.asarray(value[0], dtype=float)
+        quat = np.asarray(value[1], dtype=float)
+        if quat.shape == (3, 3):
+            R = quat
+        elif quat.shape == (4,) and np.linalg.norm(quat) > 0:
+            R = mink.SO3(quat / np.linalg.norm(quat)).as_matrix()
+        else:
+            raise InvalidInput(f"{what}: orientation must be a wxyz quaternion or 3x3 matrix")
+    else:
+        raise InvalidInput(
+            f"{what} must be a mink.SE3, a 4x4 matrix or (position, quat_wxyz); "
+            f"got {type(value).__name__}"
+        )
+    p = np.asarray(p, dtype=float).reshape(-1)
+    R = np.asarray(R, dtype=float)
+    if p.shape != (3,) or not np.all(np.isfinite(p)) or not np.all(np.isfinite(R)):
+        raise InvalidInput(f"{what}: position must be 3 finite numbers, rotation finite")
+    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
+        raise InvalidInput(f"{what}: rotation is not orthonormal")
+    return p, R
 
 
 def names(value: Any, what: str) -> tuple[str, ...]:
@@ -239,6 +322,15 @@ _JOINT_WIDTH = {
     int(mujoco.mjtJoint.mjJNT_SLIDE): 1,
     int(mujoco.mjtJoint.mjJNT_HINGE): 1,
 }
+# joint types compared as ints (a pybind enum makes numpy loop in Python):
+# free 0 and ball 1 hold quaternions, slide 2 and hinge 3 have ranges
+_FREE, _SLIDE = int(mujoco.mjtJoint.mjJNT_FREE), int(mujoco.mjtJoint.mjJNT_SLIDE)
+
+RANGE_TOLERANCE = 1e-5
+"""[rad or m] How far past its range a joint may start a solve without a
+warning: the QP solvers' accuracy on a limit row (OSQP's
+``eps_abs + eps_rel·|row|``, 1e-6 each), so that a solve started where the
+previous one ended is not warned of its own solver's rounding."""
 
 
 def joint_name(model: mujoco.MjModel, j: int) -> str:
@@ -249,7 +341,8 @@ def joint_name(model: mujoco.MjModel, j: int) -> str:
 def configuration(
     model: mujoco.MjModel, q: Any, what: str = "q", *, sizes: Sequence[int] = ()
 ) -> np.ndarray:
-    """``q`` as a configuration of ``model`` (a copy), checked joint by joint.
+    """``q`` as a configuration of ``model`` (a copy), checked joint by joint
+    (:func:`check_joint_values`).
 
     Args:
         model: The model ``q`` belongs to.
@@ -273,32 +366,127 @@ def configuration(
             f"{what} must be {model.nq} numbers (the model's nq), got {q!r}"
         ) from None
     if v.ndim != 1 or len(v) not in valid:
-        lengths = " or ".join(str(n) for n in dict.fromkeys(valid))
-        raise InvalidInput(
-            f"{what} has shape {v.shape}, but this model's configuration has {lengths} "
-            "numbers: a pose of another model?"
-        )
-    for j in range(model.njnt):
-        a = int(model.jnt_qposadr[j])
-        width = _JOINT_WIDTH[int(model.jnt_type[j])]
-        if a >= len(v):
-            break
-        values = v[a : a + width]
-        if not np.all(np.isfinite(values)):
-            raise InvalidInput(
-                f"{what}: joint {joint_name(model, j)!r} holds NaN or inf ({values.tolist()})"
-            )
-        if np.any(np.abs(values) > Q_LIMIT):
-            raise InvalidInput(
-                f"{what}: joint {joint_name(model, j)!r} is at {values.tolist()}, beyond "
-                f"{Q_LIMIT:g} [rad or m]: an overflow or a units mistake"
-            )
-        if width >= 4 and np.linalg.norm(values[-4:]) < 1e-9:
-            raise InvalidInput(
-                f"{what}: joint {joint_name(model, j)!r} has a zero quaternion "
-                f"{values[-4:].tolist()}; give a non-zero quaternion (w, x, y, z)"
-            )
+        _wrong_shape(model, v, what, valid)
+    check_joint_values(model, v, what)
     return v
+
+
+def _wrong_shape(model: mujoco.MjModel, v: np.ndarray, what: str, valid: Sequence[int]) -> None:
+    lengths = " or ".join(str(n) for n in dict.fromkeys(valid))
+    raise InvalidInput(
+        f"{what} has shape {v.shape}, but this model's configuration has {lengths} "
+        "numbers: a pose of another model?"
+    )
+
+
+def check_joint_values(model: mujoco.MjModel, v: np.ndarray, what: str) -> None:
+    """Refuse a configuration ``v`` (``nq`` numbers, or a prefix of them) of
+    ``model`` holding a meaningless value, naming the first joint (in model
+    order) that holds one: NaN or inf, ``|q_i| >`` :data:`Q_LIMIT` (an
+    overflow or a units mistake), or a free or ball joint's zero quaternion.
+
+    Raises:
+        InvalidInput: The fault, the joint and the entry of ``what`` named.
+    """
+    n = len(v)
+    kind, adr = model.jnt_type, model.jnt_qposadr
+    # the first fault of each kind: (joint, 0 = value / 1 = quaternion, entry)
+    faults: list[tuple[int, int, int]] = []
+    if n and not float(np.abs(v).max()) <= Q_LIMIT:  # (NaN fails too)
+        i = int(np.argmax(~np.isfinite(v) | (np.abs(v) > Q_LIMIT)))
+        faults.append((int(np.searchsorted(adr, i, side="right")) - 1, 0, i))
+    for j in np.flatnonzero(kind < _SLIDE).tolist():
+        a = int(adr[j]) + (3 if kind[j] == _FREE else 0)
+        if a + 4 > n:
+            break
+        w, x, y, z = v[a : a + 4].tolist()
+        if w * w + x * x + y * y + z * z < 1e-18:  # ‖quaternion‖ < 1e-9
+            faults.append((j, 1, a))
+            break
+    if not faults:
+        return
+    j, fault, i = min(faults)
+    name = joint_name(model, j)
+    a = int(adr[j])
+    values = v[a : a + _JOINT_WIDTH[int(kind[j])]]
+    if fault == 1:
+        quat = values[-4:].tolist()
+        raise InvalidInput(
+            f"joint {name!r}: its quaternion in {what} is zero; give a unit quaternion "
+            f"(w, x, y, z) ({what}: joint {name!r} has a zero quaternion {quat})"
+        )
+    finite = np.isfinite(values)
+    if not finite.all():
+        i = a + int(np.argmin(finite))
+        fault_text = "NaN" if np.isnan(v[i]) else "inf"
+        joint_text = "holds NaN or inf"
+    else:
+        fault_text = f"{v[i]:.3g}"
+        joint_text = (
+            f"is at {values.tolist()}, beyond {Q_LIMIT:g} [rad or m]: an overflow or a "
+            "units mistake"
+        )
+    raise InvalidInput(
+        f"{what}[{i}] (joint {name!r}) is {fault_text}; every entry must be finite with "
+        f"|q| <= {Q_LIMIT:g} (rad or m) ({what}: joint {name!r} {joint_text})"
+    )
+
+
+def mink_configuration(value: object) -> mink.Configuration:
+    """A :class:`mink.Configuration` with a usable ``q`` and model, or raise
+    (the configuration a solve starts from).
+
+    Refused: another type (e.g. the ``MjModel`` itself); a ``q`` that
+    :func:`check_joint_values` refuses; a joint whose range is inverted.
+    Warned (:class:`RuntimeWarning`): limited joints outside their range by more
+    than :data:`RANGE_TOLERANCE` (a joint-limit row then pulls them back in;
+    with ``revert_if_fail`` an unsatisfied solve returns to this out-of-range
+    start).
+
+    Raises:
+        InvalidInput: The fault named.
+    """
+    if not isinstance(value, mink.Configuration):
+        hint = (
+            "; build one with mink.Configuration(model)"
+            if isinstance(value, (mujoco.MjModel, mujoco.MjData))
+            else ""
+        )
+        raise InvalidInput(
+            f"configuration must be a mink.Configuration, got {type(value).__name__}{hint}"
+        )
+    model = value.model
+    q = value.q
+    if q.shape != (model.nq,):
+        _wrong_shape(model, q, "configuration.q", (model.nq,))
+    check_joint_values(model, q, "configuration.q")
+    kind = model.jnt_type
+    ranged = np.flatnonzero((kind >= _SLIDE) & (model.jnt_limited != 0))
+    lo, hi = model.jnt_range[ranged].T
+    inverted = ranged[lo > hi]
+    if inverted.size:
+        j = int(inverted[0])
+        raise InvalidInput(
+            f"joint {joint_name(model, j)!r} has an inverted range "
+            f"[{model.jnt_range[j, 0]:g}, {model.jnt_range[j, 1]:g}]; the lower limit "
+            "must not exceed the upper"
+        )
+    values = q[model.jnt_qposadr[ranged]]
+    outside = (values < lo - RANGE_TOLERANCE) | (values > hi + RANGE_TOLERANCE)
+    if outside.any():
+        listed = ", ".join(
+            f"{model.joint(int(j)).name} {v:.4g} not in [{a:.4g}, {b:.4g}]"
+            for j, v, a, b in zip(
+                ranged[outside], values[outside], lo[outside], hi[outside], strict=True
+            )
+        )
+        warnings.warn(
+            f"the start configuration is outside the joint ranges: {listed}; joint-limit "
+            "rows pull these joints back in range",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+    return value
 
 
 def output_path(path: Any, what: str) -> Path:

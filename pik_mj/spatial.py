@@ -1,5 +1,6 @@
-"""Small spatial helpers shared by the top layer: cross-product matrix, rotations
-about z, quaternion <-> matrix (MuJoCo's own conversions), planar headings.
+"""Small spatial helpers: the cross-product matrix, rotations about z,
+quaternion <-> matrix (MuJoCo's own conversions), planar headings, and the
+SO(3) logarithm and its inverse left Jacobian.
 
 Quaternions are (w, x, y, z), as MuJoCo stores them; angles in [rad].
 """
@@ -14,10 +15,14 @@ from numpy.typing import ArrayLike
 
 __all__ = [
     "STANDARD_GRAVITY",
+    "ljacinv",
+    "ljacinv_rows",
     "matrix_to_quat",
+    "quat_log",
     "quat_mul",
     "quat_to_matrix",
     "rot_z",
+    "rotation_vector",
     "skew",
     "yaw_of",
     "yaw_quat",
@@ -29,8 +34,8 @@ model); everything that has a model reads ``model.opt.gravity``."""
 
 
 def skew(v: ArrayLike) -> np.ndarray:
-    """Matrix ``[v]x`` (3, 3) with ``[v]x u = v x u``."""
-    x, y, z = np.asarray(v, dtype=float).reshape(3)
+    """Matrix ``[v]×`` (3, 3) with ``[v]× u = v × u``."""
+    x, y, z = np.asarray(v, dtype=float).reshape(3).tolist()
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
@@ -74,3 +79,64 @@ def quat_mul(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     out = np.empty(4)
     mujoco.mju_mulQuat(out, np.asarray(a, dtype=float), np.asarray(b, dtype=float))
     return out
+
+
+def rotation_vector(R: ArrayLike) -> np.ndarray:
+    """``log(R)`` as a rotation vector ``θ u`` [rad], ``θ ∈ [0, π]``.
+
+    MuJoCo's ``mju_mat2Quat`` then ``mju_quat2Vel`` (unit time step), which
+    picks the shorter of the two rotations a quaternion's sign leaves open.
+    """
+    e = np.empty(3)
+    mujoco.mju_quat2Vel(e, matrix_to_quat(R), 1.0)
+    return e
+
+
+def quat_log(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    """The rotation vector [rad] of a unit quaternion, as MuJoCo's
+    ``mju_quat2Vel`` at unit time step (the shorter of the two rotations),
+    on Python floats: ``θ = 2 atan2(‖v‖, w)``, less ``2π`` above ``π``,
+    times ``v / ‖v‖``."""
+    s = math.sqrt(x * x + y * y + z * z)
+    if s < 1e-15:  # MuJoCo's mjMINVAL: no axis, no rotation
+        return 0.0, 0.0, 0.0
+    angle = 2.0 * math.atan2(s, w)
+    if angle > math.pi:
+        angle -= 2.0 * math.pi
+    k = angle / s
+    return k * x, k * y, k * z
+
+
+def ljacinv(e: ArrayLike) -> np.ndarray:
+    """Inverse left Jacobian of SO(3) at ``e`` [rad], safe at ``e = 0``.
+
+    .. math::
+
+        J_l^{-1}(e) = I - \\tfrac12 [e]_\\times
+            + \\Big(\\frac{1}{\\theta^2} - \\frac{1 + \\cos\\theta}{2\\theta\\sin\\theta}\\Big)
+              [e]_\\times^2, \\quad \\theta = \\|e\\|
+
+    Closed form, as mink's ``SO3.ljacinv`` (which divides by zero at ``θ = 0``);
+    below 1e-6 rad the series ``I - ½[e]× + [e]×²/12`` is exact to double
+    precision.
+    """
+    x, y, z = np.asarray(e, dtype=float).reshape(3).tolist()
+    return np.array(ljacinv_rows(x, y, z))
+
+
+def ljacinv_rows(x: float, y: float, z: float) -> list[list[float]]:
+    """The rows of :func:`ljacinv` at ``e = (x, y, z)``, as Python floats
+    (written out with ``[e]×² = e eᵀ − θ² I``)."""
+    theta2 = x * x + y * y + z * z
+    theta = math.sqrt(theta2)
+    if theta < 1e-6:
+        c = 1.0 / 12.0
+    else:
+        c = 1.0 / theta2 - (1.0 + math.cos(theta)) / (2.0 * theta * math.sin(theta))
+    a = 1.0 - c * theta2
+    cxy, cxz, cyz = c * x * y, c * x * z, c * y * z
+    return [
+        [a + c * x * x, cxy + 0.5 * z, cxz - 0.5 * y],
+        [cxy - 0.5 * z, a + c * y * y, cyz + 0.5 * x],
+        [cxz + 0.5 * y, cyz - 0.5 * x, a + c * z * z],
+    ]

@@ -19,9 +19,10 @@ import numpy as np
 import pytest
 
 import pik_mj
-from pik_mj.checks import RANGE_TOLERANCE
+from pik_mj.inputs import RANGE_TOLERANCE
 from pik_mj.qp import QPSolution
-from pik_mj.solve import TrustRegion, _Stack
+from pik_mj.solve import TrustRegion
+from pik_mj.solve.evaluation import RowStack
 from pik_mj.tasks import MinkLimit
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
@@ -594,10 +595,10 @@ def test_only_levels_of_tasks_finite_by_construction_skip_the_finite_check():
     box = MinkLimit(mink.ConfigurationLimit(MODEL))
     velocity = MinkLimit(mink.VelocityLimit(MODEL, {"right_elbow": 1.0}))
     linear = pik_mj.LinearTask(A=np.eye(MODEL.nv)[6:7], b=np.zeros(1))
-    assert _Stack(feet).finite and _Stack(hand).finite and _Stack([box]).finite
-    assert not _Stack([box, velocity]).finite
-    assert not _Stack([*feet, linear]).finite
-    assert not _Stack([]).finite
+    assert RowStack(feet).finite and RowStack(hand).finite and RowStack([box]).finite
+    assert not RowStack([box, velocity]).finite
+    assert not RowStack([*feet, linear]).finite
+    assert not RowStack([]).finite
 
 
 class _DeclaredFinite(Task):

@@ -24,14 +24,19 @@ from pik_mj.cascade import (
     DEFAULT_RELAXATION,
     NullSpaceCascade,
     Regularization,
-    _chol_solve,
-    _cholesky,
-    _projection,
-    _psd_solve,
     solve_cascade,
 )
-from pik_mj.qp import OSQPBackend, QPSolution, QpsolversBackend, make_backend
-from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend, HierarchicalProblem
+from pik_mj.cascade.linalg import chol_solve, cholesky, psd_solve
+from pik_mj.cascade.step import _projection
+from pik_mj.qp import (
+    DAQPBackend,
+    HierarchicalBackend,
+    HierarchicalProblem,
+    OSQPBackend,
+    QPSolution,
+    QpsolversBackend,
+    make_backend,
+)
 
 NV = 8
 # eps_prim_inf well below τ (1e-9): see OSQP_DEFAULTS.
@@ -502,7 +507,7 @@ def captured_cmu_cascades(monkeypatch, n_targets=3):
 
     import pik_mj
 
-    solve_module = importlib.import_module("pik_mj.solve")
+    solve_module = importlib.import_module("pik_mj.solve.step")
     model = cases.cmu_humanoid()
     targets = cases.reachable_hand_targets(model, n_targets, seed=1)
     seen = []
@@ -909,7 +914,7 @@ def test_null_space_projector_matches_pseudo_inverse(rank):
     nv = 62
     B = rng.normal(size=(12, rank)) @ rng.normal(size=(rank, nv))
     G = B @ B.T
-    assert (_cholesky(G) is None) == (rank < 12)
+    assert (cholesky(G) is None) == (rank < 12)
     cascade = NullSpaceCascade(TaskRows.empty(nv), None, 0.0, "step")
     cascade._keep(B)
     P = np.eye(nv) - np.linalg.pinv(B, rcond=1e-10) @ B
@@ -920,7 +925,7 @@ def test_null_space_projector_matches_pseudo_inverse(rank):
     G2 = B2 @ B2.T
     r = rng.normal(size=5)
     np.testing.assert_allclose(
-        _psd_solve(G2, r), np.linalg.pinv(G2, rcond=1e-10, hermitian=True) @ r, atol=1e-9
+        psd_solve(G2, r), np.linalg.pinv(G2, rcond=1e-10, hermitian=True) @ r, atol=1e-9
     )
 
 
@@ -975,7 +980,7 @@ def _numpy_pivot_test(G: np.ndarray) -> bool:
 
 @pytest.mark.parametrize("n", [1, 6, 12, 56])
 def test_mujoco_cholesky_matches_numpy_and_the_pivot_test(n):
-    """``_cholesky`` and ``_chol_solve`` (MuJoCo's ``mju_cholFactor`` and
+    """``cholesky`` and ``chol_solve`` (MuJoCo's ``mju_cholFactor`` and
     ``mju_cholSolve``) against numpy's LAPACK ``cholesky`` and ``solve`` on
     regular Gram matrices, and None exactly where the pivot test on numpy's
     factor finds ``G`` singular or nearly so: dependent rows, a row scaled to
@@ -986,10 +991,10 @@ def test_mujoco_cholesky_matches_numpy_and_the_pivot_test(n):
     G = B @ B.T
     r = rng.normal(size=n)
     assert _numpy_pivot_test(G)
-    L = _cholesky(G)
+    L = cholesky(G)
     np.testing.assert_allclose(L, np.linalg.cholesky(G), rtol=1e-12, atol=1e-12)
     assert np.all(np.triu(L, 1) == 0.0)
-    y = _chol_solve(G, r)
+    y = chol_solve(G, r)
     np.testing.assert_allclose(y, np.linalg.solve(G, r), rtol=1e-12, atol=1e-14)
     np.testing.assert_array_equal(G, B @ B.T)  # G itself untouched
     if n > 1:
@@ -998,8 +1003,8 @@ def test_mujoco_cholesky_matches_numpy_and_the_pivot_test(n):
         for singular in (dependent, tiny):
             S = singular @ singular.T
             assert not _numpy_pivot_test(S)
-            assert _cholesky(S) is None and _chol_solve(S, r) is None
+            assert cholesky(S) is None and chol_solve(S, r) is None
     for singular in (np.zeros((n, n)), -G):
         assert not _numpy_pivot_test(singular)
-        assert _cholesky(singular) is None and _chol_solve(singular, r) is None
-    assert _chol_solve(np.zeros((0, 0)), np.zeros(0)) is None
+        assert cholesky(singular) is None and chol_solve(singular, r) is None
+    assert chol_solve(np.zeros((0, 0)), np.zeros(0)) is None

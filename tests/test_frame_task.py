@@ -13,8 +13,8 @@ from fd import fd_jacobian
 
 from pik_mj import FrameTask, InvalidInput
 from pik_mj.robot.loading import load_model
-from pik_mj.tasks import frame as frame_module
-from pik_mj.tasks.frame import _twist_distances, constrained_axes, ljacinv
+from pik_mj.tasks.frame import constrained_axes, ljacinv
+from pik_mj.tasks.twist import twist_distances
 
 TRANSLATION_AXES = [True, "x", "y", "z", "xy", "yz", "zx", None]
 ROTATION_AXES = [True, "x", "y", "z", None]
@@ -219,22 +219,15 @@ def test_split_rows_match_the_module_formulas_written_with_mink(humanoid_cfg, fr
         np.testing.assert_allclose(task.compute_error(cfg), e, rtol=0, atol=1e-14)
 
 
-@pytest.mark.parametrize("compiled", [True, False], ids=["mink-compiled-ops", "mink-tasks"])
 @pytest.mark.parametrize("frame_type", ["body", "site", "geom"])
 def test_twist_rows_are_mink_frame_tasks_and_the_stop_test_reads_the_split_error(
-    humanoid_cfg, frame_type, compiled, monkeypatch
+    humanoid_cfg, frame_type
 ):
     """The default rows of a whole pose are mink's ``FrameTask`` rows with the
     sign of ``log(T_WT⁻¹ T_WM)`` (mink's error is ``log(T_WM⁻¹ T_WT)``); the
     error norm and the stop test are the split error's (the distance between
     the origins, the rotation angle), for a fixed and a callable target,
-    clamped and not, and a target reached within tolerance. Both ways to the
-    rows: one pass with mink's compiled SE(3) operations, and mink's task's
-    own calls (a mink without them)."""
-    if compiled:
-        assert frame_module._mink_lie is not None, "the pinned mink ships its compiled ops"
-    else:
-        monkeypatch.setattr(frame_module, "_mink_lie", None)
+    clamped and not, and a target reached within tolerance."""
     cfg = humanoid_cfg
     name, here, near, cases = default_case_targets(cfg, frame_type)
     pose = cases[0][0]
@@ -287,7 +280,7 @@ def test_twist_toward_a_robot_frame_is_minks_relative_frame_task(humanoid_cfg):
 
 
 def test_twist_distances_match_the_split_error_at_any_angle():
-    """``_twist_distances`` turns ``(ρ, φ)`` back into the distance between the
+    """``twist_distances`` turns ``(ρ, φ)`` back into the distance between the
     origins and the angle, on both sides of its series (1e-2 rad) and near π."""
     rng = np.random.default_rng(3)
     for angle in (0.0, 1e-7, 3e-3, 9.9e-3, 1.01e-2, 0.4, 2.0, np.pi - 1e-6):
@@ -296,7 +289,7 @@ def test_twist_distances_match_the_split_error_at_any_angle():
         p = rng.normal(size=3)
         T = mink.SE3.from_rotation_and_translation(mink.SO3.exp(angle * axis), p)
         twist = T.log()
-        n_t, n_r = _twist_distances(*twist.tolist())
+        n_t, n_r = twist_distances(*twist.tolist())
         assert n_t == pytest.approx(np.linalg.norm(p), rel=1e-12)
         assert n_r == pytest.approx(angle, rel=1e-12, abs=1e-15)
 

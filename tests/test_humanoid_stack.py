@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 import pik_mj
-from pik_mj.solve import CORRECT_ABOVE, TaskReport, TrustRegion, _Point, _predicted_decrease
+from pik_mj.solve import CORRECT_ABOVE, TaskReport, TrustRegion
+from pik_mj.solve.evaluation import Point
+from pik_mj.solve.trust_region import predicted_decrease
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import as_task
 from pik_mj.tasks.task import TaskRows, TaskState
@@ -500,17 +502,17 @@ def test_predicted_decrease_is_the_drop_of_the_rows_residual_norm():
 
     for _ in range(20):
         x = rng.normal(size=nv)
-        assert _predicted_decrease(rows, x) == pytest.approx(
+        assert predicted_decrease(rows, x) == pytest.approx(
             residual(np.zeros(nv)) - residual(x), abs=1e-12
         )
     equality_only = rows._replace(C=np.zeros((0, nv)), d_lower=lo[:0], d_upper=hi[:0])
     x = rng.normal(size=nv)
     expected = np.linalg.norm(rows.b) - np.linalg.norm(rows.A @ x - rows.b)
-    assert _predicted_decrease(equality_only, x) == pytest.approx(expected, abs=1e-12)
+    assert predicted_decrease(equality_only, x) == pytest.approx(expected, abs=1e-12)
 
 
 class _Reports:
-    """What :meth:`_Point.satisfaction` reads: the reports of the evaluated levels."""
+    """What :meth:`Point.satisfaction` reads: the reports of the evaluated levels."""
 
     def __init__(self, levels):
         self.level_reports = [
@@ -533,4 +535,4 @@ class _Reports:
     ],
 )
 def test_satisfaction_counts_the_leading_satisfied_levels(levels, expected):
-    assert _Point.satisfaction(_Reports(levels)) == expected
+    assert Point.satisfaction(_Reports(levels)) == expected

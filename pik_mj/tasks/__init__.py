@@ -1,6 +1,6 @@
-"""Tasks of the cascade: the seed's task library and adapters for mink.
+"""Tasks of the cascade: the prioritized-IK manual's task library and adapters for mink.
 
-Seed 000 task → class:
+prioritized-IK manual task → class:
 
 * ``minmax-angle-task`` → :class:`JointLimitTask`
 * ``joint-velocity-task`` → :class:`JointVelocityTask`
@@ -10,7 +10,7 @@ Seed 000 task → class:
 * ``centroid-support-polygon-task`` → :class:`SupportPolygonTask`
 * ``centroid-scfr-task`` → :class:`ScfrTask`
 
-and from irteus (seed 001): :class:`CollisionAvoidanceTask`, :class:`LookAtTask`,
+and from the irteus manual: :class:`CollisionAvoidanceTask`, :class:`LookAtTask`,
 :class:`LinearTask` (the additional-Jacobian hook).
 """
 

@@ -1,4 +1,5 @@
-"""Collision avoidance as inequality rows (irteus ``:collision-avoidance``, Sugiura et al.).
+"""Collision avoidance as inequality rows (irteus manual: ``:collision-avoidance``;
+Sugiura et al.).
 
 For each pair of geoms ``(a, b)`` MuJoCo gives the signed distance ``d`` and the
 witness points ``p_a``, ``p_b`` (``mj_geomDistance``, its ``fromto`` segment).
@@ -9,11 +10,12 @@ penetrate), the distance changes to first order as
 
     \\dot d = n^T \\big(J_p(p_a) - J_p(p_b)\\big)\\, \\dot q
 
-(``J_p`` of a point fixed to the geom's body, ``mj_jac``). The seed's two zones:
+(``J_p`` of a point fixed to the geom's body, ``mj_jac``). The irteus manual's
+two zones:
 
-* yellow zone ``d_y`` (seed ``avoid-collision-distance``, 200 mm): a pair
+* yellow zone ``d_y`` (``avoid-collision-distance``, 200 mm): a pair
   farther apart contributes nothing (no row);
-* orange zone ``d_o`` (seed: 0.1 ``d_y``): the minimum distance kept.
+* orange zone ``d_o`` (0.1 ``d_y``): the minimum distance kept.
 
 Inside the yellow zone a pair's row is the velocity damper of Faverjon &
 Tournassoud (the step may close at most a fraction ``γ`` of the gap to the
@@ -26,9 +28,9 @@ orange zone):
 so ``d + Δd ≥ d_o + (1 - γ)(d - d_o)``; ``γ = 1`` is the plain linearization
 ``d + Δd ≥ d_o``, and a pair already inside the orange zone is pushed out.
 Where the task stands in the priority list decides what wins: above the
-hand's target it avoids even against the target (the seed's orange zone);
-below it, avoidance uses only what the target leaves free (the seed's null
-space term). Pair lists are built like the seed's
+hand's target it avoids even against the target (irteus' orange zone);
+below it, avoidance uses only what the target leaves free (irteus' null
+space term). Pair lists are built like irteus'
 ``collision-avoidance-link-pair-from-link-list``: see :func:`collision_pairs`.
 
 A pair already closer than ``d_o`` when the task is made (standing, Unitree
@@ -60,7 +62,7 @@ from pik_mj.tasks.joint_limit import find_joint
 from pik_mj.tasks.task import Task, TaskRows, TaskState
 
 DEFAULT_YELLOW = 0.2
-"""Seed ``avoid-collision-distance`` [m] (200 mm)."""
+"""``avoid-collision-distance`` [m] (irteus manual; 200 mm)."""
 
 
 class GeomPair(NamedTuple):
@@ -110,7 +112,7 @@ def collision_pairs(
     *,
     touching: float = 0.0,
 ) -> list[GeomPair]:
-    """Geom pairs to watch, built like the seed's link-pair list.
+    """Geom pairs to watch, built like irteus' link-pair list.
 
     1. every pair of collidable geoms of two different ``links`` (self collision),
        and every link geom against every ``obstacles`` geom;
@@ -268,7 +270,7 @@ class _Measured(NamedTuple):
 
 
 class CollisionAvoidanceTask(Task):
-    """Keep geom pairs apart (seed yellow/orange zones), as inequality rows.
+    """Keep geom pairs apart (irteus' yellow/orange zones), as inequality rows.
 
     Args:
         configuration: Robot configuration: names, and the start distances.

@@ -1,4 +1,5 @@
-"""Centre of mass of the robot (seed 000 ``cog-task``, ``target-centroid-pos-task``).
+"""Centre of mass of the robot (prioritized-IK manual: ``cog-task``,
+``target-centroid-pos-task``).
 
 The robot's CoM ``p_WG`` is MuJoCo's subtree CoM of the robot's top-level body
 ``B`` (``data.subtree_com[B]``), so bodies of the environment (a kettle, a
@@ -31,7 +32,9 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame, robot_root_body
-from pik_mj.tasks.frame import AxisSpec, constrained_axes, rotation_matrix, skew
+from pik_mj.inputs import rotation_matrix
+from pik_mj.spatial import skew
+from pik_mj.tasks.frame import AxisSpec, constrained_axes
 from pik_mj.tasks.task import EqualityTask, clamp_norm, diagonal_weights, tolerance, within
 
 Vector3Fn = Callable[[mink.Configuration], Any]
@@ -73,20 +76,23 @@ def frame_rotation_option(model: mujoco.MjModel, value: Any, frame_type: str | N
 
 
 class CentroidTask(EqualityTask):
-    """Bring the robot's CoM onto a target position (seed ``target-centroid-pos-task``).
+    """Bring the robot's CoM onto a target position (prioritized-IK manual:
+    ``target-centroid-pos-task``).
 
     Args:
         configuration: Robot configuration.
         target: Target ``p_WT`` [m] (3 numbers, world) or a callable
             ``f(configuration) -> p_WT`` evaluated every iteration.
         root_body: The robot's top-level body (see :func:`robot_root_body`).
-        translation_axis: Seed ``cog-translation-axis``, irteus convention (see
-            :func:`~pik_mj.tasks.frame.constrained_axes`): naming an axis FREES it.
-            The default ``"z"`` matches x and y and leaves the CoM height free.
-        frame: Seed ``cog-translation-coords``: ``"world"`` (default), a fixed
-            rotation ``R_WF`` (3x3, quaternion wxyz, ``mink.SO3``), or the name of
-            a robot frame (site/body/geom) that turns with the robot. Axes,
-            weights and thresholds are expressed in it.
+        translation_axis: ``cog-translation-axis`` (prioritized-IK manual), in
+            irteus' convention (see :func:`~pik_mj.tasks.frame.constrained_axes`):
+            naming an axis FREES it. The default ``"z"`` matches x and y and
+            leaves the CoM height free.
+        frame: ``cog-translation-coords`` (prioritized-IK manual): ``"world"``
+            (default), a fixed rotation ``R_WF`` (3x3, quaternion wxyz,
+            ``mink.SO3``), or the name of a robot frame (site/body/geom) that
+            turns with the robot. Axes, weights and thresholds are expressed in
+            it.
         frame_type: Type of a named ``frame`` (None: search).
         w: Weight(s), float or 3-vector in ``frame`` [cost/m²].
         centroid_thre: Stop-test tolerance [m]: a float bounds the norm of the

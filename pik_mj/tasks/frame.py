@@ -1,4 +1,5 @@
-"""Frame matching (seed 000 ``move-target-task``; irteus ``:move-target``/``:target-coords``).
+"""Frame matching (prioritized-IK manual: ``move-target-task``; irteus manual:
+``:move-target``, ``:target-coords``).
 
 A frame ``M`` (the move target, on the robot) is brought onto a frame ``T`` (the
 target: a fixed pose, a callable evaluated every iteration, or another frame of
@@ -34,23 +35,20 @@ The whole pose in the move target's frame (all six rows, both frames
     \\qquad \\phi = \\log(R_{WT}^T R_{WM}),
 
 with ``J = J_r^{-1}(e) V`` where ``V`` is the body twist Jacobian (mink's
-``FrameTask``, or ``RelativeFrameTask`` for a robot-frame target, compute both;
-for a fixed or callable target both come from one pass over the move target's
-pose with the compiled SE(3) operations mink's ``FrameTask`` calls).
-The motion of one revolute joint is a straight line in these coordinates, so
-Newton steps on them follow the arcs a limb makes: on the reference reaching
-stack (20 targets) they need 3.7 iterations on the CMU humanoid and 4.9 on
-dm_control's where the seed's ``(e_t, e_r)`` above (``error_type="split"``,
-always used with axis selection or other frames) needs 4.7 and 5.25. ``φ`` is
-``e_r``; the twist's translation part differs from ``e_t`` by ``O(θ ‖e_t‖)``.
-The stop test, the reported error and :meth:`FrameTask.pose_error` are the
-split error either way: ``thre`` bounds the distance between the two origins.
+``FrameTask``, or ``RelativeFrameTask`` for a robot-frame target, compute both:
+:mod:`pik_mj.tasks.twist`). The motion of one revolute joint is a straight
+line in these coordinates, so Newton steps on them follow the arcs a limb
+makes, where the prioritized-IK manual's ``(e_t, e_r)`` above
+(``error_type="split"``, always used with axis selection or other frames)
+cuts across them. ``φ`` is ``e_r``; the twist's translation part differs from
+``e_t`` by ``O(θ ‖e_t‖)``. The stop test, the reported error and
+:meth:`FrameTask.pose_error` are the split error either way: ``thre`` bounds
+the distance between the two origins.
 
 Each iteration asks ``J x = -clamp(e)``, the translation clamped to norm
-``p_limit`` [m] and the rotation to ``r_limit`` [rad] (seed ``p-limit``/``r-limit``)
-when given. By default nothing is clamped: :func:`pik_mj.solve`'s trust region
-bounds every step instead, and the seed's 0.1 m / 0.5 rad cost 1.6-1.8 times
-the iterations on the reference reaching stack (README, "Figures").
+``p_limit`` [m] and the rotation to ``r_limit`` [rad] (prioritized-IK manual:
+``p-limit``, ``r-limit``) when given. By default nothing is clamped:
+:func:`pik_mj.solve`'s trust region bounds every step instead (docs/priority.md).
 """
 
 from __future__ import annotations
@@ -63,13 +61,17 @@ import mink
 import mujoco
 import numpy as np
 
-try:  # mink's compiled SE(3) operations, the ones its own FrameTask calls
-    from mink.lie import _lie_ops_c as _mink_lie
-except ImportError:  # (a mink built without them: its tasks' Python path)
-    _mink_lie = None
-
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
+from pik_mj.inputs import as_pose, rotation_matrix
+from pik_mj.spatial import (
+    ljacinv,
+    ljacinv_rows,
+    matrix_to_quat,
+    quat_log,
+    rotation_vector,
+    skew,
+)
 from pik_mj.tasks.task import (
     EqualityTask,
     TaskRows,
@@ -80,11 +82,12 @@ from pik_mj.tasks.task import (
     tolerance,
     within,
 )
+from pik_mj.tasks.twist import Twist, twist_distances
 
 AxisSpec = bool | str | None
 
 ONE_DEGREE = float(np.deg2rad(1.0))
-"""Default rotation tolerance [rad] (seed ``rthre``: 1 degree)."""
+"""Default rotation tolerance [rad] (prioritized-IK manual: ``rthre``, 1 degree)."""
 
 ERROR_TYPES = ("twist", "split")
 """The errors a :class:`FrameTask` can ask of its rows (module docstring)."""
@@ -117,147 +120,8 @@ def constrained_axes(spec: AxisSpec, what: str) -> np.ndarray:
     )
 
 
-def skew(v: np.ndarray) -> np.ndarray:
-    """``[v]×`` such that ``[v]× w = v × w``."""
-    x, y, z = float(v[0]), float(v[1]), float(v[2])
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def rotation_vector(R: np.ndarray) -> np.ndarray:
-    """``log(R)`` as a rotation vector ``θ u`` [rad], ``θ ∈ [0, π]``.
-
-    MuJoCo's ``mju_mat2Quat`` then ``mju_quat2Vel`` (unit time step), which
-    picks the shorter of the two rotations a quaternion's sign leaves open.
-    """
-    quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(R, dtype=float).reshape(9))
-    e = np.empty(3)
-    mujoco.mju_quat2Vel(e, quat, 1.0)
-    return e
-
-
-def _quaternion(R: np.ndarray) -> list[float]:
-    """The wxyz quaternion of a rotation matrix given as 9 contiguous floats
-    (MuJoCo's ``mju_mat2Quat``)."""
-    quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, R)
-    return quat.tolist()
-
-
-def _quat_log(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
-    """The rotation vector [rad] of a unit quaternion, as MuJoCo's
-    ``mju_quat2Vel`` at unit time step (the shorter of the two rotations),
-    on Python floats: ``θ = 2 atan2(‖v‖, w)``, less ``2π`` above ``π``,
-    times ``v / ‖v‖``."""
-    s = math.sqrt(x * x + y * y + z * z)
-    if s < 1e-15:  # MuJoCo's mjMINVAL: no axis, no rotation
-        return 0.0, 0.0, 0.0
-    angle = 2.0 * math.atan2(s, w)
-    if angle > math.pi:
-        angle -= 2.0 * math.pi
-    k = angle / s
-    return k * x, k * y, k * z
-
-
-def ljacinv(e: np.ndarray) -> np.ndarray:
-    """Inverse left Jacobian of SO(3) at ``e`` [rad], safe at ``e = 0``.
-
-    .. math::
-
-        J_l^{-1}(e) = I - \\tfrac12 [e]_\\times
-            + \\Big(\\frac{1}{\\theta^2} - \\frac{1 + \\cos\\theta}{2\\theta\\sin\\theta}\\Big)
-              [e]_\\times^2, \\quad \\theta = \\|e\\|
-
-    Closed form, as mink's ``SO3.ljacinv`` (which divides by zero at ``θ = 0``
-    and costs ~0.3 ms a call); below 1e-6 rad the series
-    ``I - ½[e]× + [e]×²/12`` is exact to double precision.
-    """
-    return np.array(_ljacinv_rows(float(e[0]), float(e[1]), float(e[2])))
-
-
-def _ljacinv_rows(x: float, y: float, z: float) -> list[list[float]]:
-    """The rows of :func:`ljacinv` at ``e = (x, y, z)``, as Python floats."""
-    theta2 = x * x + y * y + z * z
-    theta = math.sqrt(theta2)
-    if theta < 1e-6:
-        c = 1.0 / 12.0
-    else:
-        c = 1.0 / theta2 - (1.0 + math.cos(theta)) / (2.0 * theta * math.sin(theta))
-    # written out with [e]×² = e eᵀ - θ² I: 3x3 numpy temporaries cost more
-    # than the arithmetic
-    a = 1.0 - c * theta2
-    cxy, cxz, cyz = c * x * y, c * x * z, c * y * z
-    return [
-        [a + c * x * x, cxy + 0.5 * z, cxz - 0.5 * y],
-        [cxy - 0.5 * z, a + c * y * y, cyz + 0.5 * x],
-        [cxz + 0.5 * y, cyz - 0.5 * x, a + c * z * z],
-    ]
-
-
-def rotation_matrix(value: Any, what: str, also: str = "") -> np.ndarray:
-    """A rotation ``R`` (3x3) from a ``mink.SO3``, a wxyz quaternion (normalized)
-    or a proper orthonormal 3x3 matrix; :class:`InvalidInput` naming ``what``
-    otherwise (a zero or non-finite quaternion named as such). ``also`` lists
-    the caller's other valid values for the message."""
-    if isinstance(value, mink.SO3):
-        return value.as_matrix()
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        arr = np.zeros(0)
-    if arr.shape == (4,):
-        if not (np.all(np.isfinite(arr)) and np.linalg.norm(arr) > 0):
-            raise InvalidInput(
-                f"{what}: the quaternion {value!r} has zero length or is not finite; "
-                "give a non-zero wxyz quaternion"
-            )
-        return mink.SO3(arr / np.linalg.norm(arr)).as_matrix()
-    if (
-        arr.shape == (3, 3)
-        and np.all(np.isfinite(arr))
-        and np.allclose(arr.T @ arr, np.eye(3), atol=1e-6)
-        and np.linalg.det(arr) > 0
-    ):
-        return arr
-    valid = f"{also}, " if also else ""
-    raise InvalidInput(
-        f"{what} {value!r} is not valid; use {valid}a wxyz quaternion, a rotation matrix "
-        "or a mink.SO3"
-    )
-
-
-def as_pose(value: Any, what: str = "pose") -> tuple[np.ndarray, np.ndarray]:
-    """``(p_W (3,), R_W (3,3))`` from a ``mink.SE3``, a 4x4 matrix, or
-    ``(position, quaternion wxyz)``."""
-    if isinstance(value, mink.SE3):
-        p, R = value.translation(), value.rotation().as_matrix()
-    elif isinstance(value, np.ndarray) and value.shape == (4, 4):
-        p, R = value[:3, 3], value[:3, :3]
-    elif isinstance(value, (tuple, list)) and len(value) == 2:
-        p = np.asarray(value[0], dtype=float)
-        quat = np.asarray(value[1], dtype=float)
-        if quat.shape == (3, 3):
-            R = quat
-        elif quat.shape == (4,) and np.linalg.norm(quat) > 0:
-            R = mink.SO3(quat / np.linalg.norm(quat)).as_matrix()
-        else:
-            raise InvalidInput(f"{what}: orientation must be a wxyz quaternion or 3x3 matrix")
-    else:
-        raise InvalidInput(
-            f"{what} must be a mink.SE3, a 4x4 matrix or (position, quat_wxyz); "
-            f"got {type(value).__name__}"
-        )
-    p = np.asarray(p, dtype=float).reshape(-1)
-    R = np.asarray(R, dtype=float)
-    if p.shape != (3,) or not np.all(np.isfinite(p)) or not np.all(np.isfinite(R)):
-        raise InvalidInput(f"{what}: position must be 3 finite numbers, rotation finite")
-    if not np.allclose(R.T @ R, np.eye(3), atol=1e-6):
-        raise InvalidInput(f"{what}: rotation is not orthonormal")
-    return p, R
-
-
 class FrameTask(EqualityTask):
-    """Bring a robot frame onto a target frame (seed ``move-target-task``).
+    """Bring a robot frame onto a target frame (prioritized-IK manual: ``move-target-task``).
 
     Args:
         configuration: Robot configuration (for name lookup).
@@ -279,15 +143,15 @@ class FrameTask(EqualityTask):
         thre: Stop-test translation tolerance [m] (float on the norm, or
             per-axis vector).
         rthre: Stop-test rotation tolerance [rad].
-        p_limit: Largest translation asked of one iteration [m] (seed: 0.1);
-            None: no clamp.
-        r_limit: Largest rotation asked of one iteration [rad] (seed: 0.5);
-            None: no clamp.
+        p_limit: Largest translation asked of one iteration [m] (the
+            prioritized-IK manual's default: 0.1); None: no clamp.
+        r_limit: Largest rotation asked of one iteration [rad] (the
+            prioritized-IK manual's default: 0.5); None: no clamp.
         check: Whether the solve loop's stop test looks at this task.
         name: Display name.
         error_type: The rows' error (module docstring): ``"twist"`` (the pose's
             body twist ``log(T_WT⁻¹ T_WM)``; all six rows in the ``"local"``
-            frames only) or ``"split"`` (the seed's ``(e_t, e_r)``). None: the
+            frames only) or ``"split"`` (the prioritized-IK manual's ``(e_t, e_r)``). None: the
             twist where it applies, else the split.
     """
 
@@ -348,10 +212,9 @@ class FrameTask(EqualityTask):
         self.error_type = self._error_type(error_type)
         # mink's twist task, made here and whenever the target changes (a
         # callable's pose is set on it at each evaluation)
-        self._mink_task: mink.FrameTask | mink.RelativeFrameTask | None = None
-        self._mink_target: object = None  # the target frame or pose the mink task was set for
+        self._twist = Twist(self.move_target)
         if self.error_type == "twist":
-            self._twist_task(None)
+            self._twist_toward(None)
 
     def _error_type(self, requested: str | None) -> str:
         """``"twist"`` or ``"split"``: the requested one, checked, or the default."""
@@ -369,7 +232,9 @@ class FrameTask(EqualityTask):
         return requested
 
     # -- configuration ------------------------------------------------------
-    def set_target(self, target: Any, target_type: str | None = None, model=None) -> None:
+    def set_target(
+        self, target: Any, target_type: str | None = None, model: mujoco.MjModel | None = None
+    ) -> None:
         """Change the target: a pose, a robot frame name, or a callable."""
         self.target_frame, self.target_fn, self.target_pose = None, None, None
         if isinstance(target, str):
@@ -383,7 +248,7 @@ class FrameTask(EqualityTask):
             p.flags.writeable = R.flags.writeable = False
             self.target_pose = (p, R)
         if getattr(self, "error_type", None) == "twist":  # (__init__ makes it itself)
-            self._twist_task(None)
+            self._twist_toward(None)
 
     @staticmethod
     def _frame_option(value: Any, what: str) -> str | np.ndarray:
@@ -420,7 +285,9 @@ class FrameTask(EqualityTask):
             return R_WM if option == "local" else np.eye(3)
         return option
 
-    def _errors_world(self, configuration: mink.Configuration):
+    def _errors_world(
+        self, configuration: mink.Configuration
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(e_tW, e_rW, R_WM, R_e)``: world-frame errors [m, rad] and rotations."""
         data = configuration.data
         p_WM, R_WM = self.move_target.position(data), self.move_target.rotation(data)
@@ -449,7 +316,7 @@ class FrameTask(EqualityTask):
         """The rows' error, unclamped: the twist ``log(T_WT⁻¹ T_WM)`` or the
         split ``[e_t; e_r]`` (:attr:`error_type`) [m, rad]."""
         if self.error_type == "twist":
-            return self._twist(configuration, jacobian=False)[0]
+            return self._twist_error(configuration, jacobian=False)[0]
         return self.pose_error(configuration)
 
     def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
@@ -460,99 +327,33 @@ class FrameTask(EqualityTask):
         """Stop test on :meth:`pose_error`."""
         return self.satisfied_by(self.pose_error(configuration))
 
-    def _twist_task(
-        self, configuration: mink.Configuration | None
-    ) -> mink.FrameTask | mink.RelativeFrameTask:
-        """mink's task of the twist error, its target set to this task's: a
-        ``RelativeFrameTask`` (target identity) for a robot frame as the target,
-        else a ``FrameTask`` whose target is the fixed pose (set once per pose)
-        or the callable's pose at ``configuration``."""
-        task = self._mink_task
+    def _twist_toward(self, configuration: mink.Configuration | None) -> None:
+        """Point :attr:`_twist` at this task's target: the target frame, the
+        fixed pose, or the callable's pose at ``configuration`` (None: not
+        evaluated yet)."""
         if self.target_frame is not None:
-            if task is None or self._mink_target is not self.target_frame:
-                M, T = self.move_target, self.target_frame
-                task = mink.RelativeFrameTask(M.name, M.frame_type, T.name, T.frame_type, 1.0, 1.0)
-                task.set_target(mink.SE3.identity())
-                self._mink_task, self._mink_target = task, self.target_frame
-            return task
-        if task is None or type(task) is mink.RelativeFrameTask:
-            task = mink.FrameTask(self.move_target.name, self.move_target.frame_type, 1.0, 1.0)
-            self._mink_task, self._mink_target = task, None
-        if self.target_fn is None:
-            pose = self.target_pose
-        elif configuration is None:  # (made ahead of the first evaluation)
-            return task
+            self._twist.toward_frame(self.target_frame)
+        elif self.target_fn is None:
+            self._twist.toward_pose(self.target_pose)
+        elif configuration is not None:
+            self._twist.toward_pose(self.target_pose_now(configuration))
         else:
-            pose = self.target_pose_now(configuration)
-        if self._mink_target is not pose:  # a new fixed target, or a callable's
-            task.set_target(_se3(*pose))  # type: ignore[misc]
-            self._mink_target = pose
-        return task
+            self._twist.toward_pose(None)
 
-    def _twist(
+    def _twist_error(
         self, configuration: mink.Configuration, jacobian: bool = True, negated: bool = False
     ) -> tuple[np.ndarray, np.ndarray | None]:
         """The twist error (6,), or with ``negated`` its negative, and, if
-        asked, its Jacobian (6, nv), from mink (new arrays each call).
+        asked, its Jacobian (6, nv), from mink (:class:`~pik_mj.tasks.twist.Twist`)."""
+        self._twist_toward(configuration)
+        return self._twist.error(configuration, jacobian, negated)
 
-        mink's ``FrameTask`` (fixed or callable target) has the opposite sign,
-        ``log(T_WM⁻¹ T_WT)``, and its Jacobian; ``RelativeFrameTask`` (a robot
-        frame as the target, root ``T``, target pose identity) has this one.
-        """
-        task = self._twist_task(configuration)
-        if _mink_lie is not None and self.target_frame is None:
-            return self._twist_one_pass(task, configuration, jacobian, negated)
-        opposite = self.target_frame is None  # mink's error is -e
-        e = task.compute_error(configuration)
-        if opposite != negated:
-            np.negative(e, out=e)
-        if not jacobian:
-            return e, None
-        J = task.compute_jacobian(configuration)
-        if opposite:
-            np.negative(J, out=J)
-        return e, J
-
-    def _twist_one_pass(
-        self,
-        task: mink.FrameTask,
-        configuration: mink.Configuration,
-        jacobian: bool,
-        negated: bool,
-    ) -> tuple[np.ndarray, np.ndarray | None]:
-        """:meth:`_twist` for a fixed or callable target: mink ``FrameTask``'s
-        error and Jacobian from one pose of the move target, with the compiled
-        operations mink's task calls (``T_tb = T_WT⁻¹ T_WM``)::
-
-            e = log(T_tb),   J = jlog(T_tb) Ad(R_WM⁻¹) [J_p; J_ω]
-
-        where ``[J_p; J_ω]`` is MuJoCo's ``mj_jac`` at the frame's origin,
-        world-aligned (mink's ``get_frame_jacobian`` is ``Ad(R_WM⁻¹)`` times
-        it). mink's two calls read the pose twice and multiply two 6 x nv
-        products: this one reads it once and multiplies one, 7 µs instead of
-        14 µs on dm_control's humanoid.
-        """
-        model, data = configuration.model, configuration.data
-        frame = self.move_target
-        xpos, xmat = _POSE[frame.frame_type]
-        p_WM = getattr(data, xpos)[frame.id]
-        R_WM = getattr(data, xmat)[frame.id]
-        T_WM = _mink_lie.xmat_xpos_to_wxyz_xyz(R_WM, p_WM)
-        T_tb = _mink_lie.se3_inverse_multiply(task.transform_target_to_world.wxyz_xyz, T_WM)
-        e = _mink_lie.se3_log(T_tb)
-        if negated:
-            np.negative(e, out=e)
-        if not jacobian:
-            return e, None
-        jac = np.empty((6, model.nv))
-        mujoco.mj_jac(model, data, jac[:3], jac[3:], p_WM, self._body)
-        V = _mink_lie.se3_jlog(T_tb) @ _mink_lie.se3_rotation_adjoint_from_xmat(R_WM)
-        return e, V @ jac
-
-    def error_and_jacobian(self, configuration: mink.Configuration):
+    def error_and_jacobian(
+        self, configuration: mink.Configuration
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Selected error (rows,) and its Jacobian (rows, nv), see the module formulas."""
         if self.error_type == "twist":
-            return self._twist(configuration)
+            return self._twist_error(configuration)
         if self._both_local and self.target_frame is None:
             e6, J = self._local(configuration)
             e = np.array(e6)
@@ -601,7 +402,7 @@ class FrameTask(EqualityTask):
         return e, J
 
     def _local_error(
-        self, configuration
+        self, configuration: mink.Configuration
     ) -> tuple[tuple[float, float, float, float, float, float], np.ndarray, list[float]]:
         """The default case's split error as six Python floats, with ``p_WT``
         and ``R_WM`` (row-major floats), see :meth:`_local`."""
@@ -614,14 +415,14 @@ class FrameTask(EqualityTask):
         else:
             xpos, xmat = _POSE[frame.frame_type]
             p_WM, R_WM = getattr(data, xpos)[i], getattr(data, xmat)[i]
-            w, x, y, z = _quaternion(R_WM)
+            w, x, y, z = matrix_to_quat(R_WM).tolist()
         p_WT, (px, py, pz), (cw, cx, cy, cz) = self._target_point_and_conjugate(configuration)
         # q = q_WT^* q_WM, the rotation R_WT^T R_WM
         qw = cw * w - cx * x - cy * y - cz * z
         qx = cw * x + cx * w + cy * z - cz * y
         qy = cw * y - cx * z + cy * w + cz * x
         qz = cw * z + cx * y - cy * x + cz * w
-        rx, ry, rz = _quat_log(qw, qx, qy, qz)
+        rx, ry, rz = quat_log(qw, qx, qy, qz)
         R = R_WM.tolist()
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = R
         mx, my, mz = p_WM.tolist()
@@ -631,7 +432,7 @@ class FrameTask(EqualityTask):
         tz = r2 * dx + r5 * dy + r8 * dz
         return (tx, ty, tz, rx, ry, rz), p_WT, R
 
-    def _local(self, configuration) -> tuple[tuple[float, ...], np.ndarray]:
+    def _local(self, configuration: mink.Configuration) -> tuple[tuple[float, ...], np.ndarray]:
         """The default case (errors in the move target's frame, fixed or callable
         target): ``(e, J)`` with the error's six components as Python floats
         and the full Jacobian (6, nv). With ``R = R_WM``, ``e_t = R^T (p_WM - p_WT)``,
@@ -654,8 +455,8 @@ class FrameTask(EqualityTask):
         model, data = configuration.model, configuration.data
         (tx, ty, tz, rx, ry, rz), p_WT, R = self._local_error(configuration)
         r0, r1, r2, r3, r4, r5, r6, r7, r8 = R
-        # L = J_l^{-1}(-e_r), written out as in _ljacinv_rows; then L R^T
-        (l00, l01, l02), (l10, l11, l12), (l20, l21, l22) = _ljacinv_rows(-rx, -ry, -rz)
+        # L = J_l^{-1}(-e_r), written out as in ljacinv_rows; then L R^T
+        (l00, l01, l02), (l10, l11, l12), (l20, l21, l22) = ljacinv_rows(-rx, -ry, -rz)
         # fmt: off
         M = np.array([
             r0, r3, r6, 0.0, 0.0, 0.0,
@@ -686,7 +487,7 @@ class FrameTask(EqualityTask):
         :meth:`pose_error`."""
         if self.error_type == "twist":
             # b = -clamp(e) = clamp(-e) (a clamp scales norms), copied only to clamp
-            b, J = self._twist(configuration, negated=True)
+            b, J = self._twist_error(configuration, negated=True)
             ux, uy, uz, rx, ry, rz = b.tolist()
             e6 = (-ux, -uy, -uz, -rx, -ry, -rz)
             if self.p_limit < math.inf or self.r_limit < math.inf:
@@ -695,7 +496,7 @@ class FrameTask(EqualityTask):
             if self.thre.ndim or self.rthre.ndim:  # per-axis tolerances
                 split = self.pose_error(configuration)
                 return TaskState(rows, math.sqrt(float(split @ split)), self.satisfied_by(split))
-            n_t, n_r = _twist_distances(*e6)
+            n_t, n_r = twist_distances(*e6)
             return TaskState(
                 rows,
                 math.sqrt(n_t * n_t + n_r * n_r),
@@ -756,39 +557,10 @@ class FrameTask(EqualityTask):
 _TargetTerms = tuple[np.ndarray, tuple[float, float, float], tuple[float, float, float, float]]
 
 
-def _twist_distances(
-    ux: float, uy: float, uz: float, rx: float, ry: float, rz: float
-) -> tuple[float, float]:
-    """``(‖p_WM - p_WT‖ [m], θ [rad])`` from the twist ``(ρ, φ)``: ``θ = ‖φ‖``
-    and the translation ``J_l(φ) ρ``, with ``J_l(φ) = I + (1 - cos θ)/θ² [φ]×
-    + (θ - sin θ)/θ³ [φ]×²`` (series below ``θ = 10^{-2}``); Python floats."""
-    theta2 = rx * rx + ry * ry + rz * rz
-    if theta2 < 1e-4:
-        a, b = 0.5 - theta2 / 24.0, 1.0 / 6.0 - theta2 / 120.0
-    else:
-        theta = math.sqrt(theta2)
-        a = (1.0 - math.cos(theta)) / theta2
-        b = (theta - math.sin(theta)) / (theta2 * theta)
-    cx, cy, cz = ry * uz - rz * uy, rz * ux - rx * uz, rx * uy - ry * ux  # φ × ρ
-    dx, dy, dz = ry * cz - rz * cy, rz * cx - rx * cz, rx * cy - ry * cx  # φ × (φ × ρ)
-    px, py, pz = ux + a * cx + b * dx, uy + a * cy + b * dy, uz + a * cz + b * dz
-    return math.sqrt(px * px + py * py + pz * pz), math.sqrt(theta2)
-
-
-def _se3(p: np.ndarray, R: np.ndarray) -> mink.SE3:
-    """``mink.SE3`` of ``(p, R)``: the wxyz quaternion of :func:`_quaternion`
-    (``mju_mat2Quat``, as ``SO3.from_matrix`` makes it: the same bits, without
-    an ``SO3`` object)."""
-    wxyz_xyz = np.empty(7)
-    wxyz_xyz[:4] = _quaternion(np.ascontiguousarray(R, dtype=float).reshape(9))
-    wxyz_xyz[4:] = p
-    return mink.SE3(wxyz_xyz)
-
-
 def _point_and_conjugate(p: np.ndarray, R: np.ndarray) -> _TargetTerms:
     """``(p, p as floats, q^*)``: ``p`` as a contiguous float array (MuJoCo's
     point argument) and the conjugate of ``R``'s wxyz quaternion, as floats."""
-    w, x, y, z = _quaternion(np.ascontiguousarray(R, dtype=float).reshape(9))
+    w, x, y, z = matrix_to_quat(R).tolist()
     p = np.ascontiguousarray(p, dtype=float)
     px, py, pz = p.tolist()
     return p, (px, py, pz), (w, -x, -y, -z)

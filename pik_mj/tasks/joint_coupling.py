@@ -1,4 +1,4 @@
-"""Two joint angles kept equal (seed 000 ``joint-angle-task``).
+"""Two joint angles kept equal (prioritized-IK manual: ``joint-angle-task``).
 
 With ``θ_1``, ``θ_2`` the joints' values [rad or m] (either may be a constant
 value instead of a joint), the error and its equality rows are
@@ -8,7 +8,7 @@ value instead of a joint), the error and its equality rows are
     e = \\theta_2 - (r\\,\\theta_1 + o), \\qquad
     x_{j2} - r\\, x_{j1} = -e
 
-with ratio ``r = 1`` and offset ``o = 0`` by default (the seed:
+with ratio ``r = 1`` and offset ``o = 0`` by default (the prioritized-IK manual's:
 ``x_j2 − x_j1 = −(θ_2 − θ_1)``). ``r`` and ``o`` express irteus' interlocking
 joints ``θ_2 = r θ_1 + o``.
 """
@@ -26,7 +26,8 @@ JointOrValue = str | float
 
 
 class JointCouplingTask(EqualityTask):
-    """Make ``joint2`` follow ``ratio · joint1 + offset`` (seed ``joint-angle-task``).
+    """Make ``joint2`` follow ``ratio · joint1 + offset`` (prioritized-IK manual:
+    ``joint-angle-task``).
 
     Args:
         configuration: Robot configuration (for name lookup).

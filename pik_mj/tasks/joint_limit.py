@@ -1,4 +1,4 @@
-"""Joint position limits (seed 000 ``minmax-angle-task``).
+"""Joint position limits (prioritized-IK manual: ``minmax-angle-task``).
 
 For a hinge or slide joint with limits ``θ_min``, ``θ_max`` and current value
 ``θ`` [rad or m], one inequality row on its degree of freedom:
@@ -7,7 +7,7 @@ For a hinge or slide joint with limits ``θ_min``, ``θ_max`` and current value
 
     \\theta_{min} - \\theta \\le x + \\omega \\le \\theta_{max} - \\theta
 
-For a ball joint (irteus ``sphere-joint``; MuJoCo's ``range="0 θ_max"``) the
+For a ball joint (irteus manual: ``sphere-joint``; MuJoCo's ``range="0 θ_max"``) the
 rotation angle is limited: with ``r = log(q)`` the rotation vector of the joint's
 quaternion (``θ = ‖r‖ ∈ [0, π]``), one linearized cone row
 
@@ -20,8 +20,8 @@ to first order because MuJoCo integrates a ball joint as ``q ⊕ x = q ⊗ exp(x
 so ``ṙ = J_r^{-1}(r) x`` and ``r^T J_r^{-1}(r) = r^T``. At ``θ < 1e-9`` rad the
 row is zero (the cone's apex: any direction is allowed, the next iteration
 re-linearizes). Free joints are rejected. Units are SI (m, rad); unlike
-:class:`mink.ConfigurationLimit` there is no gain (seed form) and
-:meth:`JointLimitTask.violations` reports each joint's violation.
+:class:`mink.ConfigurationLimit` there is no gain (the prioritized-IK manual's
+form) and :meth:`JointLimitTask.violations` reports each joint's violation.
 """
 
 from __future__ import annotations
@@ -45,10 +45,11 @@ JOINT_TYPES = {
 _NDOF = {"free": 6, "ball": 3, "slide": 1, "hinge": 1}
 
 DEFAULT_CHECK_MARGIN = 1e-5
-"""Stop-test tolerance of hinge/slide limits [rad or m] (seed ``check-margin``)."""
+"""Stop-test tolerance of hinge/slide limits [rad or m] (prioritized-IK manual:
+``check-margin``)."""
 
 BALL_CHECK_MARGIN = 1e-3
-"""Stop-test tolerance of ball-joint limits [rad] (seed: ``sphere`` joints)."""
+"""Stop-test tolerance of ball-joint limits [rad] (irteus manual: ``sphere`` joints)."""
 
 
 @dataclass(frozen=True)
@@ -156,7 +157,7 @@ def _per_joint(value, n: int, what: str) -> np.ndarray | None:
 
 
 class JointLimitTask(Task):
-    """Joint position limits as inequality rows (seed ``minmax-angle-task``).
+    """Joint position limits as inequality rows (prioritized-IK manual: ``minmax-angle-task``).
 
     Args:
         configuration: Robot configuration (for name lookup and model limits).

@@ -1,6 +1,6 @@
-"""Joint velocity limits (seed 000 ``joint-velocity-task``).
+"""Joint velocity limits (prioritized-IK manual: ``joint-velocity-task``).
 
-One iteration of the solve loop is taken to last ``Δt`` (seed ``periodic-time``),
+One iteration of the solve loop is taken to last ``Δt`` (``periodic-time``),
 so a velocity limit bounds the step on each degree of freedom:
 
 .. math::
@@ -23,7 +23,7 @@ from pik_mj.tasks.joint_limit import joint_list, per_entry
 from pik_mj.tasks.task import Task, TaskRows, diagonal_weights
 
 DEFAULT_PERIODIC_TIME = 0.05
-"""Seed default ``periodic-time`` [s]."""
+"""The prioritized-IK manual's default ``periodic-time`` [s]."""
 
 
 def _per_dof(value, n: int, what: str) -> np.ndarray:

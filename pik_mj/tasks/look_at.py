@@ -1,4 +1,4 @@
-"""Gaze task (irteus ``:look-at``, ``:look-at-target``).
+"""Gaze task (irteus manual: ``:look-at``, ``:look-at-target``).
 
 A frame ``H`` of the robot (the head: its gaze axis ``a``, a unit vector in
 ``H``, default ``+x``) is turned so that the axis points at a target point
@@ -33,12 +33,13 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
-from pik_mj.tasks.frame import ONE_DEGREE, skew
+from pik_mj.spatial import skew
+from pik_mj.tasks.frame import ONE_DEGREE
 from pik_mj.tasks.task import EqualityTask, clamp_norm, diagonal_weights
 
 
 class LookAtTask(EqualityTask):
-    """Point a robot frame's gaze axis at a target (seed ``:look-at``).
+    """Point a robot frame's gaze axis at a target (irteus manual: ``:look-at``).
 
     Args:
         configuration: Robot configuration (for name lookup).
@@ -49,7 +50,7 @@ class LookAtTask(EqualityTask):
         frame_type: ``"site"``, ``"body"``, ``"geom"`` or None (search).
         target_type: Same for a named target frame.
         weight: Weight(s) of the 3 rows [cost].
-        rthre: Stop-test tolerance on the gaze angle [rad] (seed ``rthre``).
+        rthre: Stop-test tolerance on the gaze angle [rad] (``rthre``).
         r_limit: Largest gaze rotation asked of one iteration [rad].
         check: Whether the solve loop's stop test looks at this task.
         name: Display name.

@@ -23,6 +23,8 @@ from mink.tasks.task import BaseTask
 from pik_mj.exceptions import InvalidInput
 from pik_mj.tasks.task import Task, TaskRows, TaskState, no_equality, no_inequality
 
+_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+
 
 class MinkTask(Task):
     """A :class:`BaseTask` used as an equality task of the cascade.
@@ -48,7 +50,7 @@ class MinkTask(Task):
             raise InvalidInput(f"expected a BaseTask, got {type(task).__name__}")
         self.task = task
         # a mink.Task (error and Jacobian), else a BaseTask's residual or
-        # objective; asked once (an ABC's isinstance costs 1-2 µs per evaluation)
+        # objective; asked once (an ABC's isinstance is not free)
         self._error_task = isinstance(task, mink.Task)
         self.name = name or type(task).__name__
         self.check = check
@@ -56,13 +58,10 @@ class MinkTask(Task):
         self._cost_bytes = b""  # the task's cost values the weights were made from
         self._cost_values = np.zeros(0)
         self._weights = np.zeros(0)
-        # a PostureTask's Jacobian (constant, see _jacobian) and the free-joint
-        # indices it was made with
+        # a PostureTask's Jacobian (constant, see _jacobian) and the model it
+        # was made for
         self._J: np.ndarray | None = None
-        self._J_ids: object = None
-        if type(task) is mink.PostureTask:  # made here, not in the first solve
-            self._J = _posture_jacobian(task)
-            self._J_ids = task._v_ids
+        self._J_model: mujoco.MjModel | None = None
         if self._error_task and isinstance(getattr(task, "k", None), int):
             self._weights_for(task.k)
         if threshold is None:
@@ -72,20 +71,18 @@ class MinkTask(Task):
     def _jacobian(self, configuration: mink.Configuration) -> np.ndarray:
         """The task's Jacobian at ``configuration``.
 
-        A :class:`mink.PostureTask`'s is ``I`` with the free joint's columns
+        A :class:`mink.PostureTask`'s is ``I`` with the free joints' columns
         zeroed, whatever the configuration (its ``compute_jacobian`` depends on
-        ``nv`` and the task's free-joint indices ``_v_ids`` only): the same
-        matrix is made once, with the adapter (:func:`_posture_jacobian`), kept
-        read-only, and made again only when ``nv`` or ``_v_ids`` changes. On the
-        CMU humanoid (nv = 62) building it took 3 of the 8 µs of mink's error
-        and Jacobian, and a kept read-only matrix lets the level's checks and
-        the backends skip it too.
+        the model only): the same matrix is made once per model
+        (:func:`_posture_jacobian`) and kept read-only, so that the level's
+        checks and the backends, which keep what they derive from a read-only
+        matrix, need not look at it again.
         """
         task = self.task
         if type(task) is mink.PostureTask:
-            J = self._J
-            if J is None or J.shape[1] != configuration.nv or task._v_ids is not self._J_ids:
-                self._J, self._J_ids = _posture_jacobian(task), task._v_ids
+            model = configuration.model
+            if self._J is None or self._J_model is not model:
+                self._J, self._J_model = _posture_jacobian(model), model
             return self._J
         return np.asarray(task.compute_jacobian(configuration), dtype=float)
 
@@ -159,13 +156,14 @@ class MinkTask(Task):
         return f"MinkTask({self.task!r}, name={self.name!r})"
 
 
-def _posture_jacobian(task: mink.PostureTask) -> np.ndarray:
-    """A :class:`mink.PostureTask`'s Jacobian, as its ``compute_jacobian`` makes
-    it at any configuration: ``I`` (nv) with the free joints' columns zeroed;
-    read-only."""
-    J = np.eye(task.k)
-    if task._v_ids is not None:
-        J[:, task._v_ids] = 0.0
+def _posture_jacobian(model: mujoco.MjModel) -> np.ndarray:
+    """A :class:`mink.PostureTask`'s Jacobian on ``model``, as its
+    ``compute_jacobian`` makes it at any configuration: ``I`` (nv) with the
+    free joints' columns zeroed (the six dofs from each free joint's
+    ``jnt_dofadr``, as ``mink.get_freejoint_dims`` lists them); read-only."""
+    J = np.eye(model.nv)
+    for a in model.jnt_dofadr[model.jnt_type == _FREE].tolist():
+        J[:, a : a + 6] = 0.0
     J.flags.writeable = False
     return J
 
@@ -280,10 +278,9 @@ class _BoxRows:
     ``gain``, ``⊖`` MuJoCo's ``mj_differentiatePos``), the same operations in
     the same order, so the same bits (``tests/test_tasks.py`` compares them
     with mink's own at random and out-of-range postures). mink's call rebuilds
-    ``[P; -P]`` (7000 entries on the CMU humanoid) every time: an evaluation
-    (rows, error, stop test) took 40 µs with it, 13 without. ``G`` is made once
-    per adapter, read-only, so that users of the rows may cache what they
-    derive from it.
+    ``[P; -P]`` (2 nv x nv entries) every time; here ``G`` is made once per
+    adapter, read-only, so that users of the rows may cache what they derive
+    from it.
     """
 
     def __init__(self, limit: mink.ConfigurationLimit):

@@ -1,4 +1,5 @@
-"""CoM inside the static centroid feasible region (seed 000 ``centroid-scfr-task``).
+"""CoM inside the static centroid feasible region (prioritized-IK manual:
+``centroid-scfr-task``).
 
 The region of CoM positions ``(c_x, c_y)`` that contact wrenches within their
 limits (:class:`pik_mj.balance.ContactConstraint`) can hold against gravity and
@@ -10,11 +11,11 @@ half-planes ``A c + b ≥ 0`` with unit-norm rows (so ``A c + b`` are distances
 
     A (c + J_{c,xy}\\, x) + \\omega \\ge -b + \\text{margin}
 
-The region itself is not differentiated (seed: the contacts are not moved to
-change it). Contacts are fixed, or attached to robot frames and re-posed from
-the current configuration each iteration; the region is recomputed only when a
-contact pose, an external wrench or gravity changed by more than ``cache_tol``
-since the last computation (an SCFR costs tens of LPs, 20–70 ms).
+The region itself is not differentiated (as in the prioritized-IK manual: the
+contacts are not moved to change it). Contacts are fixed, or attached to robot
+frames and re-posed from the current configuration each iteration; the region
+is recomputed only when a contact pose, an external wrench or gravity changed by
+more than ``cache_tol`` since the last computation (an SCFR costs tens of LPs).
 """
 
 from __future__ import annotations
@@ -63,12 +64,13 @@ class ScfrTask(Task):
         external: External wrenches (:class:`~pik_mj.balance.ExternalWrench`), or
             a callable ``f(configuration) -> [ExternalWrench, ...]``.
         gravity: Gravity ``(3,)`` [m/s²]; default the model's ``opt.gravity``.
-        margin: Seed ``margin`` [m]: the CoM is kept this far inside.
+        margin: ``margin`` [m] (prioritized-IK manual): the CoM is kept this
+            far inside.
         w: Slack weight (float > 0).
         centroid_thre: Stop test: ``min(A c + b) >= margin − centroid_thre`` [m].
         root_body: The robot's top-level body (its subtree mass is the mass).
         tol: Accuracy of the region [m] (:func:`pik_mj.balance.scfr`; plays the
-            seed's ``epsilon``).
+            prioritized-IK manual's ``epsilon``).
         bounds: Optional box ``(x_min, x_max, y_min, y_max)`` [m] for regions
             that would be unbounded.
         cache_tol: The previous region is reused while every entry of the

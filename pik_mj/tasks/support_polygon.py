@@ -1,4 +1,4 @@
-"""CoM inside the support polygon (seed 000 ``centroid-support-polygon-task``).
+"""CoM inside the support polygon (prioritized-IK manual: ``centroid-support-polygon-task``).
 
 The support polygons' vertices — fixed world points, or points attached to robot
 frames so that they move with the robot — and the CoM ``c`` are projected along
@@ -13,7 +13,7 @@ and, per hull edge ``i`` (``u = ⁰p_{i+1} − ⁰p_i``, ``l = ‖u‖``,
     d_i = \\frac{u_x w_y - u_y w_x}{l}
 
 with the inequality row ``d_i + J_i x + ω ≥ margin``. ``J_i`` includes the
-vertices' motion (seed formula):
+vertices' motion (the prioritized-IK manual's formula):
 
 .. math::
 
@@ -37,8 +37,8 @@ import numpy as np
 from pik_mj.balance import SupportRegion, convex_hull_2d, plane_basis, support_polygon
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
+from pik_mj.spatial import skew
 from pik_mj.tasks.com import com_jacobian, com_position, robot_root_body
-from pik_mj.tasks.frame import skew
 from pik_mj.tasks.task import Task, TaskRows
 
 PolygonSpec = Any
@@ -67,7 +67,8 @@ class SupportPolygonTask(Task):
             with ``p_F`` ``(k, 3)`` [m] in that robot frame (moving with it).
         normal: Up direction ``n`` (3,); the polygon lives in the plane orthogonal
             to it.
-        margin: Seed ``margin`` [m]: the CoM is kept this far inside the hull.
+        margin: ``margin`` [m] (prioritized-IK manual): the CoM is kept this
+            far inside the hull.
         w: Slack weight (float > 0).
         centroid_thre: Stop test: ``min_i d_i >= margin − centroid_thre`` [m].
         root_body: The robot's top-level body (see

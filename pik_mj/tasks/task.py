@@ -1,6 +1,6 @@
 """The task contract of the cascade: the rows a task contributes at a configuration.
 
-A task of seed 000 (``inverse-kinematics-task``) contributes, at the current
+A task (prioritized-IK manual: ``inverse-kinematics-task``) contributes, at the current
 configuration, equality rows and inequality rows over the step ``x = Δq``
 (length ``nv``):
 
@@ -201,12 +201,12 @@ class TaskState(NamedTuple):
 
 
 class Task(abc.ABC):
-    """Base of pik_mj's own tasks (seed ``inverse-kinematics-task``).
+    """Base of pik_mj's own tasks (prioritized-IK manual: ``inverse-kinematics-task``).
 
     Attributes:
         name: Name shown in results and recordings.
         check: Whether the solve loop's stop test looks at this task
-            (seed ``check``).
+            (prioritized-IK manual: ``check``).
         finite_rows: Whether the rows are valid (finite, weights >= 0,
             bounds in order) at every finite configuration, their inputs
             checked where they enter, as a ``FrameTask``'s target. The solve
@@ -223,7 +223,8 @@ class Task(abc.ABC):
 
     @abc.abstractmethod
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        """Rows of this task linearized at ``configuration`` (seed ``:update``)."""
+        """Rows of this task linearized at ``configuration`` (prioritized-IK manual:
+        ``:update``)."""
 
     def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
         """Unweighted error vector of the task (zero when perfectly achieved).
@@ -234,7 +235,7 @@ class Task(abc.ABC):
         return self.compute_rows(configuration).violation()
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        """Stop test of the solve loop (seed ``:is-satisfied``)."""
+        """Stop test of the solve loop (prioritized-IK manual: ``:is-satisfied``)."""
         return bool(np.all(np.abs(self.compute_error(configuration)) <= 1e-6))
 
     def evaluate(self, configuration: mink.Configuration) -> TaskState:
@@ -267,10 +268,11 @@ class EqualityTask(Task):
         J x = -\\mathrm{clamp}(e), \\qquad
         \\text{cost } (J x + \\mathrm{clamp}(e))^T W_A (J x + \\mathrm{clamp}(e))
 
-    (seed: ``:update`` linearizes, ``p-limit``/``r-limit`` bound the step asked
-    of one iteration), and the stop test :meth:`satisfied_by` ``(e)`` reads the
-    unclamped error. Subclasses override :meth:`clamp` (default: none) and
-    :meth:`satisfied_by` (default: ``max |e_i| <= 1e-6``).
+    (prioritized-IK manual: ``:update`` linearizes, ``p-limit``/``r-limit``
+    bound the step asked of one iteration), and the stop test
+    :meth:`satisfied_by` ``(e)`` reads the unclamped error. Subclasses override
+    :meth:`clamp` (default: none) and :meth:`satisfied_by` (default:
+    ``max |e_i| <= 1e-6``).
     """
 
     k: int
@@ -355,7 +357,8 @@ def no_equality(nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
-    """``v`` scaled in place to norm ``limit`` if longer (seed ``p-limit``)."""
+    """``v`` scaled in place to norm ``limit`` if longer (prioritized-IK manual:
+    ``p-limit``)."""
     norm = math.sqrt(float(v @ v))
     if norm > limit:
         v *= limit / norm
@@ -363,8 +366,9 @@ def clamp_norm(v: np.ndarray, limit: float) -> np.ndarray:
 
 
 def within(e: np.ndarray, tol: np.ndarray, rows: np.ndarray) -> bool:
-    """Seed tolerance: a float bounds the norm of ``e``, a 3-vector bounds each
-    matched axis (``rows``: the axes ``e`` holds)."""
+    """The prioritized-IK manual's tolerance (``thre``): a float bounds the norm
+    of ``e``, a 3-vector bounds each matched axis (``rows``: the axes ``e``
+    holds)."""
     if e.size == 0:
         return True
     if tol.ndim == 0:
@@ -393,8 +397,8 @@ from overflow and its condition number within what a QP solver can use."""
 
 
 def diagonal_weights(w: float | Sequence[float] | np.ndarray, size: int, what: str) -> np.ndarray:
-    """Seed weight convention for a diagonal ``W``: a float fills the diagonal,
-    a vector gives it. Returns the diagonal, shape (size,)."""
+    """The prioritized-IK manual's weights of a diagonal ``W``: a float fills the
+    diagonal, a vector gives it. Returns the diagonal, shape (size,)."""
     arr = np.asarray(w, dtype=float)
     if arr.ndim == 0:
         arr = np.full(size, float(arr))

@@ -1,100 +1,22 @@
-"""DAQP backends: one level at a time, or the whole hierarchy in one call.
+"""A whole priority hierarchy as one DAQP hierarchical least-squares problem.
 
-* :class:`DAQPBackend` (``qp_solver="daqp"``): DAQP's dual active-set method on
-  each level's :class:`~pik_mj.qp.LevelProblem`.
-* :class:`HierarchicalBackend` (``qp_solver="daqp-hqp"``): the cascade as one
-  DAQP hierarchical least-squares problem (:class:`HierarchicalProblem`,
-  ``daqp.solve(..., break_points=...)``), every level exact.
+:class:`HierarchicalProblem` holds the cascade's rows in the form
+``daqp.solve(..., break_points=...)`` reads: every level exact, solved
+lexicographically in one call (:class:`~pik_mj.qp.daqp_backend.HierarchicalBackend`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
-import daqp
 import numpy as np
 
-from pik_mj.exceptions import InvalidInput
-from pik_mj.qp import LevelProblem, QPSolution
 from pik_mj.tasks.task import TaskRows, frozen
 
-DAQP_SETTINGS = (
-    "primal_tol",
-    "dual_tol",
-    "zero_tol",
-    "pivot_tol",
-    "progress_tol",
-    "cycle_tol",
-    "iter_limit",
-    "fval_bound",
-    "eps_prox",
-    "eta_prox",
-    "rel_subopt",
-    "abs_subopt",
-    "sing_tol",
-    "refactor_tol",
-    "time_limit",
-)
-"""Every key ``qp_args`` may hold for DAQP (``"daqp"`` and ``"daqp-hqp"``)."""
-
-_DAQP_EXIT = {
-    1: "optimal",
-    2: "optimal with soft constraints violated",
-    3: "a level of the hierarchy could not be solved (kept the solution above it)",
-    -1: "primal infeasible",
-    -2: "cycling detected",
-    -3: "unbounded",
-    -4: "iteration limit reached",
-    -5: "non-convex problem",
-    -6: "overdetermined initial active set",
-    -7: "time limit reached",
-    -8: "unsupported problem",
-}
-_DAQP_INF = 1e30
-_SENTINELS = np.array([-_DAQP_INF, _DAQP_INF])
+DAQP_INF = 1e30
+"""The bound DAQP reads as infinite: bounds beyond it are clamped to ``±DAQP_INF``."""
+_SENTINELS = np.array([-DAQP_INF, DAQP_INF])
 _SENTINELS.flags.writeable = False
-
-
-def _daqp_status(exitflag: int) -> str:
-    return f"DAQP exitflag {exitflag}: {_DAQP_EXIT.get(exitflag, 'unknown')}"
-
-
-def _check_daqp_settings(settings: dict[str, Any]) -> dict[str, Any]:
-    unknown = sorted(set(settings) - set(DAQP_SETTINGS))
-    if unknown:
-        raise InvalidInput(
-            f"qp_args has unknown DAQP settings {unknown}; valid: {list(DAQP_SETTINGS)}"
-        )
-    for k, v in settings.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-            raise InvalidInput(f"qp_args[{k!r}] must be a number, got {v!r}")
-        if not (np.isfinite(v) and v >= 0) and k not in ("eps_prox", "eta_prox"):
-            raise InvalidInput(f"qp_args[{k!r}] must be a finite number >= 0, got {v!r}")
-    return dict(settings)
-
-
-@dataclass
-class DAQPBackend:
-    """DAQP (dual active-set, exact) on one level at a time (``"daqp"``).
-
-    ``l <= A z <= u`` goes to DAQP as is (rows with ``l = u`` are equalities).
-    """
-
-    settings: dict[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        self.settings = _check_daqp_settings(self.settings)
-
-    def solve(self, problem: LevelProblem) -> QPSolution:
-        A = np.ascontiguousarray(problem.A, dtype=float)
-        u = np.minimum(problem.u, _DAQP_INF)
-        lo = np.maximum(problem.l, -_DAQP_INF)
-        sense = np.where(lo == u, 5, 0).astype(np.intc)
-        P = np.ascontiguousarray(problem.P, dtype=float)
-        z, _, exitflag, _ = daqp.solve(P, problem.q.astype(float), A, u, lo, sense, **self.settings)
-        ok = exitflag in (1, 2)
-        return QPSolution(np.array(z) if ok else None, _daqp_status(exitflag), ok, exitflag == -1)
 
 
 _IDENTITIES: dict[int, np.ndarray] = {}
@@ -136,7 +58,7 @@ class _Layout:
                 self.levels.append(k)
         self.A_shape = (i, n)
         # rows whose bounds may be infinite (inequality rows: equality rows'
-        # targets are finite), clamped to ±_DAQP_INF for DAQP
+        # targets are finite), clamped to ±DAQP_INF for DAQP
         self.infinite_bounds = self.general_rows.size > 0 or any(n_in)
         # the soft rows (after the hard general rows): first row and size of each
         # non-empty level block, for the per-level row norms in one pass
@@ -156,15 +78,15 @@ class _Layout:
         self.A = np.zeros(self.A_shape)
         self.upper = np.empty(self.n_bounds)
         self.lower = np.empty(self.n_bounds)
-        self.bounds0 = np.full((2, n), _DAQP_INF)
-        self.bounds0[1] = -_DAQP_INF
+        self.bounds0 = np.full((2, n), DAQP_INF)
+        self.bounds0[1] = -DAQP_INF
         self.bounds0[:, nv] = 0.0  # d = 0
 
     def _bound_sources(self, C: np.ndarray, nonzero: np.ndarray) -> None:
         """Where the simple bounds of ``x`` come from: a single-entry row
         ``c x_i ∈ [l, u]`` bounds ``x_i`` below by ``l / c`` and above by
         ``u / c`` (``c > 0``; swapped for ``c < 0``). With
-        ``v = [d_lower; d_upper; -INF; +INF]`` (:data:`_DAQP_INF`), the bounds
+        ``v = [d_lower; d_upper; -INF; +INF]`` (:data:`DAQP_INF`), the bounds
         of the columns :attr:`bounded` are ``max_j v[lower_src] · scale`` and
         ``min_j v[upper_src] · scale`` over each column's rows (``j``, axis 0), padded with
         the ``∓INF`` entries (which also keep them within ±INF)."""
@@ -205,10 +127,9 @@ def _kept_rows(rows: TaskRows, memo: dict, level: int) -> tuple[np.ndarray | Non
 
     Left out: rows of weight 0 (weights are >= 0, validated where the rows
     entered), and the zero rows of a read-only ``A`` (a posture's rows of the
-    free joint, 6 of 62 on the CMU humanoid: 14 % of the DAQP call), found once
-    per matrix and kept in ``memo`` with it and its other rows. Neither changes
-    a level's optimum (a zero row's residual does not depend on ``x``) nor its
-    norm ``D_k``.
+    free joint), found once per matrix and kept in ``memo`` with it and its
+    other rows. Neither changes a level's optimum (a zero row's residual does
+    not depend on ``x``) nor its norm ``D_k``.
     """
     A = rows.A
     weighted = int(np.count_nonzero(rows.w_A)) == rows.n_eq
@@ -337,10 +258,10 @@ class HierarchicalProblem:
             D = np.maximum(np.maximum.reduceat(norms, layout.block_starts), 1e-300)
             np.subtract(np.repeat(D, layout.block_sizes), norms, out=norms)
             np.sqrt(np.maximum(norms, 0.0, out=norms), out=soft[:, nv])
-        if layout.infinite_bounds:  # the rows' bounds within ±_DAQP_INF (the first n are)
+        if layout.infinite_bounds:  # the rows' bounds within ±DAQP_INF (the first n are)
             for bound in (upper[n:], lower[n:]):
-                np.minimum(bound, _DAQP_INF, out=bound)
-                np.maximum(bound, -_DAQP_INF, out=bound)
+                np.minimum(bound, DAQP_INF, out=bound)
+                np.maximum(bound, -DAQP_INF, out=bound)
         return cls(
             _identity(n),
             A,
@@ -359,51 +280,3 @@ class HierarchicalProblem:
         end = int(self.break_points[0])
         v = np.concatenate([z, self.A[: end - n] @ z])
         return float(np.max(np.maximum(self.blower[:end] - v, v - self.bupper[:end]), initial=0.0))
-
-
-@dataclass
-class HierarchicalBackend:
-    """The whole cascade in one DAQP call (``"daqp-hqp"``), see
-    :class:`HierarchicalProblem`. Each level is solved exactly (no ``λ_k``, no
-    ``τ``), so the per-level regularization options do not apply."""
-
-    settings: dict[str, Any] = field(default_factory=dict)
-    layouts: dict = field(default_factory=dict, repr=False)
-    zero_rows: dict = field(default_factory=dict, repr=False)
-
-    def __post_init__(self) -> None:
-        self.settings = _check_daqp_settings(self.settings)
-
-    def solve_hierarchy(self, problem: HierarchicalProblem) -> QPSolution:
-        z, _, exitflag, _ = daqp.solve(
-            problem.H,
-            np.zeros(problem.nv + 1),
-            problem.A,
-            problem.bupper,
-            problem.blower,
-            problem.sense,
-            problem.break_points,
-            **self.settings,
-        )
-        status = _daqp_status(exitflag)
-        x = np.array(z[: problem.nv])
-        tol = 1e-6 + 10 * float(self.settings.get("primal_tol", 1e-6))
-        if exitflag in (1, 2) or (exitflag == 3 and problem.hard_violation(x) <= tol):
-            return QPSolution(x, status, True)
-        # Was level 0 itself infeasible? (DAQP reports a failed level as exitflag 3.)
-        end = int(problem.break_points[0])
-        n = problem.nv + 1
-        _, _, alone, _ = daqp.solve(
-            problem.H,
-            np.zeros(n),
-            np.ascontiguousarray(problem.A[: end - n]),
-            problem.bupper[:end],
-            problem.blower[:end],
-            problem.sense[:end],
-        )
-        return QPSolution(None, status, False, infeasible=alone == -1)
-
-    def solve(self, problem: LevelProblem) -> QPSolution:
-        """One level alone (not used by the cascade, which hands this backend the
-        whole hierarchy): DAQP's plain QP."""
-        return DAQPBackend(self.settings).solve(problem)

@@ -1,75 +1,25 @@
-"""One step of the priority cascade: one QP per level (seed 000,
-``prioritized-inverse-kinematics``).
-
-Level ``k >= 1`` solves, over ``x = Δq`` (length ``nv``) and slacks ``ω_k`` for its
-own inequality rows:
-
-.. math::
-
-    \\min_{x, \\omega_k}\\; \\sum (A_k x - b_k)^T W_A (A_k x - b_k)
-        + \\omega_k^T W_C \\omega_k + \\lambda_k \\|x\\|^2
-
-subject to
-
-* level 0's rows, hard: ``A_0 x = b_0``, ``d_l0 <= C_0 x <= d_u0``;
-* every level ``j < k`` kept at what it achieved at its own solution ``x_j*``:
-  equality rows ``A_j x = A_j x_j*`` and inequality rows
-  ``min(d_lj, C_j x_j*) - τ <= C_j x <= max(d_uj, C_j x_j*) + τ``;
-* ``d_lk <= C_k x + ω_k <= d_uk``;
-
-with ``λ_k = min(w + w_r e_k, w_max) + μ_k``, ``e_k`` the level's squared error at
-``x = 0`` and ``μ_k`` the tasks' own Levenberg–Marquardt damping.
-
-:class:`NullSpaceCascade` solves the levels in order:
-
-* when no inequality row is active, the level's optimum is in closed form:
-  its equality part minimized over the null space of the kept equality rows
-  (projector ``P``). This is the common case (joint limits far away): a few
-  small dense products;
-* when that optimum crosses a few hard or kept inequality rows (joint limits
-  reached), those found active are held at their bounds as extra equality
-  rows of this level alone and the level is solved again in closed form
-  (:meth:`NullSpaceCascade.active_set`), accepted only with a KKT
-  certificate (feasible, multipliers of the right sign): the level's exact
-  optimum, like the closed form (no ``τ``, no feasibility error);
-* otherwise (no certificate, the level's own inequality rows needing their
-  slacks, ``λ_k = 0``) the level's QP goes to the QP backend (OSQP by
-  default), with the kept equality rows as equalities and the inequality rows
-  as bounds;
-* a hierarchical backend (``"daqp-hqp"``, :class:`~pik_mj.qp.HierarchicalBackend`)
-  solves all levels in one call instead, exactly (``λ_k → 0``, ``τ = 0``).
-
-``τ`` (:data:`DEFAULT_RELAXATION`) absorbs the inexactness of a first-order
-solver, so that a lower level can never be made infeasible by the rounding of a
-higher one; it is also the bound by which a lower level may move a higher
-level's inequality rows. Kept inequality rows are further widened by the
-feasibility error ``v_k`` of every backend solution from their level on times
-the row's 1-norm, since each ``x_k*`` met them only to within ``v_k``: a row
-``a`` of level ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of what level ``j``
-achieved (the bound the tests check); an equality row ends within the
-feasibility error of the backend solutions below it (0 in closed form).
-"""
+"""The cascade's levels solved one after the other in the null space of the
+levels above (:class:`NullSpaceCascade`): in closed form, with an active set
+of hard and kept inequality rows, or by the QP backend."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
 from typing import NamedTuple
 
-import mujoco
 import numpy as np
 
-from pik_mj.exceptions import InfeasibleHardConstraints, InvalidInput, QPFailure
-from pik_mj.qp import LevelProblem, OSQPBackend, QPBackend, QPSolution, QpsolversBackend
-from pik_mj.qp_daqp import DAQPBackend, HierarchicalProblem
+from pik_mj.cascade.linalg import (
+    chol_solve,
+    cholesky,
+    gram_solve,
+    inverse_cholesky,
+    pinv_psd,
+)
+from pik_mj.exceptions import InfeasibleHardConstraints, QPFailure
+from pik_mj.qp.backend import QPBackend
+from pik_mj.qp.problem import LevelProblem
 from pik_mj.tasks.task import TaskRows
-
-DEFAULT_RELAXATION = 1e-5
-"""τ [row units: m, rad], ten times the absolute tolerance of the default OSQP
-settings. A lower level may move a higher level's row by at most
-``τ + ε_prim``, with ``ε_prim = eps_abs + eps_rel·max(|A z|, |z|)`` OSQP's
-primal feasibility tolerance."""
 
 FEASIBILITY_TOLERANCE = 1e-10
 """How far [row units] the closed-form step may cross an inequality before the
@@ -89,141 +39,7 @@ KKT_TOLERANCE = 1e-9
 residual may be, by this times the gradient's scale."""
 
 
-@dataclass(frozen=True)
-class Regularization:
-    """Seed ``regular``, ``regular-rel``, ``regular-max`` for one level.
-
-    ``λ = min(w + w_r · e, w_max)`` where ``e`` is the level's squared error.
-    """
-
-    w: float = 1e-6
-    w_r: float = 5.0
-    w_max: float = 0.1
-
-    def weight(self, squared_error: float) -> float:
-        return min(self.w + self.w_r * squared_error, self.w_max)
-
-
-def per_level(value: float | Sequence[float], n_levels: int, name: str) -> list[float]:
-    """Seed convention: a float is shared by every level, a list gives one per level."""
-    if type(value) is float:  # the common case, without numpy calls
-        values = [value] * n_levels
-    else:
-        try:
-            if np.ndim(value) == 0:
-                values = [float(value)] * n_levels  # type: ignore[arg-type]
-            else:
-                values = [float(v) for v in value]  # type: ignore[union-attr]
-        except (TypeError, ValueError):
-            raise InvalidInput(
-                f"{name} must be a float or one float per solved level, got {value!r}"
-            ) from None
-        if isinstance(value, bool) or (
-            np.ndim(value) > 0 and any(isinstance(v, bool) for v in value)  # type: ignore[union-attr]
-        ):
-            raise InvalidInput(f"{name} must be a float or one per solved level, got {value!r}")
-        if len(values) != n_levels:
-            raise InvalidInput(
-                f"{name} has {len(values)} entries; give a float or one per solved level "
-                f"({n_levels})"
-            )
-    if not all(math.isfinite(v) and v >= 0 for v in values):
-        raise InvalidInput(f"{name} must be finite and >= 0, got {values}")
-    return values
-
-
-@dataclass
-class CascadeStep:
-    """Result of one cascade step.
-
-    Attributes:
-        x: The step of the last level, shape (nv,).
-        level_x: ``x_k*`` for each solved level k = 1..K (empty for a
-            hierarchical backend, which returns the last only).
-        level_errors: Squared error ``e_k`` of each solved level at ``x = 0``.
-        level_lambdas: Regularization ``λ_k`` used at each level (0 for a
-            hierarchical backend: each level exact).
-        problems: The QP of each level handed to the backend (levels solved in
-            closed form have none; see :meth:`NullSpaceCascade.level_problem`),
-            or the one :class:`HierarchicalProblem` (whose arrays the backend's
-            next problem of the same shape rewrites: copy them to keep them).
-        violations: Feasibility error ``v_k`` of each level's solution
-            (largest constraint violation of its QP; 0 in closed form). A row
-            ``a`` of level ``j`` ends within ``τ + ‖a‖₁ Σ_{k>=j} v_k`` of its
-            value at ``x_j*``.
-        closed_form: Number of levels solved in closed form.
-    """
-
-    x: np.ndarray
-    level_x: list[np.ndarray]
-    level_errors: list[float]
-    level_lambdas: list[float]
-    problems: list[LevelProblem | HierarchicalProblem] = field(default_factory=list)
-    violations: list[float] = field(default_factory=list)
-    closed_form: int = 0
-
-
-def _pinv_psd(G: np.ndarray) -> np.ndarray:
-    """Pseudo-inverse of a small symmetric positive semidefinite matrix."""
-    s, V = np.linalg.eigh(G)
-    keep = s > 1e-12 * max(float(s[-1]) if s.size else 0.0, 1e-300)
-    return (V[:, keep] / s[keep]) @ V[:, keep].T
-
-
-CHOLESKY_PIVOT = 1e-8
-"""Smallest Cholesky pivot ``L_ii²``, relative to ``G``'s largest diagonal
-entry, for which a Gram matrix ``G = B Bᵀ`` is treated as regular (its rows
-independent); below it, :func:`_pinv_psd` (an eigendecomposition, about
-twice the time of the factorization and solve on these sizes) decides the
-rank."""
-
-
-def _cholesky_factor(G: np.ndarray) -> np.ndarray | None:
-    """MuJoCo's dense Cholesky factor (``mju_cholFactor``) of a small symmetric
-    ``G``, made in a copy of ``G``: ``L`` (``G = L Lᵀ``) in its lower triangle,
-    ``G``'s entries above. None when a pivot ``L_ii²`` is below
-    :data:`CHOLESKY_PIVOT` times ``G``'s largest diagonal entry (``G`` singular
-    or nearly so, or not positive definite: then ``G⁺`` is not ``G⁻¹``).
-    MuJoCo's calls, not numpy's: on a 12x12 ``G`` factor and solve take 2.4
-    µs, numpy's ``cholesky`` and ``solve`` 12.6 µs (their Python wrappers);
-    and a second BLAS (scipy's) in the loop would bring a second thread pool,
-    which on a loaded machine made solves up to 8 times slower."""
-    n = G.shape[0]
-    top = float(G.diagonal().max()) if n else 0.0
-    if top <= 0.0:  # (no rows, or no positive pivot; NaN goes on and comes out NaN)
-        return None
-    L = np.array(G, dtype=float)  # factored in place
-    if mujoco.mju_cholFactor(L, CHOLESKY_PIVOT * top) < n:
-        return None
-    return L
-
-
-def _cholesky(G: np.ndarray) -> np.ndarray | None:
-    """Lower Cholesky factor ``L`` (``G = L Lᵀ``, zeros above the diagonal)
-    of :func:`_cholesky_factor`, or None."""
-    L = _cholesky_factor(G)
-    return None if L is None else np.tril(L)
-
-
-def _chol_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray | None:
-    """``G⁻¹ r`` with :func:`_cholesky_factor` (``mju_cholSolve``), or None."""
-    L = _cholesky_factor(G)
-    if L is None:
-        return None
-    x = np.empty(G.shape[0])
-    mujoco.mju_cholSolve(x, L, np.ascontiguousarray(r, dtype=float))
-    return x
-
-
-def _regular_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``G⁻¹ r`` for a regular ``G = B Bᵀ + λ I`` (``λ > 0``): MuJoCo's
-    Cholesky (:func:`_chol_solve`), numpy's LU solve when a pivot is below
-    its test (``λ`` small against ``G``'s largest diagonal entry)."""
-    y = _chol_solve(G, r)
-    return np.linalg.solve(G, r) if y is None else y
-
-
-def _overshoot(cx: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+def overshoot(cx: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """How far each row value ``cx`` lies outside ``[lo, hi]`` [row units]
     (<= 0: within)."""
     return np.maximum(lo - cx, cx - hi)
@@ -232,15 +48,7 @@ def _overshoot(cx: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 def _crossed(cx: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[int]:
     """The rows whose value ``cx`` lies outside ``[lo, hi]`` by more than
     :data:`FEASIBILITY_TOLERANCE`."""
-    return np.flatnonzero(_overshoot(cx, lo, hi) > FEASIBILITY_TOLERANCE).tolist()
-
-
-def _gram_solve(B: np.ndarray, G: np.ndarray, r: np.ndarray, lam: float, nv: int) -> np.ndarray:
-    """``u = Bᵀ G⁻¹ r`` with ``G = B Bᵀ + λ I`` (``G⁺`` when ``λ = 0``); zero
-    without rows."""
-    if r.size == 0:
-        return np.zeros(nv)
-    return B.T @ (_regular_solve(G, r) if lam > 0 else _psd_solve(G, r))
+    return np.flatnonzero(overshoot(cx, lo, hi) > FEASIBILITY_TOLERANCE).tolist()
 
 
 class _Unconstrained(NamedTuple):
@@ -254,31 +62,6 @@ class _Unconstrained(NamedTuple):
     B: np.ndarray
     G: np.ndarray
     x_e: np.ndarray | None
-
-
-def _inverse_cholesky(S: np.ndarray, norms: np.ndarray) -> np.ndarray | None:
-    """``L⁻¹`` for ``S = C P Cᵀ = L Lᵀ`` (rows ``C`` projected by ``P``), or
-    None when a pivot ``L_ii²`` is below :data:`CHOLESKY_PIVOT` times its
-    row's squared norm ``norms_i = ‖c_i‖²`` (the row nearly a combination of
-    the rows before it and of those ``P`` projects out)."""
-    if S.shape[0] == 1:
-        s = float(S[0, 0])
-        return np.array([[1.0 / math.sqrt(s)]]) if s > CHOLESKY_PIVOT * float(norms[0]) else None
-    try:
-        L = np.linalg.cholesky(S)
-    except np.linalg.LinAlgError:
-        return None
-    d = L.diagonal()
-    if bool((d * d <= CHOLESKY_PIVOT * norms).any()):
-        return None
-    return np.linalg.inv(L)
-
-
-def _psd_solve(G: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """``G⁺ r`` for a small symmetric positive semidefinite ``G``: ``G⁻¹ r``
-    when ``G`` is regular, else the pseudo-inverse."""
-    y = _chol_solve(G, r)
-    return _pinv_psd(G) @ r if y is None else y
 
 
 class NullSpaceCascade:
@@ -322,7 +105,7 @@ class NullSpaceCascade:
         self._kept: list[tuple[np.ndarray, np.ndarray]] = []
         if hard.n_eq:
             B = hard.A
-            self.x = B.T @ (_pinv_psd(B @ B.T) @ hard.b)
+            self.x = B.T @ (pinv_psd(B @ B.T) @ hard.b)
             if not np.allclose(B @ self.x, hard.b, atol=FEASIBILITY_TOLERANCE):
                 raise InfeasibleHardConstraints(
                     "the equality rows of level 0 admit no step (inconsistent equations)"
@@ -343,9 +126,9 @@ class NullSpaceCascade:
             return
         B = A if self.P is None else A @ self.P
         G = B @ B.T
-        L = _cholesky(G)
+        L = cholesky(G)
         if L is None:
-            removed = B.T @ (_pinv_psd(G) @ B)
+            removed = B.T @ (pinv_psd(G) @ B)
         else:
             Y = np.linalg.solve(L, B)
             removed = Y.T @ Y
@@ -369,7 +152,7 @@ class NullSpaceCascade:
 
     def _excess(self, x: np.ndarray) -> np.ndarray:
         """Violation of each inequality row at ``x`` beyond its allowance (<= 0: met)."""
-        return _overshoot(self.C @ x, *self._allowed())
+        return overshoot(self.C @ x, *self._allowed())
 
     def candidate(self, rows: TaskRows, lam: float) -> np.ndarray:
         """The level's optimum with every inequality inactive (closed form)."""
@@ -390,7 +173,7 @@ class NullSpaceCascade:
             r = b_hat - A_hat @ x_e
         G = B @ B.T
         G.flat[:: G.shape[0] + 1] += lam
-        u = _gram_solve(B, G, r, lam, self.nv)
+        u = gram_solve(B, G, r, lam, self.nv)
         return _Unconstrained(u if x_e is None else x_e + u, A_hat, b_hat, B, G, x_e)
 
     def active_set(self, rows: TaskRows, lam: float, free: _Unconstrained) -> np.ndarray | None:
@@ -468,13 +251,13 @@ class NullSpaceCascade:
         Cw = C.take(fixed, axis=0)
         t = np.array([hi[i] if up else lo[i] for i, up in zip(fixed, upper, strict=True)])
         PCt = Cw.T if P is None else P @ Cw.T
-        Li = _inverse_cholesky(Cw @ PCt, (Cw * Cw).sum(axis=1))
+        Li = inverse_cholesky(Cw @ PCt, (Cw * Cw).sum(axis=1))
         if Li is None:
             return None, {}  # held rows dependent on each other or on kept equalities
         Y = Li @ PCt.T
         x_p = Y.T @ (Li @ t) if x_e is None else x_e + Y.T @ (Li @ (t - Cw @ x_e))
         Z = A_hat @ Y.T
-        u = _gram_solve(free.B - Z @ Y, free.G - Z @ Z.T, b_hat - A_hat @ x_p, lam, self.nv)
+        u = gram_solve(free.B - Z @ Y, free.G - Z @ Z.T, b_hat - A_hat @ x_p, lam, self.nv)
         x = x_p + u
         # u meets C_W u = 0 only to within about ε/λ_k (B_W Bᵀ_W + λ I is
         # nearly singular along the held rows): back onto the face, within P's
@@ -556,7 +339,7 @@ class NullSpaceCascade:
                     N = np.array(normals).T
                     MN = M @ N
                     S = N.T @ MN
-                    r = _chol_solve(S, MN.T @ n)
+                    r = chol_solve(S, MN.T @ n)
                     if r is None:
                         return None
                     z = Mn - MN @ r
@@ -667,142 +450,3 @@ class NullSpaceCascade:
                 self.hi = np.concatenate([self.hi, np.maximum(rows.d_upper, cx) + tau])
                 self.s0 = np.concatenate([self.s0, np.full(rows.n_in, s0)])
         return x_k, problem, violation
-
-
-def solve_cascade(
-    hard: TaskRows,
-    levels: Sequence[TaskRows],
-    regularization: Sequence[Regularization],
-    backend: QPBackend,
-    relaxation: float = DEFAULT_RELAXATION,
-    role: str = "step",
-    closed_form: bool = True,
-) -> CascadeStep:
-    """Solve the cascade at one linearization point.
-
-    Args:
-        hard: Level-0 rows (hard constraints; assumed feasible, never solved alone).
-        levels: Rows of levels 1..K, highest priority first.
-        regularization: One :class:`Regularization` per level 1..K.
-        backend: QP backend, or a hierarchical backend (``solve_hierarchy``).
-        relaxation: ``τ`` [row units].
-        role: Tag of the problems (``"step"`` or ``"correction"``) for backends
-            that cache per problem.
-        closed_form: Solve a level in closed form when no inequality is active
-            (False: every level goes to the backend). A backend given as an
-            object or a function (seed ``qp-solver``) always gets every level.
-
-    Raises:
-        InfeasibleHardConstraints: Level 1 is infeasible: only level 0's hard rows
-            can make it so.
-        QPFailure: Another level's QP failed; carries the level and the problem.
-    """
-    errors = [rows.squared_error() for rows in levels]
-    hierarchical = hasattr(backend, "solve_hierarchy")
-    if hierarchical:
-        lambdas = [0.0] * len(levels)
-    else:
-        lambdas = [
-            reg.weight(e) + rows.damping
-            for rows, reg, e in zip(levels, regularization, errors, strict=True)
-        ]
-        closed_form = closed_form and isinstance(
-            backend, (OSQPBackend, DAQPBackend, QpsolversBackend)
-        )
-    if role == "correction" and closed_form and len(levels) == 1:
-        x = _projection(hard, levels[0], lambdas[0])
-        if x is not None:
-            return CascadeStep(x, [x], errors, lambdas, [], [0.0], 1)
-    if hierarchical:
-        if role == "correction" and closed_form:
-            # The projection back onto satisfied levels: exact in closed form
-            # (λ = 0, like the hierarchical solve) unless an inequality is active.
-            step = _exact(hard, levels, errors)
-            if step is not None:
-                return step
-        return _solve_hierarchy(hard, levels, errors, backend)
-    cascade = NullSpaceCascade(hard, backend, relaxation, role)
-    level_x: list[np.ndarray] = []
-    problems: list[LevelProblem | HierarchicalProblem] = []
-    violations: list[float] = []
-    n_exact = 0
-    n_levels = len(levels)
-    for k, rows in enumerate(levels):
-        x_k, problem, violation = cascade.level(
-            k + 1, rows, lambdas[k], k == n_levels - 1, closed_form
-        )
-        level_x.append(x_k)
-        violations.append(violation)
-        if problem is None:
-            n_exact += 1
-        else:
-            problems.append(problem)
-    return CascadeStep(level_x[-1].copy(), level_x, errors, lambdas, problems, violations, n_exact)
-
-
-def _projection(hard: TaskRows, rows: TaskRows, lam: float) -> np.ndarray | None:
-    """The correction's common case in closed form: one level of equality rows
-    and only inequality rows above it (joint limits). With ``B = W^½ A``,
-    ``r = W^½ b``:
-
-    .. math::
-
-        x = B^T (B B^T + \\lambda I)^{-1} r
-
-    returned when it meets every hard row within :data:`FEASIBILITY_TOLERANCE`
-    (then it is the level's optimum, as :meth:`NullSpaceCascade.candidate`
-    finds it with ``P = I``), else None: other shapes, an active limit, and
-    with ``λ = 0`` rows that are dependent (a Cholesky pivot below
-    :data:`CHOLESKY_PIVOT`), go to :class:`NullSpaceCascade` and the backend.
-    The same products without the cascade's bookkeeping: the solve loop
-    corrects 1.2-1.6 times per iteration.
-    """
-    if hard.n_eq or rows.n_in or not rows.n_eq:
-        return None
-    sw = np.sqrt(rows.w_A)
-    B = sw[:, None] * rows.A
-    G = B @ B.T
-    if lam > 0:
-        G.flat[:: G.shape[0] + 1] += lam
-    r = sw * rows.b
-    y = _regular_solve(G, r) if lam > 0 else _chol_solve(G, r)
-    if y is None:
-        return None
-    x = B.T @ y
-    if not math.isfinite(float(x @ x)):
-        return None
-    if hard.n_in:
-        if float(_overshoot(hard.C @ x, hard.d_lower, hard.d_upper).max()) > FEASIBILITY_TOLERANCE:
-            return None
-    return x
-
-
-def _exact(hard: TaskRows, levels: Sequence[TaskRows], errors: list[float]) -> CascadeStep | None:
-    """Every level in closed form with ``λ_k = 0``, or None if an inequality is active."""
-    cascade = NullSpaceCascade(hard, None, 0.0, "correction")
-    level_x = []
-    for k, rows in enumerate(levels):
-        x_k, _, _ = cascade.level(k + 1, rows, 0.0, k == len(levels) - 1, True)
-        if x_k is None:
-            return None
-        level_x.append(x_k)
-    n = len(levels)
-    return CascadeStep(level_x[-1].copy(), level_x, errors, [0.0] * n, [], [0.0] * n, n)
-
-
-def _solve_hierarchy(
-    hard: TaskRows, levels: Sequence[TaskRows], errors: list[float], backend
-) -> CascadeStep:
-    problem = HierarchicalProblem.from_rows(
-        hard, list(levels), getattr(backend, "layouts", None), getattr(backend, "zero_rows", None)
-    )
-    solution: QPSolution = backend.solve_hierarchy(problem)
-    if not solution.ok or solution.z is None:
-        if solution.infeasible:
-            raise InfeasibleHardConstraints(
-                f"the hard rows of level 0 admit no step ({solution.status})"
-            )
-        raise QPFailure(problem.levels[-1] if problem.levels else 1, solution.status, problem)
-    return CascadeStep(
-        solution.z.copy(), [], errors, [0.0] * len(levels), [problem], [], closed_form=0
-    )

@@ -1,29 +1,15 @@
-"""QP problems of the cascade and the backends that solve them.
+"""OSQP, the cascade's default backend: one cached solver per level and sparsity
+pattern, set up once, then updated and warm-started.
 
-Every level of the cascade is one convex QP over ``z = [x; ω]``::
+:class:`OSQPBackend` keeps CSC matrices with a fixed sparsity pattern per level
+and problem shape; after a level's first problem in a solve, only
+``update()`` + warm start. ``make_backend("osqp")`` hands out one backend per
+thread and settings, kept across solves (a motion calls :func:`pik_mj.solve`
+every tick); a later solve reuses a level's workspace when the pattern is the
+same, reset to the state of a fresh setup, so that its result does not depend
+on the solves before it.
 
-    min  ½ zᵀ P z + qᵀ z    s.t.   l <= A_c z <= u
-
-(equality rows have ``l = u``). :class:`LevelProblem` keeps the matrices dense so
-a failing problem can be inspected and re-solved anywhere. Backends:
-
-* :class:`OSQPBackend` (``"osqp"``, the default): CSC matrices with a fixed
-  sparsity pattern per level and problem shape; after a level's first problem
-  in a solve, only ``update()`` + warm start. ``make_backend("osqp")`` hands
-  out one backend per thread and settings, kept across solves (a motion calls
-  :func:`pik_mj.solve` every tick); a later solve reuses a level's workspace
-  when the pattern is the same, reset to the state of a fresh setup, so that
-  its result does not depend on the solves before it.
-* :class:`~pik_mj.qp_daqp.DAQPBackend` (``"daqp"``): DAQP's dual active-set
-  method, per level.
-* :class:`~pik_mj.qp_daqp.HierarchicalBackend` (``"daqp-hqp"``): the whole
-  hierarchy in one DAQP call (hierarchical least squares).
-* any other ``qpsolvers`` name, an object with ``solve(problem)``, or a function
-  (seed ``qp-solver``); ``qp_args`` are the solver's settings (seed ``qp-args``).
-
-Solver statuses become pik_mj's exceptions in :mod:`pik_mj.cascade`, with the
-solver's own explanation in the message; an interrupted solve (Ctrl-C, which
-OSQP catches) raises :class:`KeyboardInterrupt`.
+An interrupted solve (Ctrl-C, which OSQP catches) raises :class:`KeyboardInterrupt`.
 """
 
 from __future__ import annotations
@@ -34,17 +20,20 @@ import io
 import os
 import sys
 import tempfile
-import threading
 from collections import OrderedDict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple, Protocol
+from typing import Any, ClassVar
 
 import numpy as np
 import osqp
 import scipy.sparse as sp
 
 from pik_mj.exceptions import InvalidInput
+from pik_mj.qp.adapters import QpsolversBackend
+from pik_mj.qp.backend import QPBackend
+from pik_mj.qp.daqp_backend import DAQPBackend
+from pik_mj.qp.problem import LevelProblem, QPSolution
 
 OSQP_DEFAULTS: dict[str, Any] = {
     "eps_abs": 1e-6,
@@ -66,17 +55,16 @@ OSQP_DEFAULTS: dict[str, Any] = {
     # machine's load.
     "adaptive_rho_interval": 25,
     # No Ruiz scaling: OSQP computes it at setup() from the first problem and
-    # keeps it through update(); off, the same ADMM iterations and time were
-    # measured on these problems.
+    # keeps it through update(), so it would scale a level's later problems
+    # by the first one's values.
     "scaling": 0,
     "verbose": False,
 }
 """OSQP settings of the cascade. Tolerances are far tighter than OSQP's defaults
 (1e-3) because each level's achieved values become the next levels' constraints,
-and because a level's objective gradient is of the size of its error: at 1e-5 a
-foot error of 1e-5 m is already "optimal" to OSQP and drift accumulates to 1e-4 m
-while a hand reaches; 1e-6 holds it at ~2e-5 m for +25% time per iteration.
-Termination is checked every 5 ADMM
+and because a level's objective gradient is of the size of its error: at a
+looser tolerance a foot error of that size is already "optimal" to OSQP and
+drift accumulates while a hand reaches. Termination is checked every 5 ADMM
 iterations (default 25): these problems converge in tens of iterations."""
 
 OSQP_SETTINGS = tuple(
@@ -86,58 +74,6 @@ OSQP_SETTINGS = tuple(
     )
 )
 """Every key ``qp_args`` may hold for OSQP."""
-
-
-@dataclass
-class LevelProblem:
-    """The QP of one priority level, dense, ready to hand to any QP solver.
-
-    Attributes:
-        level: Priority level k >= 1.
-        P: Hessian, shape (n, n), symmetric positive definite on ``x``.
-        q: Linear term, shape (n,).
-        A: Constraint matrix, shape (m, n).
-        l: Lower bounds, shape (m,) (``-inf`` allowed).
-        u: Upper bounds, shape (m,) (``+inf`` allowed).
-        nv: Number of step variables ``x`` (the first ``nv`` entries of ``z``).
-        role: ``"step"`` for the cascade's step, ``"correction"`` for the
-            projection that re-solves satisfied levels; backends cache solvers
-            per ``(role, level)``.
-    """
-
-    level: int
-    P: np.ndarray
-    q: np.ndarray
-    A: np.ndarray
-    l: np.ndarray
-    u: np.ndarray
-    nv: int
-    role: str = "step"
-
-    @property
-    def n_slack(self) -> int:
-        return self.P.shape[0] - self.nv
-
-    def objective(self, z: np.ndarray) -> float:
-        return float(0.5 * z @ self.P @ z + self.q @ z)
-
-    def max_violation(self, z: np.ndarray) -> float:
-        Az = self.A @ z
-        return float(np.max(np.maximum(self.l - Az, Az - self.u), initial=0.0))
-
-
-class QPSolution(NamedTuple):
-    """Outcome of one QP solve: ``z`` (None on failure), solver status, success,
-    and whether the solver proved the problem infeasible."""
-
-    z: np.ndarray | None
-    status: str
-    ok: bool
-    infeasible: bool = False
-
-
-class QPBackend(Protocol):
-    def solve(self, problem: LevelProblem) -> QPSolution: ...
 
 
 class _Pattern:
@@ -169,7 +105,6 @@ class _Pattern:
         return sp.csc_matrix((self.data(M), self.rows, self.indptr), shape=M.shape)
 
 
-_OSQP_INFTY = 1e30
 _OSQP = osqp.SolverStatus
 
 
@@ -236,13 +171,17 @@ def _masks(problem: LevelProblem) -> tuple[np.ndarray, np.ndarray]:
     always in) and ``A``.
 
     The pattern is the nonzeros as they are, although a posture's coincidental
-    zeros (an aligned root) cost one more setup() when they fill in:
-    densifying Jacobian rows up front was measured slower, as every later
-    update refactorizes a denser KKT system.
+    zeros (an aligned root) cost one more setup() when they fill in: a denser
+    pattern would make every later update refactorize a denser KKT system.
     """
     P_mask = (problem.P != 0) & _upper(problem.P.shape[0])
     P_mask.flat[:: P_mask.shape[0] + 1] = True
     return P_mask, problem.A != 0
+
+
+def _dense_backend(name: str) -> QPBackend:
+    """The dense solver ``name``: DAQP (``"daqp"``), else a ``qpsolvers`` solver."""
+    return DAQPBackend() if name == "daqp" else QpsolversBackend(name)
 
 
 @dataclass
@@ -255,7 +194,7 @@ class _OSQPLevel:
 
 
 @dataclass
-class OSQPBackend:
+class OSQPBackend(QPBackend):
     """OSQP with one cached solver per level and shape: set up once, then
     updated and warm-started. A solve's (:meth:`start`) first problem of a
     level reuses the workspace when its sparsity pattern is exactly the
@@ -266,16 +205,18 @@ class OSQPBackend:
     Args:
         settings: OSQP settings overriding :data:`OSQP_DEFAULTS` (keys:
             :data:`OSQP_SETTINGS`).
-        fallback: A dense solver (``"daqp"``, dual active-set, exact) tried when
-            OSQP does not reach its tolerance (ADMM can stall on degenerate,
-            strongly conflicting levels); None to disable. Never used for an
-            interrupted or infeasible problem.
+        fallback: A dense solver (``"daqp"``, dual active-set, exact, or another
+            ``qpsolvers`` name) tried when OSQP does not reach its tolerance
+            (ADMM can stall on degenerate, strongly conflicting levels); None
+            to disable. Never used for an interrupted or infeasible problem.
         capacity: Workspaces kept (least recently used ones are dropped).
 
     Attributes:
         setups: OSQP ``setup()`` calls so far.
         fallbacks: Levels solved by the fallback so far.
     """
+
+    allows_closed_form: ClassVar[bool] = True
 
     settings: dict[str, Any] = field(default_factory=dict)
     fallback: str | None = "daqp"
@@ -300,6 +241,9 @@ class OSQPBackend:
         self._epoch += 1
 
     def solve(self, problem: LevelProblem) -> QPSolution:
+        """One level's QP: in the level's workspace, warm-started from the
+        level's last problem of this solve, or reset to a fresh setup's state;
+        the fallback when OSQP does not reach its tolerance."""
         key = (problem.role, problem.level, problem.A.shape)
         cached = self._current.get(key)
         try:
@@ -327,20 +271,19 @@ class OSQPBackend:
             code = int(exc.args[0]) if exc.args else 0
             return QPSolution(None, f"OSQP: {_OSQP_ERRORS.get(code, f'error {code}')}", False)
         cached.epoch = self._epoch
-        ext = cached.solver._solver
-        ext.solve()
-        info = ext.info
+        result = cached.solver.solve(raise_error=False)
+        info = result.info
         status = info.status_val
         if status == _OSQP.OSQP_SIGINT or _osqp_interrupted():
             # OSQP caught Ctrl-C and returned; the user asked to stop.
             raise KeyboardInterrupt("interrupted during an OSQP solve")
         if status in _SOLVED:
-            return QPSolution(np.array(ext.solution.x), info.status, True)
+            return QPSolution(np.array(result.x), info.status, True)
         text = f"OSQP: {_OSQP_STATUS_TEXT.get(status, info.status)}"
         if status in _INFEASIBLE:
             return QPSolution(None, text, False, infeasible=True)
         if self.fallback is not None:
-            rescue = make_backend(self.fallback).solve(problem)
+            rescue = _dense_backend(self.fallback).solve(problem)
             if rescue.ok:
                 self.fallbacks += 1
                 return QPSolution(rescue.z, f"{self.fallback} after {text}", True)
@@ -363,20 +306,14 @@ class OSQPBackend:
         return cached
 
     def _update(self, cached: _OSQPLevel, problem: LevelProblem) -> None:
-        """New values in the workspace's pattern (the extension's own update:
-        osqp's Python wrapper spends ~4x the C solve time per call on
-        bookkeeping for derivatives)."""
-        ext = cached.solver._solver
-        ext.update_data_vec(
+        """New values in the workspace's pattern (OSQP bounds its ``l``, ``u``
+        at its own infinity)."""
+        cached.solver.update(
             q=problem.q,
-            l=np.maximum(problem.l, -_OSQP_INFTY),
-            u=np.minimum(problem.u, _OSQP_INFTY),
-        )
-        ext.update_data_mat(
-            P_x=cached.P_pattern.data(problem.P),
-            P_i=None,
-            A_x=cached.A_pattern.data(problem.A),
-            A_i=None,
+            l=problem.l,
+            u=problem.u,
+            Px=cached.P_pattern.data(problem.P),
+            Ax=cached.A_pattern.data(problem.A),
         )
 
     def _reset(self, cached: _OSQPLevel, problem: LevelProblem) -> None:
@@ -384,12 +321,12 @@ class OSQPBackend:
         changed it) and a cold start. The KKT matrix is then refactored from
         the same values in the same pattern, so the iterates are those of a
         fresh setup, bit for bit (tested)."""
-        ext = cached.solver._solver
-        ext.update_rho(float(self.settings.get("rho", _OSQP_RHO)))
-        if ext.get_settings().warm_starting:
+        solver = cached.solver
+        solver.update_settings(rho=float(self.settings.get("rho", _OSQP_RHO)))
+        if solver.settings.warm_starting:
             # (warm_start() also turns warm starting on: a workspace without
             # it, the correction's, cold-starts every solve by itself)
-            ext.warm_start(np.zeros(problem.P.shape[0]), np.zeros(problem.A.shape[0]))
+            solver.warm_start(np.zeros(problem.P.shape[0]), np.zeros(problem.A.shape[0]))
 
     def _setup(
         self, problem: LevelProblem, key: tuple, P_mask: np.ndarray, A_mask: np.ndarray
@@ -402,16 +339,10 @@ class OSQPBackend:
             # would stop with that solution's null-space motion in it.
             settings["warm_starting"] = False
         # naming the algebra spares OSQP() probing for its optional CUDA/MKL
-        # modules by import on every construction (~0.3 ms)
+        # modules by import on every construction
         solver = osqp.OSQP(algebra="builtin")
-        solver.setup(
-            P_pattern.csc(problem.P),
-            problem.q,
-            A_pattern.csc(problem.A),
-            np.maximum(problem.l, -_OSQP_INFTY),
-            np.minimum(problem.u, _OSQP_INFTY),
-            **settings,
-        )
+        P, A = P_pattern.csc(problem.P), A_pattern.csc(problem.A)
+        solver.setup(P, problem.q, A, problem.l, problem.u, **settings)
         self.setups += 1
         level = _OSQPLevel(solver, P_pattern, A_pattern, self._epoch, key)
         self._levels[key] = level
@@ -419,138 +350,6 @@ class OSQPBackend:
         while len(self._levels) > self.capacity:
             self._levels.popitem(last=False)
         return level
-
-
-@dataclass
-class QpsolversBackend:
-    """Any dense solver known to ``qpsolvers``, for comparison."""
-
-    solver: str
-    kwargs: dict[str, Any] = field(default_factory=dict)
-
-    def solve(self, problem: LevelProblem) -> QPSolution:
-        import qpsolvers
-
-        A, l, u = problem.A, problem.l, problem.u
-        eq = l == u
-        upper = ~eq & np.isfinite(u)
-        lower = ~eq & np.isfinite(l)
-        G = np.vstack([A[upper], -A[lower]])
-        h = np.concatenate([u[upper], -l[lower]])
-        z = qpsolvers.solve_qp(
-            problem.P,
-            problem.q,
-            G if G.size else None,
-            h if h.size else None,
-            A[eq] if eq.any() else None,
-            l[eq] if eq.any() else None,
-            solver=self.solver,
-            **self.kwargs,
-        )
-        return QPSolution(z, "solved" if z is not None else "failed", z is not None)
-
-
-@dataclass
-class CallableBackend:
-    """Seed ``qp-solver`` as a function: ``fn(problem, **qp_args) -> z or None``.
-
-    A result of the wrong shape or with NaN/inf raises :class:`InvalidInput`
-    naming the function; None is a failed solve.
-    """
-
-    fn: Callable[..., np.ndarray | None]
-    kwargs: dict[str, Any] = field(default_factory=dict)
-
-    def solve(self, problem: LevelProblem) -> QPSolution:
-        z = self.fn(problem, **self.kwargs)
-        if z is None:
-            return QPSolution(None, f"qp_solver {_name(self.fn)} returned None", False)
-        name = _name(self.fn)
-        try:
-            z = np.asarray(z, dtype=float)
-        except (TypeError, ValueError):
-            raise InvalidInput(
-                f"qp_solver {name} returned {type(z).__name__}; return z (n,) or None"
-            ) from None
-        n = problem.P.shape[0]
-        if z.shape != (n,):
-            raise InvalidInput(
-                f"qp_solver {name} returned shape {z.shape} for a problem of {n} "
-                f"variables (level {problem.level}); return z of shape ({n},) or None"
-            )
-        if not np.all(np.isfinite(z)):
-            raise InvalidInput(
-                f"qp_solver {name} returned NaN or inf (level {problem.level}); "
-                "return finite z or None"
-            )
-        return QPSolution(z, f"qp_solver {name}", True)
-
-
-def _name(fn: object) -> str:
-    return getattr(fn, "__qualname__", None) or repr(fn)
-
-
-QP_SOLVERS = ("osqp", "daqp", "daqp-hqp")
-"""Backends by name (besides any other installed ``qpsolvers`` solver)."""
-
-_SHARED = threading.local()
-
-
-def make_backend(qp_solver: object = "osqp", qp_args: dict[str, Any] | None = None) -> QPBackend:
-    """Backend from seed-style ``qp_solver`` / ``qp_args``, validated here.
-
-    Named backends are shared per thread and settings, so OSQP workspaces live
-    across solves.
-
-    Args:
-        qp_solver: ``"osqp"`` (default), ``"daqp"``, ``"daqp-hqp"``, another
-            ``qpsolvers`` solver name, an object with ``solve(problem)``, or a
-            function ``fn(problem, **qp_args)``.
-        qp_args: Settings for the solver.
-
-    Raises:
-        InvalidInput: Unknown solver name, unknown setting or a value the solver
-            refuses (with the solver's own message).
-    """
-    if qp_args is not None and not isinstance(qp_args, dict):
-        raise InvalidInput(f"qp_args must be a dict of solver settings, got {qp_args!r}")
-    args = dict(qp_args or {})
-    if isinstance(qp_solver, str):
-        try:
-            key = (qp_solver, tuple(sorted(args.items())))
-            hash(key)
-        except TypeError:
-            return _new_backend(qp_solver, args)
-        cache = getattr(_SHARED, "backends", None)
-        if cache is None:
-            cache = _SHARED.backends = {}
-        if key not in cache:
-            cache[key] = _new_backend(qp_solver, args)
-        return cache[key]
-    if hasattr(qp_solver, "solve") or hasattr(qp_solver, "solve_hierarchy"):
-        return qp_solver  # type: ignore[return-value]
-    if callable(qp_solver):
-        return CallableBackend(qp_solver, args)
-    raise InvalidInput(
-        f"qp_solver must be a name {list(QP_SOLVERS)}, a backend or a function, got {qp_solver!r}"
-    )
-
-
-def _new_backend(name: str, args: dict[str, Any]) -> Any:
-    if name == "osqp":
-        backend = OSQPBackend(args)
-        _probe_osqp(backend.settings)
-        return backend
-    if name in ("daqp", "daqp-hqp"):
-        from pik_mj.qp_daqp import DAQPBackend, HierarchicalBackend
-
-        return DAQPBackend(args) if name == "daqp" else HierarchicalBackend(args)
-    import qpsolvers
-
-    if name not in qpsolvers.available_solvers:
-        valid = sorted({*QP_SOLVERS, *qpsolvers.available_solvers})
-        raise InvalidInput(f"unknown qp_solver {name!r}; valid: {valid}")
-    return QpsolversBackend(name, args)
 
 
 @contextlib.contextmanager
@@ -580,16 +379,19 @@ def _captured_c_output() -> Iterator[list[str]]:
             out.append(text.getvalue() + tmp.read().decode(errors="replace"))
 
 
-def _probe_osqp(settings: dict[str, Any]) -> None:
-    """Set up a 1x1 problem with ``settings``: OSQP's own validation, its message
-    in an :class:`InvalidInput`."""
+def checked_osqp_backend(settings: dict[str, Any]) -> OSQPBackend:
+    """An :class:`OSQPBackend` with ``settings``, checked by OSQP itself: a 1x1
+    problem is set up with them, and OSQP's own message on a value it refuses
+    is raised in an :class:`InvalidInput`."""
+    backend = OSQPBackend(settings)
     solver = osqp.OSQP(algebra="builtin")
     one = sp.csc_matrix(np.eye(1))
     try:
         with _captured_c_output() as text:
-            solver.setup(one, np.zeros(1), one, -np.ones(1), np.ones(1), **settings)
+            solver.setup(one, np.zeros(1), one, -np.ones(1), np.ones(1), **backend.settings)
     except (osqp.OSQPException, ValueError, TypeError, AssertionError) as exc:
         message = " ".join(line.strip() for line in "".join(text).splitlines() if line.strip())
         raise InvalidInput(
             f"qp_args rejected by OSQP: {message or repr(exc)}; valid keys: {list(OSQP_SETTINGS)}"
         ) from None
+    return backend

@@ -1,0 +1,294 @@
+"""Planar polygons and half-planes: convex hulls, areas, the half-plane form
+of a convex polygon and back, signed distances, inward offsets.
+
+A planar region is a :class:`HalfPlanes` ``(A, b)`` meaning
+``{c : A c + b >= 0}`` with unit-norm rows of ``A``, so ``A c + b`` is the
+signed distance [m] of ``c`` to each edge line (positive inside). Polygons are
+vertex arrays ``(m, 2)`` ordered counter-clockwise.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.optimize import linprog
+from scipy.spatial import HalfspaceIntersection
+
+from pik_mj.balance.values import finite_array, real
+from pik_mj.exceptions import InvalidInput
+
+
+def _cross2(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """z-component of ``(a - o) x (b - o)`` (positive for a left turn)."""
+    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+
+def _drop_flat_vertices(hull: np.ndarray, dist_tol: float) -> np.ndarray:
+    """Drops vertices within ``dist_tol`` of a neighbour or of the neighbours' line."""
+    v = [p for p in hull]
+    changed = True
+    while changed and len(v) >= 3:
+        changed = False
+        for i in range(len(v)):
+            a, p, b = v[i - 1], v[i], v[(i + 1) % len(v)]
+            ab = b - a
+            lab = float(np.linalg.norm(ab))
+            near = float(np.linalg.norm(p - a)) <= dist_tol
+            flat = lab > 0.0 and _cross2(a, b, p) / lab >= -dist_tol
+            if near or flat or lab == 0.0:
+                del v[i]
+                changed = True
+                break
+    return np.array(v)
+
+
+def convex_hull_2d(
+    points: np.ndarray, *, allow_degenerate: bool = False, tol: float | None = None
+) -> np.ndarray:
+    """Convex hull of planar points (Andrew's monotone chain).
+
+    Duplicate and collinear points are removed: after the hull is built, a vertex
+    closer than ``tol`` to its predecessor, or within ``tol`` of the line through
+    its two neighbours, is dropped (repeatedly). Dropping such a vertex moves the
+    boundary by at most ``tol``.
+
+    Args:
+        points: Points ``(n, 2)`` [m].
+        allow_degenerate: Return 1 or 2 points (a point or a segment) instead of
+            raising when the points do not span an area.
+        tol: Distance tolerance [m]; default ``1e-9`` times the extent of the points.
+
+    Returns:
+        Hull vertices ``(m, 2)``, counter-clockwise.
+
+    Raises:
+        InvalidInput: Wrong shape, non-finite values, or fewer than 3 non-collinear
+            points (unless ``allow_degenerate``).
+    """
+    pts = finite_array(points, (None, 2), "points")
+    if len(pts) == 0:
+        raise InvalidInput("points is empty: need at least 3 non-collinear points")
+    pts = np.unique(pts, axis=0)  # sorted lexicographically by (x, y)
+    extent = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
+    dist_tol = 1e-9 * extent if tol is None else real(tol, "tol")
+    hull = pts
+    if len(pts) >= 3:
+
+        def chain(seq: np.ndarray) -> list[np.ndarray]:
+            out: list[np.ndarray] = []
+            for p in seq:
+                while len(out) >= 2 and _cross2(out[-2], out[-1], p) <= 0.0:
+                    out.pop()
+                out.append(p)
+            return out
+
+        lower = chain(pts)
+        upper = chain(pts[::-1])
+        hull = _drop_flat_vertices(np.array(lower[:-1] + upper[:-1]), dist_tol)
+    if len(hull) >= 3:
+        return hull
+    if not allow_degenerate:
+        raise InvalidInput(
+            f"degenerate point set: the {len(pts)} distinct point(s) are collinear or "
+            f"coincident (within {dist_tol:.3g} m) and span no area; a convex hull "
+            "needs at least 3 non-collinear points"
+        )
+    if extent <= dist_tol:
+        return pts[:1]
+    # Segment: the two extreme points along the principal direction.
+    d = pts - pts.mean(axis=0)
+    axis = np.linalg.svd(d, full_matrices=False)[2][0]
+    s = d @ axis
+    return pts[[int(np.argmin(s)), int(np.argmax(s))]]
+
+
+def polygon_area(vertices: np.ndarray) -> float:
+    """Signed area of a polygon (shoelace formula), positive when counter-clockwise.
+
+    .. math::
+
+        A = \\tfrac12 \\sum_i (x_i y_{i+1} - x_{i+1} y_i)
+
+    Args:
+        vertices: Polygon vertices ``(m, 2)`` [m].
+
+    Returns:
+        Area [m²].
+    """
+    v = finite_array(vertices, (None, 2), "vertices")
+    if len(v) < 3:
+        return 0.0
+    x, y = v[:, 0], v[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+class HalfPlanes(NamedTuple):
+    """Planar region ``{c : A c + b >= 0}``; rows of ``A`` have unit norm.
+
+    Attributes:
+        A: Inward unit normals ``(m, 2)``.
+        b: Offsets ``(m,)`` [m]; ``A c + b`` is the signed distance to each edge line.
+    """
+
+    A: np.ndarray
+    b: np.ndarray
+
+
+def _check_halfplanes(hp: HalfPlanes) -> tuple[np.ndarray, np.ndarray]:
+    A = finite_array(hp.A, (None, 2), "HalfPlanes.A")
+    b = finite_array(hp.b, (len(A),), "HalfPlanes.b")
+    if len(A) == 0:
+        raise InvalidInput("HalfPlanes has no rows (an empty region description)")
+    norms = np.linalg.norm(A, axis=1)
+    if np.any(np.abs(norms - 1.0) > 1e-9):
+        raise InvalidInput(f"HalfPlanes.A rows must have unit norm, got norms {norms}")
+    return A, b
+
+
+def halfplanes_from_polygon(vertices_ccw: np.ndarray) -> HalfPlanes:
+    """Half-plane form of a convex counter-clockwise polygon.
+
+    For the edge ``v_i -> v_{i+1}`` with unit direction ``t_i``, the inward normal is
+    ``a_i = (-t_y, t_x)`` (left of the edge) and
+
+    .. math::
+
+        d_i(c) = a_i^T (c - v_i) = a_i^T c + b_i, \\qquad b_i = -a_i^T v_i
+
+    Args:
+        vertices_ccw: Convex polygon ``(m, 2)`` [m], counter-clockwise, m >= 3.
+
+    Returns:
+        :class:`HalfPlanes` with one row per edge.
+
+    Raises:
+        InvalidInput: Fewer than 3 vertices, clockwise or non-convex order,
+            repeated vertices.
+    """
+    v = finite_array(vertices_ccw, (None, 2), "vertices_ccw")
+    if len(v) < 3:
+        raise InvalidInput(f"a polygon needs at least 3 vertices, got {len(v)}")
+    edges = np.roll(v, -1, axis=0) - v
+    lengths = np.linalg.norm(edges, axis=1)
+    scale = max(float(np.max(np.ptp(v, axis=0))), 1e-300)
+    if np.any(lengths <= 1e-12 * scale):
+        raise InvalidInput("vertices_ccw has repeated consecutive vertices")
+    t = edges / lengths[:, None]
+    turns = t[:, 0] * np.roll(t, -1, axis=0)[:, 1] - t[:, 1] * np.roll(t, -1, axis=0)[:, 0]
+    if np.any(turns <= 0.0):
+        raise InvalidInput(
+            "vertices_ccw must be a strictly convex polygon in counter-clockwise "
+            "order (use convex_hull_2d to obtain one)"
+        )
+    A = np.column_stack([-t[:, 1], t[:, 0]])
+    b = -np.einsum("ij,ij->i", A, v)
+    return HalfPlanes(A, b)
+
+
+def polygon_from_halfplanes(hp: HalfPlanes) -> np.ndarray:
+    """Vertices of a bounded region given by half-planes.
+
+    An interior point is found as the Chebyshev centre (an LP), then
+    ``scipy.spatial.HalfspaceIntersection`` gives the vertices.
+
+    Args:
+        hp: Region ``{c : A c + b >= 0}``.
+
+    Returns:
+        Vertices ``(m, 2)`` counter-clockwise.
+
+    Raises:
+        InvalidInput: The region is empty, has no interior, or is unbounded.
+    """
+    A, b = _check_halfplanes(hp)
+    # Chebyshev centre: max r  s.t.  A c + b >= r, 0 <= r <= 1e6  (unit-norm rows).
+    res = linprog(
+        c=[0.0, 0.0, -1.0],
+        A_ub=np.column_stack([-A, np.ones(len(A))]),
+        b_ub=b,
+        bounds=[(None, None), (None, None), (None, 1e6)],
+        method="highs",
+    )
+    if res.status == 2:
+        raise InvalidInput("the half-planes have an empty intersection")
+    if res.status != 0:
+        raise InvalidInput(f"Chebyshev-centre LP failed: {res.message}")
+    r = float(res.x[2])
+    if r >= 1e6 * (1 - 1e-9):
+        raise InvalidInput("the half-plane region is unbounded (no polygon)")
+    if r < -1e-12:
+        raise InvalidInput(
+            f"the half-planes have an empty intersection (violated by >= {-r:.3g} m)"
+        )
+    if r <= 1e-12:
+        raise InvalidInput("the half-plane region has no interior (zero area)")
+    center = res.x[:2]
+    try:
+        hs = HalfspaceIntersection(np.column_stack([-A, -b]), center)
+    except Exception as exc:  # qhull errors (QhullError) are not exported stably.
+        raise InvalidInput(f"half-plane intersection failed: {exc}") from exc
+    pts = hs.intersections
+    if not np.all(np.isfinite(pts)):
+        raise InvalidInput("the half-plane region is unbounded (no polygon)")
+    return convex_hull_2d(pts)
+
+
+def signed_distance(hp: HalfPlanes, c: np.ndarray) -> float:
+    """Smallest signed distance of ``c`` to the edge lines [m], positive inside.
+
+    .. math::
+
+        s(c) = \\min_i (A_i c + b_i)
+
+    Inside a convex polygon this is the exact distance to the boundary. Outside,
+    ``-s(c)`` is the largest violation, a lower bound on the Euclidean distance (exact
+    where the nearest boundary point is inside an edge, not at a vertex).
+
+    Args:
+        hp: Region.
+        c: Point ``(2,)`` [m].
+
+    Returns:
+        Signed distance [m].
+    """
+    A, b = _check_halfplanes(hp)
+    p = finite_array(c, (2,), "c")
+    return float(np.min(A @ p + b))
+
+
+def shrink(hp: HalfPlanes, margin: float) -> HalfPlanes:
+    """Moves every edge inward by ``margin`` [m] (outward if negative).
+
+    .. math::
+
+        b_i \\leftarrow b_i - \\text{margin}
+    """
+    A, b = _check_halfplanes(hp)
+    m = real(margin, "margin")
+    return HalfPlanes(A.copy(), b - m)
+
+
+def inset_vertices(hp: HalfPlanes, d: float) -> np.ndarray:
+    """Vertices ``(k, 2)`` [m] of the convex polygon ``hp`` (edges in
+    counter-clockwise order) with every edge moved inward by ``d`` [m]: the
+    iso-margin outline, where the margin is ``d``. ``(0, 2)`` when it vanishes
+    (shrunk past a vertex) or is near-degenerate.
+
+    Vertex ``i`` is where the moved edges ``i-1`` and ``i`` meet:
+    ``a_{i-1}^T v + b_{i-1} - d = 0 = a_i^T v + b_i - d``.
+    """
+    try:
+        A, b = shrink(hp, d)
+    except InvalidInput:  # near-degenerate hull
+        return np.zeros((0, 2))
+    out = []
+    for i in range(len(A)):
+        M = np.array([A[i - 1], A[i]])
+        if abs(np.linalg.det(M)) < 1e-12:
+            return np.zeros((0, 2))
+        out.append(np.linalg.solve(M, -np.array([b[i - 1], b[i]])))
+    uv = np.array(out)
+    if np.any(uv @ A.T + b < -1e-9):  # shrunk past a vertex: not the true offset
+        return np.zeros((0, 2))
+    return uv

@@ -1,0 +1,231 @@
+"""Contact wrench distribution (irteus manual:
+``:distribute-total-wrench-to-torque-method-default``): the least-norm contact
+wrenches within their limits that hold a static pose, and its joint torques."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+import qpsolvers
+
+from pik_mj import inputs
+from pik_mj.balance.contacts import ContactConstraint, wrench_constraints
+from pik_mj.dynamics.floating_base import root_wrench
+from pik_mj.dynamics.inverse import ExternalSpec, frame_jacobian, joint_torques
+from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.frames import Frame
+from pik_mj.spatial import skew
+
+
+@dataclass(frozen=True)
+class SoleContact:
+    """A flat rectangular contact attached to a robot frame.
+
+    Attributes:
+        frame: Site (or body/geom) at the sole centre; its z-axis is the contact
+            normal pointing into the robot, its x-axis the sole's length.
+        half_x: Half length of the sole [m].
+        half_y: Half width of the sole [m].
+        mu: Friction coefficient.
+        frame_type: ``"site"``, ``"body"``, ``"geom"`` or None (search).
+    """
+
+    frame: str
+    half_x: float
+    half_y: float
+    mu: float = 0.5
+    frame_type: str | None = None
+
+    def constraint(self, model: mujoco.MjModel, data: mujoco.MjData) -> ContactConstraint:
+        """The :class:`ContactConstraint` at the frame's current pose."""
+        f = Frame.find(model, self.frame, self.frame_type)
+        return ContactConstraint(
+            p_WC=f.position(data),
+            R_WC=f.rotation(data),
+            half_x=self.half_x,
+            half_y=self.half_y,
+            mu=self.mu,
+        )
+
+
+class StaticTorques(NamedTuple):
+    """Result of :func:`static_torques` (all wrenches act on the robot, world frame).
+
+    Attributes:
+        tau: Joint torques with the contacts, ``g(q) − J_extᵀ w_ext − J_cᵀ w_c`` (nv,);
+            the free-joint rows are the residual (≈ 0).
+        gravity: ``g(q) − J_extᵀ w_ext`` (nv,), no contacts.
+        wrenches: Contact wrenches ``(f, n about the contact origin)`` (n_c, 6) [N, N·m].
+        cops: Centre of pressure of each contact (n_c, 3) [m].
+        contact_jacobians: ``J_c`` (6 n_c, nv) at the contact origins.
+    """
+
+    tau: np.ndarray
+    gravity: np.ndarray
+    wrenches: np.ndarray
+    cops: np.ndarray
+    contact_jacobians: np.ndarray
+
+
+def static_torques(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    q: Sequence[float] | np.ndarray,
+    contacts: Sequence[SoleContact],
+    external: Sequence[ExternalSpec] = (),
+    *,
+    moment_weight: float = 100.0,
+    root_body: str | None = None,
+) -> StaticTorques:
+    """Joint torques of a static pose standing on ``contacts`` (irteus ``:torque-vector``).
+
+    The contact wrenches ``w = (w_1, ..., w_n)`` are the least-norm split
+    (:func:`contact_wrenches`, each centre of pressure inside its sole and each
+    force inside its inscribed friction pyramid) of the wrench the floating base
+    needs: with ``g = qfrc_inverse`` at zero velocity and acceleration minus the
+    external wrenches' ``J_extᵀ w_ext``, and ``root`` the free joint's rows,
+
+    .. math::
+
+        J_{c,root}^T w = g_{root}
+        \\;\\Leftrightarrow\\; \\sum_i w_i = J_B^{-T} g_{root}
+        \\quad (\\text{about one point, :func:`root_wrench`})
+
+    Then ``τ = g − J_cᵀ w``, whose free-joint rows vanish.
+
+    Args:
+        model: Model with a free joint.
+        data: Workspace (overwritten).
+        q: Configuration (nq,).
+        contacts: The soles in contact.
+        external: Other wrenches acting on the robot (see :func:`joint_torques`).
+        moment_weight: ``ρ`` [1/m²]: the larger, the closer each CoP to its sole centre.
+        root_body: The floating-base body.
+
+    Returns:
+        :class:`StaticTorques`.
+
+    Raises:
+        PikError: No contact wrenches within the limits hold the pose.
+    """
+    if not contacts:
+        raise InvalidInput("contacts is empty: give at least one SoleContact")
+    for i, c in enumerate(contacts):
+        if not isinstance(c, SoleContact):
+            raise InvalidInput(f"contacts[{i}] must be a SoleContact, got {type(c).__name__}")
+    gravity = joint_torques(model, data, q, 0.0, 0.0, external)
+    # the wrench (about the world origin) the contacts must apply: what the free
+    # joint's rows of g - J_ext^T w_ext stand for
+    w_B, p_WB = root_wrench(model, data, gravity, root_body)
+    total = np.concatenate([w_B[:3], w_B[3:] + np.cross(p_WB, w_B[:3])])
+    constraints = [c.constraint(model, data) for c in contacts]
+    wrenches = contact_wrenches(constraints, total, moment_weight=moment_weight)
+    if wrenches is None:
+        raise PikError(
+            f"no contact wrenches on {[c.frame for c in contacts]} within the sole and "
+            "friction limits hold this pose (the centre of mass or the external wrenches "
+            "are outside what the contacts can balance)"
+        )
+    J_c = np.vstack(
+        [frame_jacobian(model, data, Frame.find(model, c.frame, c.frame_type)) for c in contacts]
+    )
+    tau = gravity - J_c.T @ wrenches.reshape(-1)
+    cops = np.array([_cop(c, w) for c, w in zip(constraints, wrenches, strict=True)])
+    return StaticTorques(tau, gravity, wrenches, cops, J_c)
+
+
+def contact_wrenches(
+    contacts: Sequence[ContactConstraint],
+    total: Sequence[float] | np.ndarray,
+    *,
+    moment_weight: float = 100.0,
+) -> np.ndarray | None:
+    """Least-norm contact wrenches inside their limits that sum to ``total``.
+
+    Each contact ``i`` applies ``w_i = (f_i, n_i)`` at ``p_i`` (moment about
+    ``p_i``), inside its limits ``C_i w_i + d_i >= 0``
+    (:func:`pik_mj.balance.wrench_constraints`: friction pyramid, centre of
+    pressure inside the rectangle, torsion); a point contact (zero half sizes)
+    carries no moment, so only its force is unknown. The QP (DAQP)
+
+    .. math::
+
+        \\min_w \\sum_i \\|f_i\\|^2 + \\rho \\|n_i\\|^2
+        \\quad\\text{s.t.}\\quad
+        \\sum_i \\begin{bmatrix} f_i \\\\ n_i + p_i \\times f_i \\end{bmatrix} = w_{total},
+        \\quad C_i w_i + d_i \\ge 0
+
+    is solved in units of ``|f_total|`` (an O(1) problem whatever the robot's weight).
+    The least-norm split keeps forces away from the edges of the cones, where a
+    feed-forward would push a foot to slip (an LP's solution sits on an edge).
+
+    Args:
+        contacts: The contacts.
+        total: The wrench ``(f, n about the world origin)`` (6,) [N, N·m] the
+            contacts must apply together (e.g. minus gravity and the external wrenches).
+        moment_weight: ``ρ`` [1/m²]: the larger, the closer each CoP to its centre.
+
+    Returns:
+        Wrenches ``(n, 6)`` [N, N·m], or None when no wrenches within the limits exist.
+    """
+    total = inputs.flat_vector(total, 6, "total")
+    if not (np.isfinite(moment_weight) and moment_weight > 0):
+        raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
+    cols, weights, A, G, h = [], [], [], [], []
+    n = 0
+    for c in contacts:
+        C, d = wrench_constraints(c)
+        point = c.half_x == 0.0 and c.half_y == 0.0
+        if point:  # rows on the force alone; the moment rows pin n = 0
+            keep = ~np.any(C[:, 3:] != 0.0, axis=1)
+            C, d = C[keep, :3], d[keep]
+        k = 3 if point else 6
+        cols.append((n, k))
+        weights += [1.0] * 3 + ([] if point else [moment_weight] * 3)
+        block = np.zeros((6, k))
+        block[:3, :3] = np.eye(3)
+        block[3:, :3] = skew(c.p_WC)
+        if not point:
+            block[3:, 3:] = np.eye(3)
+        A.append(block)
+        G.append((n, C))
+        h.append(d)
+        n += k
+    A_eq = np.hstack(A) if A else np.zeros((6, 0))
+    G_in = np.zeros((sum(len(d) for d in h), n))
+    r = 0
+    for start, C in G:
+        G_in[r : r + len(C), start : start + C.shape[1]] = C
+        r += len(C)
+    scale = float(np.linalg.norm(total[:3])) or 1.0
+    x = qpsolvers.solve_qp(
+        np.diag(weights),
+        np.zeros(n),
+        G=-G_in,
+        h=np.concatenate(h) / scale if h else np.zeros(0),
+        A=A_eq,
+        b=total / scale,
+        solver="daqp",
+    )
+    if x is None:
+        return None
+    out = np.zeros((len(contacts), 6))
+    for i, (start, k) in enumerate(cols):
+        out[i, :k] = scale * x[start : start + k]
+    return out
+
+
+def _cop(contact: ContactConstraint, w: np.ndarray) -> np.ndarray:
+    """Centre of pressure on the contact plane of a wrench about ``p_WC``.
+
+    In the contact frame, ``p = (-n_y / f_z, n_x / f_z, 0)``.
+    """
+    R = contact.R_WC
+    f_C, n_C = R.T @ w[:3], R.T @ w[3:]
+    if f_C[2] <= 1e-9:
+        return np.full(3, np.nan)
+    return contact.p_WC + R @ np.array([-n_C[1] / f_C[2], n_C[0] / f_C[2], 0.0])

@@ -1,0 +1,127 @@
+"""Inverse dynamics with external wrenches (irteus manual: ``:torque-vector``):
+``τ = M(q) q̈ + c(q, q̇) − τ_passive − Σ J_kᵀ w_k``, MuJoCo's ``mj_inverse``
+with the constraint solver disabled."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from pik_mj import inputs
+from pik_mj.exceptions import InvalidInput
+from pik_mj.frames import Frame
+
+ExternalSpec = tuple[str, Sequence[float] | np.ndarray, Sequence[float] | np.ndarray]
+"""``(frame name, force (3,) [N], moment (3,) [N·m])``, world frame, acting on the robot
+at the frame's origin."""
+
+
+def _state(
+    model: mujoco.MjModel, q: object, qvel: object, qacc: object
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(q, q̇, q̈)`` checked; a velocity or acceleration given as 0 is zeros."""
+    q = inputs.flat_vector(q, model.nq, "q (length nq)")
+    v = (
+        np.zeros(model.nv)
+        if np.isscalar(qvel) and qvel == 0
+        else inputs.flat_vector(qvel, model.nv, "qvel")
+    )
+    a = (
+        np.zeros(model.nv)
+        if np.isscalar(qacc) and qacc == 0
+        else inputs.flat_vector(qacc, model.nv, "qacc")
+    )
+    return q, v, a
+
+
+def _inverse(
+    model: mujoco.MjModel, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, a: np.ndarray
+) -> np.ndarray:
+    """``qfrc_inverse = M a + c(q, v) − τ_passive`` with constraints disabled (nv,)."""
+    data.qpos[:] = q
+    data.qvel[:] = v
+    data.qacc[:] = a
+    saved = model.opt.disableflags
+    model.opt.disableflags = saved | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    try:
+        mujoco.mj_inverse(model, data)
+    finally:
+        model.opt.disableflags = saved
+    return data.qfrc_inverse.copy()
+
+
+def frame_jacobian(model: mujoco.MjModel, data: mujoco.MjData, frame: Frame) -> np.ndarray:
+    """``[J_p; J_ω]`` (6, nv) of a frame origin, world frame (kinematics must be current)."""
+    J_p, J_w = frame.jacobians(data)
+    return np.vstack([J_p, J_w])
+
+
+def _external_wrenches(
+    model: mujoco.MjModel, external: Sequence[ExternalSpec]
+) -> list[tuple[Frame, np.ndarray]]:
+    if isinstance(external, (str, bytes)) or not isinstance(external, Sequence):
+        raise InvalidInput("external must be a list of (frame, force (3,), moment (3,)) tuples")
+    out = []
+    for i, item in enumerate(external):
+        if not isinstance(item, (tuple, list)) or len(item) not in (2, 3):
+            raise InvalidInput(
+                f"external[{i}] must be (frame name, force (3,)[, moment (3,)]), got {item!r}"
+            )
+        name = item[0]
+        frame = name if isinstance(name, Frame) else Frame.find(model, name)
+        f = inputs.flat_vector(item[1], 3, f"external[{i}] force")
+        n = (
+            inputs.flat_vector(item[2], 3, f"external[{i}] moment")
+            if len(item) == 3
+            else np.zeros(3)
+        )
+        out.append((frame, np.concatenate([f, n])))
+    return out
+
+
+def _generalized_external(
+    model: mujoco.MjModel, data: mujoco.MjData, external: Sequence[ExternalSpec]
+) -> np.ndarray:
+    """``Σ J_kᵀ w_k`` (nv,) of the external wrenches at the current kinematics."""
+    total = np.zeros(model.nv)
+    for frame, w in _external_wrenches(model, external):
+        total += frame_jacobian(model, data, frame).T @ w
+    return total
+
+
+def joint_torques(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    q: Sequence[float] | np.ndarray,
+    qvel: Sequence[float] | np.ndarray | float = 0.0,
+    qacc: Sequence[float] | np.ndarray | float = 0.0,
+    external: Sequence[ExternalSpec] = (),
+) -> np.ndarray:
+    """Generalized forces that produce ``qacc`` at ``(q, qvel)`` under external wrenches.
+
+    .. math::
+
+        \\tau = \\underbrace{M(q)\\ddot q + c(q,\\dot q) - \\tau_{passive}}_{
+        \\texttt{mj\\_inverse}} - \\sum_k J_k^T w_k
+
+    For a floating base the free joint's rows are the wrench the base would need
+    (zero only when the external wrenches balance the motion); see
+    :func:`static_torques` for a robot standing on its feet.
+
+    Args:
+        model: The model.
+        data: Workspace; its ``qpos``, ``qvel``, ``qacc`` and kinematics are overwritten.
+        q: Configuration (nq,).
+        qvel: Velocity (nv,) [rad/s, m/s], or 0.
+        qacc: Acceleration (nv,) [rad/s², m/s²], or 0.
+        external: ``[(frame name, force (3,) [N], moment (3,) [N·m]), ...]``: wrenches
+            ACTING ON the robot at each frame's origin (site, body or geom), world frame.
+
+    Returns:
+        ``τ`` (nv,) [N·m for hinges, N for slides; free-joint rows as MuJoCo's dofs].
+    """
+    q, v, a = _state(model, q, qvel, qacc)
+    tau = _inverse(model, data, q, v, a)
+    return tau - _generalized_external(model, data, external)
