@@ -44,7 +44,6 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "progress",
             "tasks",
             "qp",
-            "qp_daqp",
             "cascade",
             "solve",
             "balance",

@@ -44,8 +44,6 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from pik_mj.exceptions import PikError
-from pik_mj.record.columns import blueprint_entities, components_of, send_blueprint_entities
 from pik_mj.record.paths import PATHS, EntityPaths
 
 __all__ = [
@@ -410,12 +408,6 @@ def blueprint_for(
     return _build(layout_of(logged, paths), paths, framing or {})[0]
 
 
-#: The entities rerun logs for a layout, made once per (layout, entity-path
-#: table, which tabs are framed): (entities, (index of each 3D view's eye
-#: entity among them, its tab)). The views' and containers' ids are kept.
-_SENT: dict[tuple[Any, ...], tuple[list[Any], list[tuple[int, Tab]]]] = {}
-
-
 def send_blueprint_for(
     stream: rr.RecordingStream,
     logged: Mapping[str, set[str]],
@@ -423,39 +415,11 @@ def send_blueprint_for(
     *,
     framing: Mapping[str, Framing] | None = None,
 ) -> None:
-    """Send :func:`blueprint_for` on ``stream`` (made active and default).
-
-    What rerun logs for a layout (:func:`~pik_mj.record.columns.blueprint_entities`)
-    is made once per layout; each later recording of the same layout sends it
-    again with its own cameras (:func:`eye`), in one call
-    (:func:`~pik_mj.record.columns.send_blueprint_entities`).
-    """
-    framing = framing or {}
-    layout = layout_of(logged, paths)
-    key = (layout, paths, tuple(_framing_of(tab, framing) is not None for tab in layout.tabs))
-    made = _SENT.get(key)
-    if made is None:
-        blueprint, views = _build(layout, paths, framing)
-        entities = blueprint_entities(blueprint)
-        where = {path: i for i, (path, _, _) in enumerate(entities)}
-        eyes = [
-            (where[f"{view.blueprint_path()}/EyeControls3D"], tab)
-            for view, tab in views
-            if _framing_of(tab, framing) is not None
-        ]
-        if len(_SENT) >= 64:
-            _SENT.clear()
-        _SENT[key] = (entities, eyes)
-    else:
-        entities, eyes = made
-        entities = list(entities)
-        for i, tab in eyes:
-            frame = _framing_of(tab, framing)
-            if frame is None:  # pragma: no cover - the key says which tabs are framed
-                raise PikError(f"tab {tab.name!r} has no camera framing")
-            path, static, _ = entities[i]
-            entities[i] = (path, static, components_of(eye(frame, tab.direction)))
-    send_blueprint_entities(stream, entities)
+    """Send :func:`blueprint_for` on ``stream``, made active and default
+    (``RecordingStream.send_blueprint``)."""
+    stream.send_blueprint(
+        blueprint_for(logged, paths, framing=framing), make_active=True, make_default=True
+    )
 
 
 def blueprint(

@@ -11,17 +11,12 @@ archetype per call) and sliced per entity without copies (pyarrow). A style (a
 point's radius and colour, a frame's axis length) goes with each row, in the
 chunk of its data: its column is made once per style and sliced.
 
-Blueprints are sent here too: what rerun's blueprint classes log, captured
-(:func:`blueprint_entities`), then sent again as one chunk per entity
-(:func:`send_blueprint_entities`).
-
 Nothing else in pik_mj touches ``rerun.chunk`` or pyarrow for writing: a new
 rerun version changes this module (and :mod:`pik_mj.record.reader`).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -29,11 +24,8 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 import rerun as rr
-from rerun import bindings
 from rerun.chunk import Chunk
-from rerun.recording_stream import get_application_id
 
-from pik_mj.exceptions import PikError
 from pik_mj.record.geometry import BodyFrames, GeomGroup
 
 __all__ = [
@@ -46,10 +38,7 @@ __all__ = [
     "Block",
     "Outbox",
     "RowKind",
-    "blueprint_entities",
-    "components_of",
     "pose_batches_of",
-    "send_blueprint_entities",
     "xyzw",
 ]
 
@@ -440,98 +429,3 @@ class Block:
                 kind = INSTANCE_POSES[group.archetype]
                 outbox.add((group.path,), self.names, self.kinds, times, kind, poses[None])
         self.times.clear()
-
-
-# -- blueprints ---------------------------------------------------------------
-#
-# rerun's ``send_blueprint`` logs a blueprint entity by entity (one ``log`` call
-# each) on a new blueprint stream, and sends that stream's messages. Here what
-# those calls log is captured once (:func:`blueprint_entities`), and sent as
-# one chunk per entity in one call (:func:`send_blueprint_entities`): the same
-# entities, components and timelines (``blueprint`` = 0 and ``log_time``).
-
-#: One entity of a blueprint: (path, static, its components as one-row columns).
-BlueprintEntity = tuple[str, bool, list["_ListColumn"]]
-
-#: int32 offsets [0, n] of a one-row list column of n values, by n
-_ONE_ROW: dict[int, pa.Array] = {}
-
-
-def components_of(*archetypes: Any) -> list[_ListColumn]:
-    """What ``RecordingStream.log`` sends of ``archetypes`` (or lists of
-    described component batches), as one-row columns: each component, the
-    first of a repeated one, none for a missing one."""
-    out: dict[Any, pa.Array] = {}
-    for archetype in archetypes:
-        batches = getattr(archetype, "as_component_batches", None)
-        for batch in batches() if batches is not None else archetype:
-            values = batch.as_arrow_array()
-            if values is not None:
-                out.setdefault(batch.component_descriptor(), values)
-    columns = []
-    for d, values in out.items():
-        offsets = _ONE_ROW.get(len(values))
-        if offsets is None:
-            offsets = _ONE_ROW[len(values)] = pa.array(np.array([0, len(values)], np.int32))
-        columns.append(_ListColumn(d, pa.ListArray.from_arrays(offsets, values)))
-    return columns
-
-
-class _Capture:
-    """Stands in for the blueprint stream of ``rr.send_blueprint``: keeps what
-    rerun's blueprint classes log (they only call ``log``)."""
-
-    def __init__(self) -> None:
-        self.entities: list[BlueprintEntity] = []
-
-    def log(self, path: str, *archetypes: Any, static: bool = False, strict: Any = None) -> None:
-        self.entities.append((str(path), static, components_of(*archetypes)))
-
-
-def blueprint_entities(blueprint: Any) -> list[BlueprintEntity]:
-    """The entities rerun logs for ``blueprint`` (an ``rrb.Blueprint``, view or
-    container), in its order, by rerun's own blueprint classes.
-
-    The one use of a private rerun name in pik_mj: rerun 0.41 has no public call
-    that gives a blueprint's entities. Its blueprint classes log themselves
-    through ``Blueprint._log_to_stream(stream)``, which only calls
-    ``stream.log(path, *archetypes, static=...)``; the public calls that use it
-    (``RecordingStream.send_blueprint``, ``rerun.blueprint.api.create_in_memory_blueprint``)
-    log every entity into a new blueprint stream on each call and give back an
-    opaque memory sink. Capturing the entities once per layout
-    (:func:`pik_mj.record.blueprint.send_blueprint_for`) lets each recording
-    send them again, its cameras replaced, in one call. A public
-    ``Blueprint.log_to_stream`` or a way to read a blueprint's chunks would
-    replace this.
-    """
-    capture = _Capture()
-    blueprint.to_blueprint()._log_to_stream(capture)
-    return capture.entities
-
-
-def send_blueprint_entities(stream: rr.RecordingStream, entities: list[BlueprintEntity]) -> None:
-    """Send ``entities`` (:func:`blueprint_entities`) as a blueprint of
-    ``stream``'s application, made active and default, as
-    ``stream.send_blueprint`` does: on a new blueprint stream, at
-    ``blueprint`` = 0 and the current ``log_time``, one chunk per entity."""
-    application_id = get_application_id(recording=stream)
-    if application_id is None:
-        raise PikError("the recording stream has no application id to send a blueprint for")
-    blueprint_stream = bindings.new_blueprint(
-        application_id=application_id,
-        make_default=False,
-        make_thread_default=False,
-        default_enabled=True,
-    )
-    now = np.array([time.time_ns()], dtype="datetime64[ns]")
-    index = [rr.TimeColumn("blueprint", sequence=[0]), rr.TimeColumn("log_time", timestamp=now)]
-    timelines = {t.timeline_name(): t.as_arrow_array() for t in index}
-    for path, static, columns in entities:
-        bindings.send_arrow_chunk(
-            path,
-            timelines={} if static else timelines,
-            components={c.component_descriptor(): c.as_arrow_array() for c in columns},
-            recording=blueprint_stream,
-        )
-    storage = bindings.memory_recording(recording=blueprint_stream)
-    bindings.send_blueprint(storage, True, True, recording=stream.to_native())
