@@ -3,6 +3,8 @@ checked against MuJoCo's own distances (mj_geomDistance) and contacts on a floor
 
 from __future__ import annotations
 
+import itertools
+
 import mujoco
 import numpy as np
 import pytest
@@ -331,10 +333,10 @@ def test_mesh_sole_com_margin_against_brute_force():
         ]
     )
     for offset in ([0.0, 0.0], [0.07, 0.0], [-0.03, 0.05], [0.02, -0.2]):
-        c = robot.com() + [*offset, 0.0]
+        c = robot.com() + np.array([*offset, 0.0])
         brute = -np.max(facets[:, :2] @ c[:2] + facets[:, 2])
         assert region.signed_distance(c) == pytest.approx(brute, abs=1e-9)
-    lean = robot.com() + [0.07, 0.0, 0.0]
+    lean = robot.com() + np.array([0.07, 0.0, 0.0])
     true, claimed = region.signed_distance(lean), vertices.signed_distance(lean)
     assert claimed > true + 0.01
     print(f"\nleaning CoM margin {true * 1e3:.1f} mm; the mesh vertices claim {claimed * 1e3:.1f}")
@@ -357,7 +359,7 @@ def _centroid(poly: np.ndarray) -> np.ndarray:
     """Area centroid of a polygon (k, 2), by triangles from its first vertex."""
     a, total = poly[0], 0.0
     c = np.zeros(2)
-    for b, d in zip(poly[1:-1], poly[2:], strict=True):
+    for b, d in itertools.pairwise(poly[1:]):
         area = 0.5 * abs((b - a)[0] * (d - a)[1] - (b - a)[1] * (d - a)[0])
         c += area * (a + b + d) / 3.0
         total += area

@@ -446,7 +446,8 @@ def _spec_probe(
 ) -> mujoco.MjModel | None:
     """``spec`` with the probe's plane and without any geom but ``geoms`` (and
     without the meshes they do not use, materials and textures), compiled
-    (cached by :func:`_probe_key`); None when a geom is unnamed or the probe does not have the joints of ``model``."""
+    (cached by :func:`_probe_key`); None when a geom is unnamed or the probe does
+    not have the joints of ``model``."""
     names = {model.geom(g).name for g in geoms}
     if "" in names:
         return None
