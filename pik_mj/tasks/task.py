@@ -129,6 +129,31 @@ class TaskRows(NamedTuple):
         viol = self.bound_distance(self.C @ x)
         return float(r_eq @ (self.w_A * r_eq) + viol @ (self.w_C * viol))
 
+    def residual_norm(self, x: np.ndarray | None = None) -> float:
+        """The unweighted residual the rows leave after a step ``x`` (``x = 0``
+        if None) [row units], over the rows that constrain something: the
+        equality rows of positive weight and every inequality row.
+
+        .. math::
+
+            \\|r(x)\\|, \\qquad r(x) = \\begin{bmatrix} (A x - b)_{w_A > 0} \\\\
+                \\mathrm{dist}(C x, [d_l, d_u]) \\end{bmatrix}
+
+        At ``x = 0`` it is the error the rows see: a task's error on the
+        components it weights (for a mink task, times its ``gain``; for a
+        clamped task, the clamp's).
+        """
+        A, b, w = self.A, self.b, self.w_A
+        if w.size and not w.min() > 0:  # rows of weight 0 ask nothing
+            keep = w > 0
+            A, b = A[keep], b[keep]
+        r_eq = -b if x is None else A @ x - b
+        total = float(r_eq @ r_eq)
+        if self.n_in:
+            viol = self.bound_distance(None if x is None else self.C @ x)
+            total += float(viol @ viol)
+        return math.sqrt(total)
+
     def bound_distance(self, cx: np.ndarray | None = None) -> np.ndarray:
         """``dist(C x, [d_l, d_u])`` of each inequality row, from the row values
         ``cx = C x`` (``x = 0`` if None) [row units]."""
