@@ -103,6 +103,8 @@ def evaluate_level(
     rows = []
     reports = []
     for task in level:
+        if validate:
+            task.check_model(configuration)
         try:
             state = task.evaluate(configuration)
         except (TypeError, ValueError, IndexError) as exc:
