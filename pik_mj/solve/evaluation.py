@@ -119,6 +119,8 @@ def evaluate_tasks(
     rows = []
     reports = []
     for task in level:
+        if validate:
+            task.check_model(configuration)
         try:
             state = task.evaluate(configuration)
         except (TypeError, ValueError, IndexError) as exc:
