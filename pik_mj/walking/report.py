@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from pik_mj.walking.wholebody import WalkPattern, support_margin
+from pik_mj.walking.support import support_margin
+from pik_mj.walking.wholebody import WalkPattern
 
 __all__ = [
     "SENSOR_VS_CONTACTS_RMS",
@@ -41,6 +42,8 @@ class PlaybackReport:
         com: Robot CoM (N, 3) [m].
         feet_p: Sole frame position per limb (N, 3) [m].
         zmp: ZMP of the floor contact forces (N, 2) [m] (NaN without contact).
+        zmp_margin: Its signed distance [m] to the support polygon of the soles
+            touching the floor, at their actual poses, positive inside (N,).
         zmp_force_sensors: ZMP from the feet's force sensors (N, 2) [m] (NaN
             when no foot sensor carries 1 N; empty when the feet have none).
         zmp_force_sensors_margin: Its signed distance [m] to the support polygon
@@ -82,6 +85,7 @@ class PlaybackReport:
     joint_error_max: float
     wall_time: float
     params: dict[str, Any] = field(default_factory=dict)
+    zmp_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
     zmp_force_sensors: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     zmp_force_sensors_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
     planned_contacts: list[str] = field(default_factory=list)
@@ -148,13 +152,16 @@ def walk_motion(
     ``min_com_margin``: None (a walk's CoM leaves the single-support polygon by
     design) and ``min_zmp_margin`` [m] instead, that of the ZMP from the feet's
     force sensors to the support polygon of the feet carrying it over the
-    pattern's ticks (:func:`evaluate_walk`'s ``sim_zmp_force_sensors_margin_min_m``;
-    None without force sensors); ``contacts``: the soles planned, robot geoms on the floor
+    pattern's ticks (:func:`evaluate_walk`'s ``sim_zmp_force_sensors_margin_min_m``),
+    or without force sensors that of the ZMP of MuJoCo's contact forces
+    (``sim_zmp_contacts_margin_min_m``); ``contacts``: the soles planned, robot geoms on the floor
     unexpected; ``fell``; the playback's own summary under ``parts["walk"]``.
     """
     K, _, sensed = _played_ticks(pattern, report)
     drift = np.linalg.norm(report.root_p[:K] - pattern.q[:K, :3], axis=1)
     margins = report.zmp_force_sensors_margin[:K][sensed]
+    if not margins.size:
+        margins = report.zmp_margin[:K][np.isfinite(report.zmp_margin[:K])]
     return {
         "passed": report.passed(height_ratio, final_tolerance),
         "duration": float(report.t[-1] - report.t[0]) if len(report.t) else 0.0,
@@ -211,6 +218,7 @@ def evaluate_walk(
         "zmp_margin_computed_min_at_s": float(pattern.t[k_min]),
         "zmp_margin_cart_min_m": float(pattern.support_margin("cart").min()),
         **{f"zmp_{k}_m": v for k, v in pattern.zmp_tracking().items()},
+        "sim_zmp_contacts_margin_min_m": _nanmin(report.zmp_margin[:K]),
         "sim_zmp_vs_ref_max_m": float(sim_err.max()) if sim_err.size else float("nan"),
         "sim_zmp_vs_ref_rms_m": float(np.sqrt(np.mean(sim_err**2)))
         if sim_err.size
@@ -225,7 +233,7 @@ def evaluate_walk(
         planned = support_margin(
             pattern.plan,
             np.where(ok[:, None], sensed, pattern.zmp_ref[:K]),
-            pattern.sole_size,
+            pattern.outlines,
         )[ok]
         figures |= {
             "sim_zmp_force_sensors_ticks": int(ok.sum()),
@@ -283,3 +291,9 @@ def evaluate_walk(
             ),
         ]
     return figures, checks
+
+
+def _nanmin(values: np.ndarray) -> float:
+    """The smallest finite value, NaN when there is none."""
+    finite = values[np.isfinite(values)]
+    return float(finite.min()) if finite.size else float("nan")
