@@ -20,9 +20,8 @@ def _bench():
 
 def test_bench_robots_small(capsys, tmp_path, monkeypatch):
     monkeypatch.setenv("MENAGERIE_ROOT", str(tmp_path))  # no Menagerie robot here
-    figures = _bench().main(
-        ["--n", "1", "--hold", "1", "--robots", "sample_humanoid", "unitree_g1"]
-    )
+    robots = ["--robots", "sample_humanoid", "unitree_g1"]
+    figures = _bench().main(["--n", "1", "--hold", "1", "--walk-steps", "0", *robots])
     out = capsys.readouterr().out
     assert figures["skipped"] == ["unitree_g1"] and "unitree_g1       skipped" in out
     row = figures["rows"]["sample_humanoid"]

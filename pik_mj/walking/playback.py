@@ -41,8 +41,9 @@ from pik_mj.dynamics import joint_torques, root_wrench
 from pik_mj.exceptions import InvalidInput
 from pik_mj.robot.ground import subtree_bodies
 from pik_mj.robot.sensors import RobotSensors, zmp_from_force_sensors
-from pik_mj.sim import ContactParams, Scene
-from pik_mj.spatial import yaw_of
+from pik_mj.sim import ContactParams, Fall, Scene
+from pik_mj.sim.falls import fall_limits, fall_measures, first_fall
+from pik_mj.spatial import quat_to_matrix, yaw_of
 from pik_mj.walking.drive import JointDrive, joint_drive
 from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle
 from pik_mj.walking.report import (
@@ -206,13 +207,13 @@ class _Saturation:
         self.steps = 0
         self.saturated = 0
         self.ratio = np.zeros(len(drive.joints))  # max |wanted| / |limit|
+        self._hi, self._lo = drive.limits[:, 1], drive.limits[:, 0]  # (lo < 0 < hi)
 
     def add(self, wanted: np.ndarray, applied: np.ndarray) -> None:
         self.steps += 1
-        clipped = np.abs(wanted - applied) > 1e-9
-        self.saturated += bool(clipped.any())
-        limit = np.where(wanted >= 0, self.drive.limits[:, 1], -self.drive.limits[:, 0])
-        self.ratio = np.maximum(self.ratio, np.abs(wanted) / limit)
+        if not np.array_equal(wanted, applied):
+            self.saturated += 1
+        np.maximum(self.ratio, np.maximum(wanted / self._hi, wanted / self._lo), out=self.ratio)
 
     def to_dict(self) -> dict[str, Any]:
         worst = int(np.argmax(self.ratio))
@@ -251,6 +252,7 @@ class _Measurements:
         self.foot_sensors = [sensors[name] for name in pattern.force_sensors.values()]
         self.leg_of_sensor = {name: leg for leg, name in pattern.force_sensors.items()}
         self.root_p = np.full((n, 3), np.nan)
+        self.root_R = np.full((n, 3, 3), np.nan)
         self.com = np.full((n, 3), np.nan)
         self.feet_p = {lb: np.full((n, 3), np.nan) for lb in self.soles}
         self.zmp = np.full((n, 2), np.nan)
@@ -264,6 +266,7 @@ class _Measurements:
         """Measure sample ``k`` in the scene's state now."""
         model, data = self.scene.model, self.scene.data
         self.root_p[k] = data.xpos[self.root_id]
+        self.root_R[k] = data.xmat[self.root_id].reshape(3, 3)
         self.com[k] = self.scene.com()
         for lb, sole in self.soles.items():
             self.feet_p[lb][k] = sole.pose(model, data)[0]
@@ -311,6 +314,41 @@ class _Measurements:
         self.zmp_sensors_margin[k] = zmp_margin(self.zmp_sensors[k], self._polygons(legs))
 
 
+class _Falls:
+    """The fall verdict of a playback (:mod:`pik_mj.sim.falls`): the root's tilt,
+    drift and height at each sample against the pattern's root pose at that tick
+    (its last one after it; ``p_ref``, ``R_ref`` per tick), thresholds from the
+    robot's feet."""
+
+    def __init__(
+        self, pattern: WalkPattern, scene: Scene, ratio: float, standing: float, n: int
+    ) -> None:
+        adr = scene.robot.free_qposadr
+        assert adr is not None  # calc_walk_pattern refuses robots without a free joint
+        self.p_ref = pattern.q[:, adr : adr + 3]
+        self.R_ref = np.array([quat_to_matrix(quat) for quat in pattern.q[:, adr + 3 : adr + 7]])
+        self.up = scene.up()
+        self.standing = standing
+        self.limits = fall_limits(
+            None,
+            None,
+            ratio,
+            foot=scene.foot_length,
+            com_height=pattern.plan.com_height,
+            root_height=standing,
+        )
+        self.tilt, self.drift = np.full(n, np.nan), np.full(n, np.nan)
+        self.fall: Fall | None = None
+
+    def fallen(self, k: int, t: float, p_WB: np.ndarray, R_WB: np.ndarray) -> bool:
+        """Measure sample ``k`` at time ``t`` [s]; whether the robot has fallen."""
+        j = min(k, len(self.p_ref) - 1)
+        tilt, drift, h, h_ref = fall_measures(p_WB, R_WB, self.p_ref[j], self.R_ref[j], self.up)
+        self.tilt[k], self.drift[k] = tilt[0], drift[0]
+        self.fall = first_fall(np.array([t]), tilt, drift, h, h_ref, self.limits)
+        return self.fall is not None
+
+
 def _check_playback(
     scene: Scene, pattern: WalkPattern, settle_time: float, fall_ratio: float
 ) -> None:
@@ -356,8 +394,10 @@ def play_walk_pattern(
             own where they can carry it (:func:`~pik_mj.walking.drive.joint_drive`).
         stabilize: Turn the stance ankles' targets against the body's
             inclination error (:mod:`pik_mj.walking.stabilizer`).
-        fall_ratio: Root height ratio below which the robot counts as fallen;
-            the simulation stops there.
+        fall_ratio: Root height ratio below which the robot counts as fallen
+            (:mod:`pik_mj.sim.falls`: so does a trunk tilted beyond
+            ``atan(L / z_c)`` or a root drifted more than ``L`` from the pattern's,
+            ``L`` the foot's length); the simulation stops there.
         callback: A callable or a list, each called with a :class:`WalkSample`
             at every sample, in order (e.g. a recorder's
             :meth:`~pik_mj.record.Recorder.walk_logger`).
@@ -392,6 +432,7 @@ def play_walk_pattern(
     t0 = data.time
     wall0 = time.perf_counter()
     standing = float(data.xpos[run.root_id, 2])
+    falls = _Falls(pattern, scene, fall_ratio, standing, N)
     n_done = N
     joint_err = 0.0
     for k in range(N):
@@ -412,7 +453,7 @@ def play_walk_pattern(
             )
             for call in callbacks:
                 call(sample)
-        if run.root_p[k, 2] < fall_ratio * standing:
+        if falls.fallen(k, float(t_samples[k]), run.root_p[k], run.root_R[k]):
             n_done = k + 1
             break
         if k == N - 1:
@@ -422,7 +463,8 @@ def play_walk_pattern(
             s = (data.time - t0) / pattern.dt
             q_ref, qd_ref, tau_ff = ref.at(s)
             if stabilizer is not None:
-                q_ref = q_ref + _stabilize(stabilizer, pattern, data, s, len(drive.joints))
+                offsets = _stabilize(stabilizer, falls.R_ref, pattern, data, s, len(drive.joints))
+                q_ref = q_ref + offsets
             tau, wanted = drive.torques(data, q_ref, qd_ref, tau_ff)
             saturation.add(wanted, tau)
             drive.apply(data, tau)
@@ -433,8 +475,7 @@ def play_walk_pattern(
         scene,
         run,
         t_samples[:n_done],
-        standing=standing,
-        fall_ratio=fall_ratio,
+        falls=falls,
         joint_err=joint_err,
         wall=wall,
         params={
@@ -449,15 +490,19 @@ def play_walk_pattern(
 
 
 def _stabilize(
-    stabilizer: TiltStabilizer, pattern: WalkPattern, data: mujoco.MjData, s: float, n: int
+    stabilizer: TiltStabilizer,
+    R_ref: np.ndarray,
+    pattern: WalkPattern,
+    data: mujoco.MjData,
+    s: float,
+    n: int,
 ) -> np.ndarray:
-    """The stabilizer's target offsets at ``s`` ticks into the pattern (its nearest
-    tick's root orientation and stance legs)."""
+    """The stabilizer's target offsets (n,) [rad] at ``s`` ticks into the pattern:
+    its nearest tick's root rotation (of ``R_ref`` (K, 3, 3)) and stance legs."""
     k = min(round(s), len(pattern.t) - 1)
-    adr = stabilizer.root_qadr
     label = pattern.support[k]
     stance = pattern.plan.params.all_limbs if label == DOUBLE_SUPPORT else (label,)
-    return stabilizer.correction(data, pattern.q[k, adr + 3 : adr + 7], stance, n)
+    return stabilizer.correction(data, R_ref[k], stance, n)
 
 
 def _report(
@@ -466,8 +511,7 @@ def _report(
     run: _Measurements,
     t: np.ndarray,
     *,
-    standing: float,
-    fall_ratio: float,
+    falls: _Falls,
     joint_err: float,
     wall: float,
     params: dict[str, Any],
@@ -499,9 +543,12 @@ def _report(
         zmp_margin=run.zmp_margin[sl],
         zmp_force_sensors=run.zmp_sensors[sl],
         zmp_force_sensors_margin=run.zmp_sensors_margin[sl],
-        standing_height=standing,
+        standing_height=falls.standing,
         root_height_min=float(heights.min()),
-        fell=bool(heights.min() < fall_ratio * standing or run.bad),
+        fell=falls.fall is not None or bool(run.bad),
+        fall=falls.fall,
+        tilt_max=float(np.max(falls.tilt[sl])),
+        drift_max=float(np.max(falls.drift[sl])),
         bad_contacts=sorted(run.bad),
         final_midfeet_error=float(np.linalg.norm(mid_final[:2] - plan.final_midpoint[:2])),
         final_root_error=float(np.linalg.norm(run.root_p[n_done - 1, :2] - pattern.q[-1, :2])),

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from pik_mj.sim import Fall
 from pik_mj.walking.support import support_margin
 from pik_mj.walking.wholebody import WalkPattern
 
@@ -51,8 +52,12 @@ class PlaybackReport:
             poses, positive inside) (N,).
         standing_height: Root height at t = 0 [m].
         root_height_min: Lowest root height [m].
-        fell: The root went below ``fall_ratio * standing_height``, or a robot geom
-            other than the soles touched the floor.
+        fell: The robot fell (``fall``), or a robot geom other than the soles
+            touched the floor.
+        fall: The first sign of the fall (:class:`pik_mj.sim.Fall`: trunk tilt,
+            root drift or root height against the pattern's root pose), or None.
+        tilt_max: The trunk's largest tilt from the pattern's [rad].
+        drift_max: The root's largest horizontal distance to the pattern's [m].
         bad_contacts: Robot geoms other than the soles that touched the floor.
         final_midfeet_error: Horizontal distance of the final mid-feet point to
             the planned one [m].
@@ -85,6 +90,9 @@ class PlaybackReport:
     joint_error_max: float
     wall_time: float
     params: dict[str, Any] = field(default_factory=dict)
+    fall: Fall | None = None
+    tilt_max: float = 0.0
+    drift_max: float = 0.0
     zmp_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
     zmp_force_sensors: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     zmp_force_sensors_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -110,6 +118,9 @@ class PlaybackReport:
             "root_height_min": self.root_height_min,
             "height_ratio_min": self.height_ratio_min,
             "fell": self.fell,
+            "fall": None if self.fall is None else self.fall.describe(),
+            "tilt_max": self.tilt_max,
+            "drift_max": self.drift_max,
             "bad_contacts": self.bad_contacts,
             "final_midfeet_error": self.final_midfeet_error,
             "final_root_error": self.final_root_error,
@@ -252,9 +263,9 @@ def evaluate_walk(
             f"min margin {margin.min() * 1e3:.1f} mm at t = {pattern.t[k_min]:.2f} s",
         ),
         (
-            "physics playback: no fall",
+            "physics playback: no fall (trunk tilt, root drift, root height)",
             not report.fell,
-            f"bad contacts {report.bad_contacts}" if report.bad_contacts else "",
+            _fall_detail(report),
         ),
         (
             f"physics playback: root height >= {height_ratio:.0%} of standing",
@@ -297,3 +308,15 @@ def _nanmin(values: np.ndarray) -> float:
     """The smallest finite value, NaN when there is none."""
     finite = values[np.isfinite(values)]
     return float(finite.min()) if finite.size else float("nan")
+
+
+def _fall_detail(report: PlaybackReport) -> str:
+    """How the robot fell (the first sign, robot geoms on the floor), or how far
+    it came from falling."""
+    signs = [] if report.fall is None else [report.fall.describe()]
+    if report.bad_contacts:
+        signs.append(f"robot geoms on the floor: {report.bad_contacts}")
+    return "; ".join(signs) or (
+        f"tilt at most {np.degrees(report.tilt_max):.1f}°, root at most "
+        f"{report.drift_max * 1e3:.0f} mm from the pattern's"
+    )

@@ -54,12 +54,18 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.robot import RobotModel
+from pik_mj.robot import Robot, RobotModel
 from pik_mj.robot.ground import Sole, robot_soles
-from pik_mj.walking.footsteps import ReachLimits
-from pik_mj.walking.gait import GaitParameters
+from pik_mj.robot.stack import guard_level, posture_task
+from pik_mj.solve import solve
+from pik_mj.tasks.com import CentroidTask
+from pik_mj.tasks.frame import FrameTask
+from pik_mj.walking.footsteps import ReachLimits, go_pos, straight_steps
+from pik_mj.walking.gait import Footstep, GaitParameters
+from pik_mj.walking.wholebody import bent_knees
 
 __all__ = [
+    "DEFAULT_DT",
     "FOOT_CLEARANCE",
     "FOOT_RATIO",
     "HIP_RATIO",
@@ -68,9 +74,12 @@ __all__ = [
     "REACH_RATIO",
     "STEP_HEIGHT_RATIO",
     "STEP_TIME_RATIO",
+    "SWAY_RATIO",
     "RobotGait",
+    "gait_value",
     "leg_geometry",
     "robot_gait",
+    "sideways_reach",
 ]
 
 PITCH_AXIS = 0.9
@@ -89,8 +98,13 @@ STEP_TIME_RATIO = 3.0
 """τ: step time over the pendulum time constant T_c."""
 FOOT_CLEARANCE = 0.03
 """[m] Gap kept between the soles' inner edges."""
+SWAY_RATIO = 0.25
+"""The CoM crosses between the feet in double support: a robot must move it
+sideways by this fraction of the feet's separation (half of it at least)."""
 MAX_TURN = math.radians(30.0)
 """Largest heading change of one step [rad] (the irteus manual's go-pos default)."""
+DEFAULT_DT = 0.02
+"""Sampling time of the pattern [s]: 50 Hz, one IK solve per tick."""
 
 
 @dataclass(frozen=True)
@@ -230,6 +244,37 @@ class RobotGait:
         turn = max(self.max_turn, 1e-6)
         return ReachLimits(self.stride, self.max_stride_y, turn, self.max_inward)
 
+    def straight_steps(
+        self, n_steps: int, feet: Mapping[str, Footstep], *, first_limb: str = "lleg"
+    ) -> list[Footstep]:
+        """:func:`~pik_mj.walking.footsteps.straight_steps` of this gait's stride and
+        foot separation from the stance ``feet``."""
+        return straight_steps(
+            n_steps,
+            self.stride,
+            feet,
+            first_limb=first_limb,
+            foot_separation=self.foot_separation,
+        )
+
+    def go_pos(
+        self, x: float, y: float, theta: float, feet: Mapping[str, Footstep]
+    ) -> list[Footstep]:
+        """:func:`~pik_mj.walking.footsteps.go_pos` to ``(x [m], y [m], theta [rad])``
+        within this gait's reach (:meth:`reach_limits`) and foot separation."""
+        r = self.reach_limits()
+        return go_pos(
+            x,
+            y,
+            theta,
+            feet,
+            max_stride_x=r.max_stride_x,
+            max_stride_y=r.max_stride_y,
+            max_turn=r.max_turn,
+            max_inward=r.max_inward,
+            foot_separation=self.foot_separation,
+        )
+
     def to_dict(self) -> dict[str, float]:
         """The values [m, s, rad], JSON-ready."""
         return {f.name: getattr(self, f.name) for f in fields(self) if f.name in _DERIVED}
@@ -287,10 +332,10 @@ _DERIVED = (
 
 
 def robot_gait(
-    robot: RobotModel,
+    robot: Robot,
     soles: Mapping[str, Sole] | None = None,
     *,
-    dt: float = 0.01,
+    dt: float = DEFAULT_DT,
     **overrides: float,
 ) -> RobotGait:
     """The gait of ``robot`` (module docstring), each value of ``overrides`` (names
@@ -305,7 +350,10 @@ def robot_gait(
     Raises:
         UnknownName: An override that is not a value of the gait.
         InvalidInput: A value that is not a finite number > 0 (``max_turn``,
-            ``max_inward`` >= 0), or a step time shorter than 2 dt.
+            ``max_inward`` >= 0), a step time shorter than 2 dt, or a robot that
+            cannot walk this way: its CoM moves sideways, with both soles flat,
+            less than half of :data:`SWAY_RATIO` times the feet's separation
+            (:func:`sideways_reach`; Unitree H1's legs have no ankle roll).
     """
     for name in overrides:
         if name not in _DERIVED or name == "dt":
@@ -337,7 +385,80 @@ def robot_gait(
     )
     gait = replace(gait, **overrides, given=tuple(overrides))
     _check(gait)
+    need = SWAY_RATIO * gait.foot_separation
+    reach = sideways_reach(robot, soles, need)
+    if reach < 0.5 * need:
+        raise InvalidInput(
+            f"the robot cannot move its CoM sideways with both soles flat: {reach * 1e3:.0f} mm "
+            f"of the {need * 1e3:.0f} mm a step of the cart-table walk needs (its legs have "
+            "no joint that keeps a sole flat while the leg leans sideways)"
+        )
     return gait
+
+
+def gait_value(text: str) -> tuple[str, float]:
+    """``"name=value"`` (a command line's ``--gait stride=0.1``) as ``(name, value)``:
+    a value of :class:`RobotGait` given instead of derived (:func:`robot_gait`).
+
+    Raises:
+        InvalidInput: Not ``name=value``, an unknown name, or a value that is no number.
+    """
+    name, sep, value = text.partition("=")
+    valid = [n for n in _DERIVED if n != "dt"]
+    if not sep or name.strip() not in valid:
+        raise InvalidInput(f"give NAME=VALUE with NAME one of {valid}, got {text!r}")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise InvalidInput(f"{name.strip()}: {value!r} is not a number") from None
+
+
+def sideways_reach(robot: Robot, soles: Mapping[str, Sole], distance: float) -> float:
+    """How far [m] the robot's CoM moves sideways, towards each foot, with both soles
+    flat where they stand (the smaller of the two): the prioritized IK
+    (:func:`pik_mj.solve.solve`) from the start pose with the knees bent
+    (:func:`~pik_mj.walking.wholebody.bent_knees`), its joint limits, both feet at
+    their poses, then the CoM ``distance`` [m] to the side at the same height. The
+    robot's configuration is restored.
+
+    The cart-table walk moves the CoM sideways between the feet during double
+    support; a robot whose legs cannot (no roll joint between hip and sole
+    that keeps the sole flat while the leg leans) reaches a few millimetres.
+    """
+    configuration = robot.configuration
+    q0 = configuration.q.copy()
+    model, data = robot.model, robot.data
+    adr = model.jnt_dofadr[model.body_jntadr[robot.root_body_id]]
+    configuration.update(robot.start_q())
+    feet = [robot.frame_pose(sole.body, "body") for sole in soles.values()]
+    start, lateral = robot.com(), _lateral(soles, model, data)
+    reached = []
+    try:
+        for side in (-1.0, 1.0):
+            configuration.update(bent_knees(robot, list(soles)))
+            tasks = [
+                FrameTask(configuration, sole.body, X, move_target_type="body")
+                for sole, X in zip(soles.values(), feet, strict=True)
+            ]
+            com = CentroidTask(configuration, start + side * distance * lateral)
+            levels = [
+                guard_level(configuration, robot.joint_names, range(adr, adr + 6)),
+                tasks,
+                [com],
+                [posture_task(configuration, 1e-2)],
+            ]
+            solve(configuration, levels, stop=60, revert_if_fail=False, qp_solver="daqp")
+            reached.append(float(abs((robot.com() - start) @ lateral)))
+    finally:
+        configuration.update(q0)
+    return min(reached)
+
+
+def _lateral(soles: Mapping[str, Sole], model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """Unit horizontal vector from the first sole to the second (3,)."""
+    a, b = (sole.pose(model, data)[0] for sole in soles.values())
+    d = (b - a) * [1.0, 1.0, 0.0]
+    return d / max(float(np.linalg.norm(d)), 1e-12)
 
 
 def _check(gait: RobotGait) -> None:

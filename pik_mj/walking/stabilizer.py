@@ -5,9 +5,11 @@ not add up (the cart-table model's inverted pendulum diverges from any error).
 With the root body's measured rotation :math:`R` (its IMU), the pattern's
 :math:`R^{ref}` and the measured angular velocity :math:`\\omega` (world frame),
 the inclination error is the horizontal part of
-:math:`e = \\log(R\\, R^{ref\\,T})`. Turning a stance ankle joint of world axis
-:math:`a` by :math:`\\Delta q` turns everything above the (fixed) foot by
-:math:`-\\Delta q` about :math:`a`, so each stance ankle joint's target moves by
+:math:`e = \\log(R\\, R^{ref\\,T})`, to first order the vector of the
+skew-symmetric part :math:`\\tfrac12 (E - E^T)^\\vee`, :math:`E = R R^{ref\\,T}`.
+Turning a stance ankle joint of world axis :math:`a` by :math:`\\Delta q` turns
+everything above the (fixed) foot by :math:`-\\Delta q` about :math:`a`, so each
+stance ankle joint's target moves by
 
 .. math::
 
@@ -26,8 +28,6 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-
-from pik_mj.spatial import quat_to_matrix, rotation_vector
 
 __all__ = ["ANKLE_DAMPING", "ANKLE_GAIN", "TiltStabilizer", "ankle_joints", "tilt_stabilizer"]
 
@@ -82,16 +82,17 @@ class TiltStabilizer:
     damping: float = ANKLE_DAMPING
 
     def correction(
-        self, data: mujoco.MjData, quat_ref: np.ndarray, stance: Sequence[str], n: int
+        self, data: mujoco.MjData, R_ref: np.ndarray, stance: Sequence[str], n: int
     ) -> np.ndarray:
         """Target offsets (n,) [rad] over the drive's ``n`` joints for the state in
-        ``data``, the root's reference orientation ``quat_ref`` (w, x, y, z) and
-        the ``stance`` legs."""
+        ``data``, the root's reference rotation ``R_ref`` (3, 3) and the ``stance``
+        legs."""
         out = np.zeros(n)
         R = data.xmat[self.root_id].reshape(3, 3)
-        e = rotation_vector(R @ quat_to_matrix(quat_ref).T)
+        E = R @ R_ref.T
+        e = 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], 0.0])
         w = R @ data.qvel[self.root_dofadr + 3 : self.root_dofadr + 6]
-        e[2] = w[2] = 0.0
+        w[2] = 0.0
         for leg in stance:
             for i, j in zip(self.ankles[leg], self.ankle_ids[leg], strict=True):
                 a = data.xaxis[j]
