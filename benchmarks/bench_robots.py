@@ -36,9 +36,7 @@ Columns: degrees of freedom (``nv``), watched collision pairs, IK converged %,
 median over targets of the CPU ms per iteration with avoidance and without it,
 their ratio, IK converged % without avoidance, hold pass % (of all targets) and
 the largest base drift of the passing holds. ``--qp-solver daqp`` runs every
-level on DAQP instead of OSQP. The walk column (``--walk-steps``; 0: none) is
-``bench_walking.py``'s: forward and go-pos, each its verdict, steps, least ZMP
-margins and final error.
+level on DAQP instead of OSQP.
 
 Run: ``MENAGERIE_ROOT=... OPENBLAS_NUM_THREADS=1 python benchmarks/bench_robots.py [--n 50]``
 """
@@ -50,7 +48,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from bench_walking import cell, notes, walk_column
 
 from pik_mj import HoldCriteria, Robot, Scene
 from pik_mj.balance import support_polygon
@@ -219,18 +216,15 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--robots", nargs="*", default=list(ROBOTS))
     parser.add_argument("--qp-solver", default="osqp", help="osqp (default) or daqp")
     parser.add_argument("--hold", type=float, default=HOLD, help="hold duration [s]; 0: none")
-    parser.add_argument("--walk-steps", type=int, default=6, help="walk column's strides; 0: none")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
-    rows, skipped, walks = [], [], {}
+    rows, skipped = [], []
     t0 = time.perf_counter()
     for name in args.robots:
         if not available(name):
             skipped.append(name)
             continue
         rows.append(run_robot(name, args.n, args.seed, args.qp_solver, args.hold))
-        if args.walk_steps > 0:
-            walks[name] = walk_column(name, args.walk_steps)
     if not args.quiet:
         print(
             f"{'robot':16} {'nv':>3} {'pairs':>5} {'IK conv':>7} {'ms/it':>6} "
@@ -246,11 +240,6 @@ def main(argv: list[str] | None = None) -> dict:
             )
             for failure in sorted(set(r.failures)):
                 print(f"{'':16}   hold failure: {failure}")
-            if r.robot in walks:
-                w = walks[r.robot]
-                print(f"{'':16}   walk: {cell(w['forward'])} | go-pos: {cell(w['go_pos'])}")
-                for line in notes(w):
-                    print(f"{'':16}   walk {line}")
         for name in skipped:
             print(f"{name:16} skipped: not under MENAGERIE_ROOT nor in the mujoco-menagerie cache")
         print(
@@ -261,7 +250,6 @@ def main(argv: list[str] | None = None) -> dict:
         "targets": args.n,
         "rows": {r.robot: {**r.__dict__, "ratio": r.ratio} for r in rows},
         "skipped": skipped,
-        "walks": walks,
     }
 
 

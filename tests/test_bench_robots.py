@@ -20,8 +20,9 @@ def _bench():
 
 def test_bench_robots_small(capsys, tmp_path, monkeypatch):
     monkeypatch.setenv("MENAGERIE_ROOT", str(tmp_path))  # no Menagerie robot here
-    robots = ["--robots", "sample_humanoid", "unitree_g1"]
-    figures = _bench().main(["--n", "1", "--hold", "1", "--walk-steps", "0", *robots])
+    figures = _bench().main(
+        ["--n", "1", "--hold", "1", "--robots", "sample_humanoid", "unitree_g1"]
+    )
     out = capsys.readouterr().out
     assert figures["skipped"] == ["unitree_g1"] and "unitree_g1       skipped" in out
     row = figures["rows"]["sample_humanoid"]

@@ -241,11 +241,9 @@ def evaluate_walk(
     if has_sensors:
         e_ref = np.linalg.norm(sensed[ok] - pattern.zmp_ref[:K][ok], axis=1)
         e_contacts = np.linalg.norm(sensed[ok] - measured[ok], axis=1)
-        planned = support_margin(
-            pattern.plan,
-            np.where(ok[:, None], sensed, pattern.zmp_ref[:K]),
-            pattern.outlines,
-        )[ok]
+        sensed_or_ref = pattern.zmp_ref.copy()  # the ticks played, the rest planned
+        sensed_or_ref[:K][ok] = sensed[ok]
+        planned = support_margin(pattern.plan, sensed_or_ref, pattern.outlines)[:K][ok]
         figures |= {
             "sim_zmp_force_sensors_ticks": int(ok.sum()),
             "sim_zmp_force_sensors_vs_ref_rms_m": float(np.sqrt(np.mean(e_ref**2))),
