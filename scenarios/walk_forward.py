@@ -14,17 +14,76 @@ with two legs: ``--model unitree_g1``, an MJCF path, or ``--description FILE``.
 
 from __future__ import annotations
 
+import argparse
+from collections.abc import Callable, Mapping, Sequence
+
 from pik_mj import Recorder, Robot
 from pik_mj.robot.ground import robot_soles
 from pik_mj.scenario import ScenarioResult, count, open_recorder, parser, positive, report
 from pik_mj.scenario.arguments import argument_type
+from pik_mj.walking.gait import Footstep
 from pik_mj.walking.playback import walk_motion
-from pik_mj.walking.robot_gait import DEFAULT_DT, gait_value, robot_gait
-from pik_mj.walking.walk import robot_label, walk
+from pik_mj.walking.robot_gait import DEFAULT_DT, RobotGait, gait_value, robot_gait
+from pik_mj.walking.walk import Walk, robot_label, walk
 from pik_mj.walking.wholebody import feet_from_robot
+
+__all__ = ["LEGS", "NAME", "main", "run", "walk_parser", "walk_scenario"]
 
 NAME = "walk_forward"
 LEGS = ("rleg", "lleg")
+
+
+def walk_scenario(
+    name: str,
+    recorder: Recorder,
+    robot: Robot,
+    label: str,
+    footsteps: Callable[[RobotGait, Mapping[str, Footstep]], Sequence[Footstep]],
+    *,
+    dt: float = DEFAULT_DT,
+    gait: dict[str, float] | None = None,
+) -> tuple[ScenarioResult, Walk]:
+    """A walking scenario: the gait derived from ``robot`` (``gait``: values given
+    instead; printed with ``label``), ``footsteps(gait, feet)`` from its feet,
+    walked (:func:`pik_mj.walking.walk.walk`) into ``recorder``'s walk logger; the
+    result with the walk's figures and checks."""
+    soles = robot_soles(robot)
+    chosen = robot_gait(robot, soles, dt=dt, **(gait or {}))
+    print(f"{name} on {label}: {chosen}")
+    steps = footsteps(chosen, feet_from_robot(robot, soles))
+    log = recorder.walk_logger()
+    done = walk(robot, steps, chosen, soles=soles, callback=log)
+    log.finish(done.report)
+    result = ScenarioResult(name)
+    result.robot = robot
+    result.figures = done.figures
+    result.walk = walk_motion(done.pattern, done.report)
+    for check, ok, detail in done.checks:
+        result.check(check, ok, detail)
+    return result, done
+
+
+def walk_parser(doc: str) -> argparse.ArgumentParser:
+    """The command line of a walking scenario: the scenario's options for a robot
+    with two legs, ``--dt`` and ``--gait NAME=VALUE`` (repeatable)."""
+    p = parser(
+        doc,
+        hold=False,
+        model="sample_humanoid",
+        limbs=LEGS,
+        floating_base=True,
+        description=True,
+    )
+    p.add_argument("--dt", type=positive, default=DEFAULT_DT, help="pattern tick [s]")
+    p.add_argument(
+        "--gait",
+        type=argument_type(gait_value),
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a gait value instead of the derived one, e.g. stride=0.1 (repeatable)",
+    )
+    return p
 
 
 def run(
@@ -41,41 +100,21 @@ def run(
     """Walk ``n_steps`` forward; ``gait``: values given instead of derived."""
     if robot is None:
         robot = Robot.from_model(model, description=description, required_limbs=LEGS)
-    soles = robot_soles(robot)
-    chosen = robot_gait(robot, soles, dt=dt, **(gait or {}))
-    print(f"{NAME} on {robot_label(model, description)}: {chosen}")
-    steps = chosen.straight_steps(n_steps, feet_from_robot(robot, soles))
-    log = recorder.walk_logger()
-    done = walk(robot, steps, chosen, soles=soles, callback=log)
-    log.finish(done.report)
-    result = ScenarioResult(NAME)
-    result.robot = robot
-    result.figures = done.figures
-    result.walk = walk_motion(done.pattern, done.report)
-    for label, ok, detail in done.checks:
-        result.check(label, ok, detail)
+    result, _ = walk_scenario(
+        NAME,
+        recorder,
+        robot,
+        robot_label(model, description),
+        lambda chosen, feet: chosen.straight_steps(n_steps, feet),
+        dt=dt,
+        gait=gait,
+    )
     return result
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(
-        __doc__,
-        hold=False,
-        model="sample_humanoid",
-        limbs=LEGS,
-        floating_base=True,
-        description=True,
-    )
+    p = walk_parser(__doc__)
     p.add_argument("--steps", type=count, default=6, help="number of steps (default 6)")
-    p.add_argument("--dt", type=positive, default=DEFAULT_DT, help="pattern tick [s]")
-    p.add_argument(
-        "--gait",
-        type=argument_type(gait_value),
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a gait value instead of the derived one, e.g. stride=0.1 (repeatable)",
-    )
     args = p.parse_args(argv)
     with open_recorder(args, f"{NAME}_{robot_label(args.model, args.description)}") as recorder:
         result = run(

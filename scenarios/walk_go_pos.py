@@ -13,18 +13,16 @@ an MJCF path, or ``--description FILE``.
 from __future__ import annotations
 
 import numpy as np
+from pik_mj.scenarios.walk_forward import LEGS, walk_parser, walk_scenario
 
 from pik_mj import Recorder, Robot
-from pik_mj.robot.ground import robot_soles
-from pik_mj.scenario import ScenarioResult, finite, open_recorder, parser, positive, report
-from pik_mj.scenario.arguments import argument_type
-from pik_mj.walking.playback import walk_motion
-from pik_mj.walking.robot_gait import DEFAULT_DT, gait_value, robot_gait
-from pik_mj.walking.walk import robot_label, walk
-from pik_mj.walking.wholebody import feet_from_robot
+from pik_mj.scenario import ScenarioResult, finite, open_recorder, report
+from pik_mj.walking.robot_gait import DEFAULT_DT
+from pik_mj.walking.walk import robot_label
 
 NAME = "walk_go_pos"
-LEGS = ("rleg", "lleg")
+HEADING_TOLERANCE = 5.0
+"""[deg] Largest final heading error to the plan."""
 
 
 def run(
@@ -43,49 +41,30 @@ def run(
     """Walk to ``(x, y, theta)`` from the start; ``gait``: values given instead of derived."""
     if robot is None:
         robot = Robot.from_model(model, description=description, required_limbs=LEGS)
-    soles = robot_soles(robot)
-    chosen = robot_gait(robot, soles, dt=dt, **(gait or {}))
-    print(f"{NAME} on {robot_label(model, description)}: {chosen}")
-    steps = chosen.go_pos(x, y, np.deg2rad(theta_deg), feet_from_robot(robot, soles))
-    log = recorder.walk_logger()
-    done = walk(robot, steps, chosen, soles=soles, callback=log)
-    log.finish(done.report)
-    result = ScenarioResult(NAME)
-    result.robot = robot
-    result.figures = done.figures
-    result.figures["sim_final_yaw_error_deg"] = float(np.rad2deg(done.report.final_yaw_error))
-    result.walk = walk_motion(done.pattern, done.report)
-    for label, ok, detail in done.checks:
-        result.check(label, ok, detail)
+    result, done = walk_scenario(
+        NAME,
+        recorder,
+        robot,
+        robot_label(model, description),
+        lambda chosen, feet: chosen.go_pos(x, y, np.deg2rad(theta_deg), feet),
+        dt=dt,
+        gait=gait,
+    )
+    yaw_error = float(np.rad2deg(done.report.final_yaw_error))
+    result.figures["sim_final_yaw_error_deg"] = yaw_error
     result.check(
-        "physics playback: final heading within 5 deg of the plan",
-        done.report.final_yaw_error <= np.deg2rad(5.0),
-        f"{np.rad2deg(done.report.final_yaw_error):.2f} deg",
+        f"physics playback: final heading within {HEADING_TOLERANCE:.0f} deg of the plan",
+        yaw_error <= HEADING_TOLERANCE,
+        f"{yaw_error:.2f} deg",
     )
     return result
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(
-        __doc__,
-        hold=False,
-        model="sample_humanoid",
-        limbs=LEGS,
-        floating_base=True,
-        description=True,
-    )
+    p = walk_parser(__doc__)
     p.add_argument("--x", type=finite, default=0.5, help="goal ahead [m]")
     p.add_argument("--y", type=finite, default=0.2, help="goal to the left [m]")
     p.add_argument("--theta", type=finite, default=30.0, help="goal heading change [deg]")
-    p.add_argument("--dt", type=positive, default=DEFAULT_DT, help="pattern tick [s]")
-    p.add_argument(
-        "--gait",
-        type=argument_type(gait_value),
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="a gait value instead of the derived one, e.g. stride=0.1 (repeatable)",
-    )
     args = p.parse_args(argv)
     with open_recorder(args, f"{NAME}_{robot_label(args.model, args.description)}") as recorder:
         result = run(

@@ -1,11 +1,11 @@
 """Walking on the robots users bring: a gait derived from the robot, its soles from
 MuJoCo's contacts, its own servos and torque limits, the body-inclination
 stabilizer; a synthetic humanoid without sites on off-centre mesh soles walks,
-and Unitree G1 and Booster T1 walk where MENAGERIE_ROOT has them (H1 is refused,
-saying why).
+and Unitree G1 and Booster T1 walk 6 steps forward and go to (0.5 m, 0.2 m, 30°)
+where MENAGERIE_ROOT has them (H1 is refused, saying why).
 
 Costs on a 2-core machine: the synthetic walk's pattern ~10 s and each playback
-~5 s; G1's walk ~30 s; T1's ~15 s; H1's refusal ~3 s.
+~5 s; each Menagerie walk ~15-25 s; H1's refusal ~3 s.
 """
 
 from __future__ import annotations
@@ -162,22 +162,57 @@ def test_without_the_stabilizer_the_synthetic_humanoid_falls(synthetic_walk):
     assert report.fell and report.fall is not None and report.fall.kind == "tilt"
 
 
-@pytest.mark.parametrize(("name", "gains"), [("unitree_g1", "robot"), ("booster_t1", "derived")])
-def test_menagerie_robot_walks(name, gains):
-    """G1 on its own position servos (kp 500 > κ m g z_c), T1 on derived gains (its
-    own kp 75 is below κ m g z_c = 332 N·m/rad), each within its torque limits."""
+MENAGERIE_WALKERS = {"unitree_g1": "robot", "booster_t1": "derived"}
+GO_POS = (0.5, 0.2, math.radians(30.0))  # the issue's goal: 0.5 m ahead, 0.2 m left, 30° left
+
+
+@pytest.fixture(scope="module", params=list(MENAGERIE_WALKERS))
+def menagerie_walker(request):
+    name = request.param
     requires_menagerie(name)
     robot = Robot.from_model(name)
     soles = robot_soles(robot)
-    gait = robot_gait(robot, soles)
-    done = walk(robot, gait.straight_steps(2, feet_from_robot(robot, soles)), gait, soles=soles)
+    return name, robot, soles, robot_gait(robot, soles)
+
+
+def _walks_as_planned(done, name: str, steps: int) -> None:
+    """The checks of a Menagerie walk (the issue's): its footsteps, no fall, the ZMP of
+    the pattern's inverse dynamics inside the support polygon, the servos the
+    robot's own where they can carry it and within its torque limits, the feet and
+    the root ending within 5 cm of the plan."""
     report = done.report
     print(f"\n{name}: {done.figures['zmp_margin_computed_min_m'] * 1e3:.1f} mm, {report.to_dict()}")
-    assert report.params["gains"] == gains
+    assert len(done.pattern.plan.footsteps) == steps
+    assert report.params["gains"] == MENAGERIE_WALKERS[name]
     assert done.pattern.support_margin("computed").min() > 0.005
-    assert not report.fell and report.final_midfeet_error < 0.05
+    assert not report.fell and report.fall is None, report.to_dict()
+    assert report.final_midfeet_error < 0.05 and report.final_root_error < 0.05
     assert report.params["torque_saturated_fraction"] < 0.01
     assert done.passed, done.checks
+
+
+def test_menagerie_robot_walks_six_steps_forward(menagerie_walker):
+    """G1 on its own position servos (kp 500 > κ m g z_c), T1 on derived gains (its
+    own kp 75 is below κ m g z_c = 332 N·m/rad): 6 strides and a closing step."""
+    name, robot, soles, gait = menagerie_walker
+    steps = gait.straight_steps(6, feet_from_robot(robot, soles))
+    robot.reset_pose()
+    _walks_as_planned(walk(robot, steps, gait, soles=soles), name, 7)
+
+
+def test_menagerie_robot_goes_to_a_pose(menagerie_walker):
+    """go-pos (0.5 m, 0.2 m, 30°): the feet end turned as planned too."""
+    name, robot, soles, gait = menagerie_walker
+    robot.reset_pose()
+    start = feet_from_robot(robot, soles)
+    steps = gait.go_pos(*GO_POS, start)
+    done = walk(robot, steps, gait, soles=soles)
+    _walks_as_planned(done, name, len(steps))
+    assert len(steps) >= 6
+    assert done.report.final_yaw_error < math.radians(5.0)
+    final = feet_from_robot(robot, soles)  # the pattern's last configuration
+    for leg, foot in final.items():
+        assert foot.yaw - start[leg].yaw == pytest.approx(GO_POS[2], abs=2e-3)
 
 
 def test_unitree_h1_is_refused_saying_why():

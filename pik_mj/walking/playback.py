@@ -8,9 +8,10 @@ of :class:`~pik_mj.walking.drive.JointDrive`: position and velocity feedback
 towards the pattern (linear between its ticks) plus the pattern's own joint
 torques (inverse dynamics with the ground reaction on the support soles,
 :func:`feedforward_torques`), within the robot's torque limits, with the robot's
-own servo gains where they can carry it. There is no balance feedback: the
-pattern must carry the robot on its own. After the pattern the last targets (and
-torques) are held for ``settle_time``.
+own servo gains where they can carry it. The only balance feedback is the
+stabilizer's (:mod:`pik_mj.walking.stabilizer`: the stance ankles' targets turned
+against the body's inclination error); the pattern carries the rest. After the
+pattern the last targets (and torques) are held for ``settle_time``.
 
 Measured at each pattern tick: root height, sole positions, CoM, the ZMP of
 the floor contact forces (all contact points lie on the floor plane, so it is
