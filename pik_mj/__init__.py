@@ -27,7 +27,7 @@ from pik_mj.exceptions import (
     SimulationUnstable,
     UnknownName,
 )
-from pik_mj.ik import fullbody_inverse_kinematics, inverse_kinematics
+from pik_mj.ik import WorldAvoidance, fullbody_inverse_kinematics, inverse_kinematics
 from pik_mj.progress import Progress
 from pik_mj.record import Recorder, read_recording
 from pik_mj.robot import Limb, Robot, RobotSource
@@ -110,6 +110,7 @@ __all__ = [
     "TaskRows",
     "UnknownName",
     "Waypoints",
+    "WorldAvoidance",
     "add_box",
     "add_wall",
     "floor_environment",

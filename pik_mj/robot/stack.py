@@ -70,6 +70,18 @@ def joint_dofs(model: mujoco.MjModel, joints: Iterable[str]) -> np.ndarray:
     return np.array(sorted(int(model.jnt_dofadr[model.joint(j).id]) for j in joints), dtype=int)
 
 
+def moving_dofs(
+    model: mujoco.MjModel,
+    joints: Iterable[str],
+    free_dofs: Iterable[int] = (),
+    couplings: Sequence[Coupling] | None = None,
+) -> np.ndarray:
+    """Tangent-space indices (sorted) a solve moves: those of ``joints`` grown by the
+    couplings (:func:`coupled_joints`), and ``free_dofs`` (a floating base's six)."""
+    used = coupled_joints(model, joints, couplings)
+    return np.union1d(joint_dofs(model, used), np.asarray(list(free_dofs), dtype=int))
+
+
 _ANGLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
@@ -168,8 +180,7 @@ def guard_level(
     level: list[Task] = [JointLimitTask.all_limited(configuration)]
     if couplings:
         level.append(CouplingTask(configuration, couplings))
-    used = coupled_joints(model, joints, couplings)
-    moving = np.union1d(joint_dofs(model, used), np.asarray(list(free_dofs), dtype=int))
+    moving = moving_dofs(model, joints, free_dofs, couplings)
     breaches, freed = held_breaches(configuration, moving, couplings)
     if breaches:
         warnings.warn(
