@@ -20,12 +20,14 @@ from pik_mj.exceptions import (
     LimbsNotFound,
     NoCollisionGeometry,
     OptionError,
+    OutputError,
     PikError,
     QPFailure,
     RenderingUnavailable,
     ScenarioWaiting,
     SimulationUnstable,
     UnknownName,
+    WriterBusy,
 )
 from pik_mj.ik import WorldAvoidance, fullbody_inverse_kinematics, inverse_kinematics
 from pik_mj.progress import Progress
@@ -90,6 +92,7 @@ __all__ = [
     "MotionReport",
     "NoCollisionGeometry",
     "OptionError",
+    "OutputError",
     "PikError",
     "Progress",
     "QPFailure",
@@ -111,6 +114,7 @@ __all__ = [
     "UnknownName",
     "Waypoints",
     "WorldAvoidance",
+    "WriterBusy",
     "add_box",
     "add_wall",
     "floor_environment",

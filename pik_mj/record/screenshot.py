@@ -18,9 +18,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
-import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -29,7 +27,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.record.reader import check_complete
+from pik_mj.record.sinks import LOOPBACK, free_port, rerun_executable
 
 __all__ = ["Shot", "main", "screenshots"]
 
@@ -62,31 +63,22 @@ class Shot:
 NOTICE_SECONDS = 7.0
 
 
-def _rerun_executable() -> str:
-    """The ``rerun`` CLI of this Python environment (else the one on PATH)."""
-    beside = Path(sys.executable).parent / "rerun"
-    found = str(beside) if beside.is_file() else shutil.which("rerun")
-    if found is None:
-        raise PikError("the rerun viewer (the `rerun` executable of rerun-sdk) is not installed")
-    return found
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+_rerun_executable = rerun_executable  # the `rerun` CLI beside this interpreter
 
 
 @contextlib.contextmanager
 def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
-    """A ``rerun --headless`` viewer of ``size`` (points) on a free port, as a
+    """A ``rerun --headless`` viewer of ``size`` (points) on a free port of
+    :data:`~pik_mj.record.sinks.LOOPBACK` (this machine only), as a
     :class:`rerun.experimental.ViewerClient`; stopped on leaving the block."""
     from rerun.experimental import ViewerClient
 
-    port = _free_port()
+    port = free_port(LOOPBACK)
     command = [
         _rerun_executable(),
         "--headless",
+        "--bind",
+        LOOPBACK,
         "--port",
         str(port),
         "--window-size",
@@ -104,6 +96,7 @@ def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
         env=env,
         start_new_session=True,
     )
+    print(f"screenshot: a headless rerun viewer listens on {LOOPBACK}:{port}", file=sys.stderr)
     started = time.monotonic()
     try:
         client = None
@@ -115,7 +108,7 @@ def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
                     f"{(process.stderr.read() if process.stderr else '')[-2000:]}"
                 )
             try:
-                candidate = ViewerClient(f"rerun+http://127.0.0.1:{port}/proxy")
+                candidate = ViewerClient(f"rerun+http://{LOOPBACK}:{port}/proxy")
                 candidate.get_state()
                 client = candidate
             except Exception:  # not listening yet
@@ -243,12 +236,15 @@ def screenshots(recording: str | Path, shots: Sequence[Shot], *, size=(1600, 900
     """Render ``shots`` of ``recording`` with one headless viewer; the PNGs written.
 
     Raises:
-        InvalidInput: No such file, timeline, view or tab.
+        InvalidInput: No such file, a file that is not a whole ``.rrd``
+            (truncated: named so), a PNG that cannot be written, a bad size
+            (all before the viewer starts); no such timeline, view or tab.
         PikError: The viewer did not start or load the file.
     """
-    path = Path(recording)
-    if not path.is_file():
-        raise InvalidInput(f"recording {str(path)!r} does not exist")
+    path = check_complete(recording)
+    for shot in shots:
+        inputs.output_path(shot.out, "--out")
+    _check_size(size)
     written = []
     with headless_viewer(size) as client:
         rec = _open(client, path)
@@ -273,12 +269,36 @@ def screenshots(recording: str | Path, shots: Sequence[Shot], *, size=(1600, 900
     return written
 
 
+MAX_SIZE = 8192
+"""Largest viewer width or height [points] of a screenshot."""
+
+
+def _check_size(size: Any) -> tuple[int, int]:
+    """``size`` as ``(width, height)`` [points], each in ``1..MAX_SIZE``.
+
+    Raises:
+        InvalidInput: Anything else.
+    """
+    if (
+        not isinstance(size, (tuple, list))
+        or len(size) != 2
+        or not all(isinstance(v, int) and not isinstance(v, bool) for v in size)
+        or not all(1 <= v <= MAX_SIZE for v in size)
+    ):
+        raise InvalidInput(
+            f"size must be (width, height) in points, each 1..{MAX_SIZE}, got {size!r}"
+        )
+    return int(size[0]), int(size[1])
+
+
 def _size(text: str) -> tuple[int, int]:
     try:
         w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"size must be WIDTHxHEIGHT, got {text!r}") from None
-    return w, h
+        return _check_size((w, h))
+    except (ValueError, InvalidInput):
+        raise argparse.ArgumentTypeError(
+            f"size must be WIDTHxHEIGHT in points, each 1..{MAX_SIZE} (e.g. 1600x900), got {text!r}"
+        ) from None
 
 
 def _time(text: str) -> float | str:
