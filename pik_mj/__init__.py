@@ -29,7 +29,7 @@ from pik_mj.exceptions import (
     UnknownName,
     WriterBusy,
 )
-from pik_mj.ik import fullbody_inverse_kinematics, inverse_kinematics
+from pik_mj.ik import WorldAvoidance, fullbody_inverse_kinematics, inverse_kinematics
 from pik_mj.progress import Progress
 from pik_mj.record import Recorder, read_recording
 from pik_mj.robot import Limb, Robot, RobotSource
@@ -113,6 +113,7 @@ __all__ = [
     "TaskRows",
     "UnknownName",
     "Waypoints",
+    "WorldAvoidance",
     "WriterBusy",
     "add_box",
     "add_wall",
