@@ -68,5 +68,26 @@ def _drop_missing_pages(app, docname: str, source: list[str]) -> None:
     source[0] = link.sub(r"\1", text)
 
 
+# Docstrings write |x| for a norm; reStructuredText reads it as a substitution.
+# Outside literals, roles and math blocks the bars are escaped (shown as written).
+_LITERAL = re.compile(r"(``.*?``|`[^`]*`)")
+_BARS = re.compile(r"(?<!\\)\|([^|\s][^|]*?)\|")
+
+
+def _escape_bars(app, what, name, obj, options, lines: list[str]) -> None:
+    math_indent = None
+    for i, line in enumerate(lines):
+        indent = len(line) - len(line.lstrip())
+        if math_indent is not None and (not line.strip() or indent > math_indent):
+            continue
+        math_indent = indent if line.strip().startswith(".. math::") else None
+        if math_indent is not None:
+            continue
+        parts = _LITERAL.split(line)
+        parts[::2] = [_BARS.sub(r"\\|\1\\|", p) for p in parts[::2]]
+        lines[i] = "".join(parts)
+
+
 def setup(app) -> None:
     app.connect("source-read", _drop_missing_pages)
+    app.connect("autodoc-process-docstring", _escape_bars)

@@ -29,7 +29,7 @@ __all__ = [
 ]
 
 STANDARD_GRAVITY = 9.81
-"""``|g|`` [m/s²] of the functions that take no model (pure geometry, the cart-table
+"""|g| [m/s²] of the functions that take no model (pure geometry, the cart-table
 model); everything that has a model reads ``model.opt.gravity``."""
 
 

@@ -197,7 +197,7 @@ def go_pos(
     Args:
         x: Goal forward in the initial mid-feet frame in [m].
         y: Goal leftward in the initial mid-feet frame in [m].
-        theta: Goal heading change (left positive) in [rad], ``|theta| <= pi``.
+        theta: Goal heading change (left positive) in [rad], |theta| <= pi.
         initial_feet: Stance of ``"rleg"`` and ``"lleg"``, ``{limb: Footstep |
             (p_W, yaw)}``.
         max_stride_x: See :class:`ReachLimits` [m].
