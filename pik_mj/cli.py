@@ -170,12 +170,7 @@ def default_recording(name: str, argv: Sequence[str]) -> Path:
     given: ``out/NAME.rrd``, or ``out/NAME-MODEL.rrd`` with ``--model MODEL``
     (``MODEL``: a name, or the stem of an MJCF path), so that runs on other
     robots do not overwrite each other."""
-    model = None
-    for i, arg in enumerate(argv):
-        if arg == "--model" and i + 1 < len(argv):
-            model = argv[i + 1]
-        elif arg.startswith("--model="):
-            model = arg.removeprefix("--model=")
+    model = _option_value(argv, "--model")
     stem = name if not model else f"{name}-{Path(model).stem}"
     return Path("out") / f"{stem}.rrd"
 
@@ -229,15 +224,20 @@ def _sigints() -> Iterator[list[int]]:
         signal.signal(signal.SIGINT, previous)
 
 
+def _option_value(argv: Sequence[str], option: str) -> str | None:
+    """The value of the last ``option VALUE`` or ``option=VALUE`` in ``argv``, or None."""
+    value = None
+    for i, arg in enumerate(argv):
+        if arg == option and i + 1 < len(argv):
+            value = argv[i + 1]
+        elif arg.startswith(option + "="):
+            value = arg.removeprefix(option + "=")
+    return value
+
+
 def _saved_path(argv: list[str]) -> str | None:
     """The ``--save`` file of a scenario's options, or None."""
-    save = None
-    for i, arg in enumerate(argv):
-        if arg == "--save" and i + 1 < len(argv):
-            save = argv[i + 1]
-        elif arg.startswith("--save="):
-            save = arg.removeprefix("--save=")
-    return save
+    return _option_value(argv, "--save")
 
 
 def _recording_note(argv: list[str], when: str) -> None:
