@@ -131,3 +131,18 @@ def test_block_parser(tmp_path):
         (2, "a = 1", ""),
         (6, "b = '```'", "argv --save x.rrd"),
     ]
+
+
+def test_readme_fits_a_few_screens():
+    """The README: at most 250 lines, the two commands CI runs (.ci/run reads
+    them after their markers), links into the site, and no history (no
+    figures dated by commit)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(text.splitlines()) <= 250
+    for marker in ("<!-- ci: main-job", "<!-- ci: test"):
+        after = text.split(marker, 1)[1].splitlines()
+        assert after[1] == "```bash" and after[2].startswith("python3 -m venv .venv && ")
+    assert re.search(r"\b(at|since|before) [0-9a-f]{7,40}\b", text) is None
+    linked = set(re.findall(r"\]\((docs/[^)#]+)", text))
+    assert "docs/getting_started.md" in linked
+    assert all((ROOT / page).is_file() for page in linked), linked
