@@ -59,6 +59,7 @@ from pik_mj import (
     Robot,
     Scene,
     Waypoints,
+    WorldAvoidance,
     inverse_kinematics,
 )
 from pik_mj.ik import gaze_angle
@@ -90,6 +91,7 @@ ORANGE = 0.03  # [m] the distance kept
 GAIN = 0.2  # velocity-damper gain: a slow approach keeps the linearized rows from overshooting
 STEPS = TrustRegion(radius=0.02, max_radius=0.04)  # short steps: a dense path to play
 HAND, FOREARM = "rarm_hand", "rarm_lower"
+GRASPED = WorldAvoidance(allowed=["kettle"])  # the world kept off, the grasped kettle excepted
 FEET = ("rleg", "lleg")
 
 
@@ -292,6 +294,7 @@ def reach_handle(stage: Stage, kettle: Kettle, path: Waypoints, pairs: list[Geom
         (kettle.p_handle, R_grasp),
         path=approach,
         collision_avoidance=avoid(robot, [p for p in pairs if p not in hand_kettle]),
+        avoid_world=GRASPED,
         **options,
     )
     X_grasp = robot.frame_pose("rarm_end")
@@ -312,6 +315,7 @@ def lift(stage: Stage, kettle: Kettle, X_grasp: mink.SE3) -> tuple[Waypoints, np
         move_targets="rarm_end",
         rotation_axis=True,
         look_at=lambda r: kettle.center_with(r, X_grasp),
+        avoid_world=GRASPED,
         stop=100,
         trust_region=STEPS,
         callback=watch.callbacks,

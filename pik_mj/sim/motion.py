@@ -379,6 +379,7 @@ def play(
         SimulationUnstable: MuJoCo reported an invalid state.
     """
     path = _as_waypoints(path, scene.robot_nq)
+    path.check_finite(scene.model)
     if not (isinstance(speed, (int, float)) and 0.0 < speed <= 1.0):
         raise InvalidInput(f"speed must be in (0, 1] (a fraction of the limits), got {speed!r}")
     if not (math.isfinite(settle) and settle >= 0):

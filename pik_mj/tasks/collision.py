@@ -67,6 +67,7 @@ from pik_mj.tasks.collision_pairs import (
 from pik_mj.tasks.task import Task, TaskRows, TaskState
 
 __all__ = [
+    "DEFAULT_CHECK_MARGIN",
     "DEFAULT_YELLOW",
     "CollisionAvoidanceTask",
     "GeomPair",
@@ -78,6 +79,14 @@ __all__ = [
 
 DEFAULT_YELLOW = 0.2
 """``avoid-collision-distance`` [m] (irteus manual; 200 mm)."""
+
+DEFAULT_CHECK_MARGIN = 1e-4
+"""How far [m] a pair may be inside its bound and the task still hold (the stop
+test's tolerance, prioritized-IK manual: ``check-margin``). A row is the distance
+to first order at one witness point; where two faces meet, a step that turns one
+about that point brings a corner nearer to second order. Within the margin the
+task still holds, so the solve loop keeps it on every later step as it keeps any
+satisfied level (a step may not make it worse)."""
 
 
 class PairDistance(NamedTuple):
@@ -147,7 +156,8 @@ class CollisionAvoidanceTask(Task):
         gain: Velocity-damper gain ``γ`` in (0, 1].
         weight: Slack weight of the rows [cost/m²].
         check: Whether the solve loop's stop test looks at this task
-            (satisfied when every pair is at least ``orange`` apart).
+            (satisfied when every pair is within ``check_margin`` of its bound).
+        check_margin: Tolerance [m] of the stop test (:data:`DEFAULT_CHECK_MARGIN`).
         name: Display name.
     """
 
@@ -161,6 +171,7 @@ class CollisionAvoidanceTask(Task):
         gain: float = 0.5,
         weight: float = 1e3,
         check: bool = True,
+        check_margin: float = DEFAULT_CHECK_MARGIN,
         name: str = "collision",
     ):
         model = configuration.model
@@ -187,6 +198,9 @@ class CollisionAvoidanceTask(Task):
             raise InvalidInput(f"gain must be in (0, 1], got {gain}")
         if not (np.isfinite(weight) and weight > 0):
             raise InvalidInput(f"weight must be > 0, got {weight}")
+        if not (np.isfinite(check_margin) and check_margin >= 0):
+            raise InvalidInput(f"check_margin must be finite and >= 0 [m], got {check_margin}")
+        self.check_margin = float(check_margin)
         self.yellow, self.orange = float(yellow), float(orange)
         self.gain, self.weight = float(gain), float(weight)
         self.check = check
@@ -235,7 +249,16 @@ class CollisionAvoidanceTask(Task):
 
         with ``c`` the geom centres, ``r`` MuJoCo's bounding radii, ``a`` and
         ``h = |R| h_G`` the centres and half sizes of the geoms' boxes in the
-        world. A plane has no bound (``r = 0``): its pairs are always measured.
+        world. A plane (infinite for MuJoCo's collisions) bounds the distance of
+        the other geom by its centre's height over the plane, as MuJoCo's own
+        bounding-sphere filter does,
+
+        .. math::
+
+            d \\ge n_p^T (c - p) - r
+
+        (``n_p`` the plane's normal, its ``z`` axis, ``p`` its centre). A height
+        field has no bound: its pairs are always measured.
         """
         m = self.model
         g1, g2 = self._g1, self._g2
@@ -248,8 +271,17 @@ class CollisionAvoidanceTask(Task):
         h1 = np.einsum("nij,nj->ni", np.abs(R1), m.geom_aabb[g1, 3:])
         h2 = np.einsum("nij,nj->ni", np.abs(R2), m.geom_aabb[g2, 3:])
         box_gap = np.linalg.norm(np.maximum(np.abs(a1 - a2) - h1 - h2, 0.0), axis=1)
-        unbounded = (m.geom_rbound[g1] == 0) | (m.geom_rbound[g2] == 0)
-        return np.flatnonzero(unbounded | (np.maximum(lower, box_gap) < distmax))
+        bound = np.maximum(lower, box_gap)
+        for plane, other, R_plane in ((g1, g2, R1), (g2, g1, R2)):
+            on = m.geom_type[plane] == mujoco.mjtGeom.mjGEOM_PLANE
+            height = np.einsum(
+                "ni,ni->n", R_plane[:, :, 2], data.geom_xpos[other] - data.geom_xpos[plane]
+            )
+            bound = np.where(on, height - m.geom_rbound[other], bound)
+        unbounded = (m.geom_type[g1] == mujoco.mjtGeom.mjGEOM_HFIELD) | (
+            m.geom_type[g2] == mujoco.mjtGeom.mjGEOM_HFIELD
+        )
+        return np.flatnonzero(unbounded | (bound < distmax))
 
     def _measure(
         self, configuration: mink.Configuration, distmax: float
@@ -307,7 +339,7 @@ class CollisionAvoidanceTask(Task):
         return np.maximum(self.bounds - self.distances(configuration, self.yellow), 0.0)
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        return bool(np.all(self.compute_error(configuration) <= 1e-6))
+        return bool(np.all(self.compute_error(configuration) <= self.check_margin))
 
     def evaluate(self, configuration: mink.Configuration) -> TaskState:
         """Rows, error and stop test from one measurement of the pairs."""
@@ -316,7 +348,7 @@ class CollisionAvoidanceTask(Task):
         return TaskState(
             self._rows(configuration, measured),
             float(np.linalg.norm(error)),
-            bool(np.all(error <= 1e-6)),
+            bool(np.all(error <= self.check_margin)),
         )
 
     def __repr__(self) -> str:

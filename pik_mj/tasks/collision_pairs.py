@@ -281,6 +281,18 @@ def path_joints(model: mujoco.MjModel, body1: int, body2: int) -> set[int]:
     }
 
 
+def moved_by(model: mujoco.MjModel, pairs: np.ndarray, dofs: Iterable[int]) -> np.ndarray:
+    """(k,) mask: the pairs ``(k, 2)`` (geom ids) whose distance a motion of the
+    degrees of freedom ``dofs`` (tangent-space indices) can change: a joint on the
+    path between the two geoms' bodies (:func:`path_joints`) has one of them."""
+    moving = set(model.dof_jntid[np.asarray(list(dofs), dtype=int)].tolist())
+    body = model.geom_bodyid
+    return np.array(
+        [bool(path_joints(model, int(body[a]), int(body[b])) & moving) for a, b in pairs.tolist()],
+        dtype=bool,
+    ).reshape(len(pairs))
+
+
 def moving_pairs(
     model: mujoco.MjModel, pairs: Sequence[GeomPair], joints: Sequence[str]
 ) -> list[GeomPair]:
@@ -300,6 +312,8 @@ def moving_pairs(
     Raises:
         UnknownName: A joint name the model does not have.
     """
-    moving = {find_joint(model, j).id for j in joints}
-    body = model.geom_bodyid
-    return [p for p in pairs if path_joints(model, int(body[p.geom1]), int(body[p.geom2])) & moving]
+    refs = [find_joint(model, j) for j in joints]
+    dofs = [d for r in refs for d in r.dofs.tolist()]
+    ids = np.array([(p.geom1, p.geom2) for p in pairs], dtype=int).reshape(-1, 2)
+    keep = moved_by(model, ids, dofs)
+    return [p for p, k in zip(pairs, keep.tolist(), strict=True) if k]
