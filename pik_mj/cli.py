@@ -344,7 +344,7 @@ def _validate_rows(target: str, json_out: str | None) -> int:
     if json_out:
         out = Path(json_out)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(jsonable(rows), indent=2))
+        write_atomic(out, json.dumps(jsonable(rows), indent=2), "JSON report")
         print(f"JSON report: {out}")
     return EXIT_PASSED if passed else EXIT_FAILED
 

@@ -93,6 +93,7 @@ def test_twenty_rows_replay_from_their_pose_to_the_same_verdicts(tmp_path):
     data = Dataset.open(out, SWEEP)
     data.write(rows)
     stored = data.table().to_pylist()
+    data.close()
     assert all(len(r["qpos"]) == worker.robot.model.nq for r in stored)
     assert all(np.allclose(r["path"][-1], r["qpos"]) for r in stored)  # the last iterate
     again = replay(out)
