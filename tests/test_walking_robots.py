@@ -23,6 +23,7 @@ from pik_mj.robot import Robot
 from pik_mj.robot.ground import robot_soles
 from pik_mj.sim import Scene
 from pik_mj.walking.drive import CARRY_RATIO, LIMIT_ANGLE, joint_drive, torque_limits
+from pik_mj.walking.gait import plan_gait
 from pik_mj.walking.playback import WALK_CONTACT, play_walk_pattern
 from pik_mj.walking.robot_gait import (
     FOOT_CLEARANCE,
@@ -32,7 +33,7 @@ from pik_mj.walking.robot_gait import (
     robot_gait,
 )
 from pik_mj.walking.walk import walk
-from pik_mj.walking.wholebody import feet_from_robot
+from pik_mj.walking.wholebody import corrected_plan, feet_from_robot
 
 STRIDES = 3  # strides of the test walks (the benchmark walks 6)
 
@@ -224,3 +225,29 @@ def test_unitree_h1_is_refused_saying_why():
         InvalidInput, match=r"cannot move its CoM sideways .* \d+ mm of the 10\d mm"
     ):
         robot_gait(robot)
+
+
+def test_corrected_plan_moves_the_cart_table_zmp_by_the_zmp_error():
+    """Kajita's second stage: a motion whose ZMP missed the reference by a constant
+    offset d (from 1 s on) gets a CoM whose cart-table ZMP is moved by −d once the
+    preview has caught up, and the corrected plan still obeys the cart-table
+    relation p = c − (z_c / g) c̈ (computed here by hand)."""
+    robot = _synthetic()
+    soles = robot_soles(robot)
+    gait = robot_gait(robot, soles)
+    plan = plan_gait(
+        feet_from_robot(robot, soles),
+        gait.straight_steps(2, feet_from_robot(robot, soles)),
+        gait.parameters(),
+        com_height=gait.com_height,
+    )
+    offset = np.array([0.01, -0.02])  # [m]
+    missed = plan.zmp_ref + np.where(plan.t[:, None] >= 1.0, offset, 0.0)
+    corrected = corrected_plan(plan, missed)
+    moved = corrected.zmp - plan.zmp
+    late = plan.t >= 1.0 + gait.step_time  # the preview tracks a step within a step
+    np.testing.assert_allclose(moved[late], -offset[None].repeat(late.sum(), 0), atol=2e-3)
+    np.testing.assert_allclose(moved[plan.t < 1.0 - gait.preview_time], 0.0, atol=1e-3)
+    cart = corrected.com - gait.com_height / gait.geometry.gravity * corrected.com_acc
+    np.testing.assert_allclose(corrected.zmp, cart, atol=1e-9)
+    np.testing.assert_allclose(corrected.feet_p["rleg"], plan.feet_p["rleg"])

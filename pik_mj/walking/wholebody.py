@@ -25,7 +25,13 @@ The result is checked with the ZMP of the *generated motion* (irteus manual:
 ``calc-zmp``): joint velocities and accelerations by finite differences, MuJoCo's
 inverse dynamics for the wrench the ground must apply to the floating base, and
 the ZMP of that wrench (:func:`pik_mj.dynamics.zmp_of_motion`), against the
-support polygon of the soles' polygons (:mod:`pik_mj.walking.support`).
+support polygon of the soles' polygons (:mod:`pik_mj.walking.support`). Where it
+leaves the polygon (the cart-table model leaves out the limbs' own momentum), the
+CoM is corrected once and every tick solved again (Kajita's two-stage preview
+control): the preview controller run on the ZMP error
+:math:`e = p^{ref} - p^{ID}` from rest gives :math:`\\Delta c`, and the CoM
+reference becomes :math:`c + \\Delta c`, whose cart-table ZMP moves by what the
+motion missed.
 """
 
 from __future__ import annotations
@@ -51,6 +57,7 @@ from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.tasks.mink_adapter import MinkTask
 from pik_mj.walking.gait import Footstep, GaitParameters, GaitPlan, plan_gait
+from pik_mj.walking.preview import PreviewController
 from pik_mj.walking.support import support_margin
 
 __all__ = [
@@ -59,6 +66,7 @@ __all__ = [
     "WalkPattern",
     "bent_knees",
     "calc_walk_pattern",
+    "corrected_plan",
     "feet_from_robot",
     "foot_force_sensors",
 ]
@@ -97,6 +105,8 @@ class WalkPattern:
         force_sensors: Each leg's foot force/torque sensor (site name), for the
             legs that have one (:func:`foot_force_sensors`).
         self_collision_pairs: Geom pairs kept apart at level 0.
+        zmp_corrected: The CoM was corrected by the ZMP error of a first pass
+            (module docstring); ``com_ref`` and ``plan`` are the corrected ones.
     """
 
     t: np.ndarray
@@ -120,6 +130,7 @@ class WalkPattern:
     soles: dict[str, Sole]
     force_sensors: dict[str, str]
     self_collision_pairs: int = 0
+    zmp_corrected: bool = False
 
     @property
     def duration(self) -> float:
@@ -435,13 +446,25 @@ def calc_walk_pattern(
     if com_height is None:
         com_height = float(robot.com()[2]) - ground_z
     plan = plan_gait(initial_feet, footsteps, params, com_height=com_height)
+    start = robot.configuration.q.copy()
     robot.configuration.update(bent_knees(robot, params.all_limbs))
     upright_body = robot.root_body if upright_body is None else upright_body
     tasks = _WalkTasks.of(robot, soles, upright_body, ik_thre, ik_rthre, self_collision)
-    ticks = _track(robot, plan, tasks, (stop, min_loop, init_stop), qp_solver, callback)
+    loops = (stop, min_loop, init_stop)
+    ticks = _track(robot, plan, tasks, loops, qp_solver, callback)
     zmp_computed = zmp_of_motion(
         robot.model, ticks.q, plan.dt, plan.ground_z, root_body=robot.root_body
     )
+    outlines = {lb: sole.outline for lb, sole in soles.items()}
+    corrected = bool(support_margin(plan, zmp_computed, outlines).min() <= 0.0)
+    if corrected:
+        plan = corrected_plan(plan, zmp_computed)
+        robot.configuration.update(start)
+        robot.configuration.update(bent_knees(robot, params.all_limbs))
+        ticks = _track(robot, plan, tasks, loops, qp_solver, callback)
+        zmp_computed = zmp_of_motion(
+            robot.model, ticks.q, plan.dt, plan.ground_z, root_body=robot.root_body
+        )
     return WalkPattern(
         t=plan.t,
         dt=plan.dt,
@@ -464,6 +487,37 @@ def calc_walk_pattern(
         soles=soles,
         force_sensors=foot_force_sensors(robot, soles),
         self_collision_pairs=tasks.pairs,
+        zmp_corrected=corrected,
+    )
+
+
+def corrected_plan(plan: GaitPlan, zmp_computed: np.ndarray) -> GaitPlan:
+    """``plan`` with its CoM corrected by the ZMP error of a motion that followed it
+    (Kajita's two-stage preview control): the plan's preview controller run on
+    :math:`e_k = p^{ref}_k - p^{ID}_k` from rest at the origin gives
+    :math:`\\Delta c_k`; the CoM, its velocity, acceleration and cart-table ZMP are
+    the plan's plus those of :math:`\\Delta c`.
+
+    Args:
+        plan: The gait plan the motion followed.
+        zmp_computed: The motion's ZMP from inverse dynamics (K, 2) [m].
+    """
+    params = plan.params
+    controller = PreviewController(
+        plan.dt,
+        plan.com_height,
+        q=params.q,
+        r=params.r,
+        preview_time=params.preview_time,
+        gravity=params.gravity,
+    )
+    delta = controller.run(plan.zmp_ref - zmp_computed, com0=np.zeros(2))
+    return replace(
+        plan,
+        com=plan.com + delta.com,
+        com_vel=plan.com_vel + delta.com_vel,
+        com_acc=plan.com_acc + delta.com_acc,
+        zmp=plan.zmp + delta.zmp,
     )
 
 
