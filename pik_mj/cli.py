@@ -14,11 +14,16 @@ run sweeps.
                [--robot NAME] [--stack NAME] [--workers N] [--address HOST:PORT]
                [--resume] ...
 
+``list`` shows each scenario's description and what it needs of its robot (two arms,
+legs, a floating or a fixed base; ``--model``/``--description`` choose the robot).
+
 ``run`` runs the ``main`` of scenario ``NAME`` (default ``fullbody_reach``;
 ``pik_mj.scenarios.<name>``) with the remaining options, saving its rerun
-recording to ``out/NAME.rrd`` unless a recording option (``--save``,
-``--connect``, ``--serve``, ``--stdout``, ``--headless``) says otherwise; see
-``pik-mj run NAME --help``. It prints the scenario's summary (progress on
+recording to ``out/NAME-ROBOT.rrd`` (``out/fullbody_reach-unitree_g1.rrd``; the
+scenario's default robot keeps ``out/NAME.rrd``) unless a recording option
+(``--save``, ``--connect``, ``--serve``, ``--stdout``, ``--headless``) says
+otherwise; see ``pik-mj run NAME --help``. A robot the scenario cannot move is
+refused before any work, in one line (exit status 2). It prints the scenario's summary (progress on
 stderr), with ``--json`` a JSON summary whose ``robot`` entry is the final pose
 and what rebuilds its scene.
 
@@ -73,6 +78,7 @@ from pik_mj.record import Recorder, screenshot
 from pik_mj.robot import Robot, RobotSource
 from pik_mj.scenario import balance_summary, jsonable, positive
 from pik_mj.scenario.exit_status import EXIT_FAILED, EXIT_PASSED, EXIT_USAGE, exit_code, guarded
+from pik_mj.scenario.robot_option import RobotOption, model_label
 from pik_mj.sim import validate_pose
 from pik_mj.sweep import cli as sweep_cli
 
@@ -104,10 +110,43 @@ def describe(name: str) -> tuple[str, list[str]]:
         module = load_scenario(name)
     except ScenarioWaiting as exc:
         return "", [*flags, f"waiting for {exc.missing}"]
-    if "model" in inspect.signature(module.run).parameters:
+    robot = scenario_robot(module)
+    if robot is not None:
+        flags.append(f"--model: {robot.needs()}")
+    elif "model" in inspect.signature(module.run).parameters:
         flags.append("--model")
     doc = (module.__doc__ or "").strip().splitlines()
     return (doc[0] if doc else ""), flags
+
+
+def scenario_robot(module: ModuleType) -> RobotOption | None:
+    """What the scenario declares it needs of its robot (its ``ROBOT``), or None for a
+    scenario that declares nothing."""
+    robot = vars(module).get("ROBOT")
+    return robot if isinstance(robot, RobotOption) else None
+
+
+def recording_path(name: str, module: ModuleType, argv: Sequence[str]) -> Path:
+    """``out/NAME-ROBOT.rrd`` for the robot ``--model``/``--description`` in ``argv``
+    name (:func:`~pik_mj.scenario.robot_option.model_label`), ``out/NAME.rrd`` for the
+    scenario's default robot."""
+    model, description = _option(argv, "--model"), _option(argv, "--description")
+    robot = scenario_robot(module)
+    default = None if robot is None else robot.default
+    if (model is None and description is None) or (description is None and model == default):
+        return Path("out") / f"{name}.rrd"
+    return Path("out") / f"{name}-{model_label(model, description)}.rrd"
+
+
+def _option(argv: Sequence[str], option: str) -> str | None:
+    """The value of ``option`` in ``argv`` (``--x V`` or ``--x=V``; the last one), or None."""
+    value = None
+    for i, arg in enumerate(argv):
+        if arg == option and i + 1 < len(argv):
+            value = argv[i + 1]
+        elif arg.startswith(option + "="):
+            value = arg.removeprefix(option + "=")
+    return value
 
 
 def _list() -> int:
@@ -124,7 +163,7 @@ def _run(name: str | None, argv: list[str]) -> int:
     name = pik_mj.scenarios.DEFAULT if name is None else name
     module = load_scenario(name)  # usage errors: exit 2
     if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
-        argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
+        argv = [*argv, "--save", str(recording_path(name, module, argv))]
     print(f"running {name}: {describe(name)[0]}", file=sys.stderr)
     with _sigints() as received:
         try:
@@ -174,12 +213,7 @@ def _sigints() -> Iterator[list[int]]:
 
 def _recording_note(argv: list[str], when: str) -> None:
     """Say where the recording of an unfinished run is, if it was started."""
-    save = None
-    for i, arg in enumerate(argv):
-        if arg == "--save" and i + 1 < len(argv):
-            save = argv[i + 1]
-        elif arg.startswith("--save="):
-            save = arg.removeprefix("--save=")
+    save = _option(argv, "--save")
     if save and Path(save).is_file():
         print(f"recording ({when}): {save}")
 
