@@ -30,6 +30,12 @@ iterate of every target (:func:`path_drift`); and the worst foot drift over 50
 iterations when the hand target is 2 m out of reach, with pik_mj's FrameTasks
 and with raw ``mink.FrameTask``s in the cascade.
 
+And a stack where a level is not part of the stop test (:func:`unchecked_level`):
+the CoM pinned over its start at level 2 with ``check=False``, between the
+feet and the hand 2 m out of reach, 50 iterations per solver: time per
+iteration (mink: the same tasks, the CoM at the feet's cost, one QP) and the
+worst foot and CoM drift over the iterates.
+
 Run: ``python benchmarks/bench_cascade.py [--targets 20] [--rounds 5]``
 """
 
@@ -48,6 +54,7 @@ from qpsolvers.warnings import SparseConversionWarning
 
 import pik_mj
 from pik_mj.solve import TrustRegion
+from pik_mj.tasks.com import CentroidTask
 
 THRE, RTHRE = 1e-3, np.deg2rad(1.0)
 STOP = 50
@@ -195,6 +202,90 @@ def foot_drift(model, raw_mink: bool) -> float:
     return max(drift)
 
 
+class DriftWatch:
+    """The worst foot displacement and CoM xy drift [m] from the stance over
+    the iterates it is shown (:meth:`see`)."""
+
+    def __init__(self, model) -> None:
+        cfg = mink.Configuration(model)
+        cfg.update(cases.stance(model))
+        self.feet = [model.body(f).id for f in cases.humanoid_of(model).feet]
+        self.p0 = cfg.data.xpos[self.feet].copy()
+        self.c0 = cfg.data.subtree_com[1].copy()
+        self.foot_m = self.com_m = 0.0
+
+    def see(self, cfg: mink.Configuration) -> None:
+        moved = np.linalg.norm(cfg.data.xpos[self.feet] - self.p0, axis=1).max()
+        self.foot_m = max(self.foot_m, float(moved))
+        com = np.linalg.norm(cfg.data.subtree_com[1][:2] - self.c0[:2])
+        self.com_m = max(self.com_m, float(com))
+
+
+def unchecked_pik(model, solver: str, watch: DriftWatch | None = None) -> float:
+    """``pik_mj.solve`` on the reference stack with the CoM pinned at level 2
+    (``check=False``), the hand 2 m out of reach, :data:`STOP` iterations;
+    returns the wall time [s]."""
+    qp_solver, options = PIK_RUNS[solver]
+    cfg = mink.Configuration(model)
+    cfg.update(cases.stance(model))
+    stack = cases.reach_stack(cfg, cases.unreachable_hand_target(cfg, 2.0))
+    pinned = CentroidTask(cfg, cfg.data.subtree_com[1].copy(), check=False)
+    levels = [*stack.levels[:2], [pinned], *stack.levels[2:]]
+    callback = None if watch is None else (lambda info: watch.see(info.configuration))
+    t0 = time.perf_counter()
+    pik_mj.solve(
+        cfg,
+        levels,
+        stop=STOP,
+        revert_if_fail=False,
+        qp_solver=qp_solver,
+        callback=callback,
+        **(options or {}),
+    )
+    return time.perf_counter() - t0
+
+
+def unchecked_mink(model, solver: str, feet_cost: float, watch: DriftWatch | None = None) -> float:
+    """mink's loop on the same tasks, the CoM's x and y at the feet's cost,
+    :data:`STOP` iterations; returns the wall time [s]."""
+    cfg = mink.Configuration(model)
+    cfg.update(cases.stance(model))
+    tasks = cases.mink_reach_tasks(cfg, cases.unreachable_hand_target(cfg, 2.0), feet_cost)
+    com = mink.ComTask(cost=np.array([feet_cost, feet_cost, 0.0]))
+    com.set_target(cfg.data.subtree_com[1].copy())
+    tasks.insert(2, com)
+    limits = [mink.ConfigurationLimit(model)]
+    t0 = time.perf_counter()
+    for _ in range(STOP):
+        v = mink.solve_ik(cfg, tasks, 1.0, MINK_RUNS[solver], limits=limits)
+        cfg.integrate_inplace(v, 1.0)
+        if watch is not None:
+            watch.see(cfg)
+    return time.perf_counter() - t0
+
+
+def unchecked_level(model, feet_cost: float) -> dict[str, dict[str, float]]:
+    """Per solver, with the CoM pinned at level 2 (``check=False``) and the
+    hand 2 m out of reach: ms per iteration (timed without callbacks), the
+    worst foot displacement and CoM xy drift [m] over the iterates (a second,
+    watched run)."""
+    out = {}
+    for s in SOLVERS:
+        watch = DriftWatch(model)
+        if s in PIK_RUNS:
+            seconds = unchecked_pik(model, s)
+            unchecked_pik(model, s, watch)
+        else:
+            seconds = unchecked_mink(model, s, feet_cost)
+            unchecked_mink(model, s, feet_cost, watch)
+        out[s] = {
+            "ms_per_iteration": 1e3 * seconds / STOP,
+            "feet_m": watch.foot_m,
+            "com_m": watch.com_m,
+        }
+    return out
+
+
 def summarize(rounds: list[dict[str, list[Run]]]) -> dict[str, dict[str, float]]:
     """Medians over targets per round, then medians over rounds; paired ratios."""
     out: dict[str, dict[str, float]] = {}
@@ -261,6 +352,20 @@ def print_table(name: str, n: int, rounds: int, s: dict) -> None:
         )
 
 
+def print_unchecked(u: dict[str, dict[str, float]]) -> None:
+    print(f"  CoM pinned at level 2, check=False, hand 2 m out of reach, {STOP} iterations:")
+    print(f"{'':26}" + "".join(f"{k:>14}" for k in SOLVERS))
+    for key, label, fmt in (
+        ("ms_per_iteration", "ms per iteration", "{:>14.3f}"),
+        ("feet_m", "worst foot drift [m]", "{:>14.1e}"),
+        ("com_m", "worst CoM drift [m]", "{:>14.1e}"),
+    ):
+        print(f"{label:26}" + "".join(fmt.format(u[k][key]) for k in SOLVERS))
+    for a, b in (("pik osqp", "mink osqp"), ("pik daqp-hqp", "mink daqp")):
+        ratio = u[a]["ms_per_iteration"] / u[b]["ms_per_iteration"]
+        print(f"  time per iteration, {a} / {b}: {ratio:.2f}")
+
+
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--targets", type=int, default=20)
@@ -283,6 +388,8 @@ def main(argv=None) -> dict:
             f"  worst foot drift, hand 2 m out of reach: {s['foot_drift_m']:.1e} m "
             f"(raw mink.FrameTasks in the cascade: {s['foot_drift_raw_mink_m']:.1e} m)"
         )
+        s["unchecked_level"] = unchecked_level(model, args.feet_cost)
+        print_unchecked(s["unchecked_level"])
         figures[name] = s
     return figures
 

@@ -20,14 +20,16 @@ from pik_mj.exceptions import (
     LimbsNotFound,
     NoCollisionGeometry,
     OptionError,
+    OutputError,
     PikError,
     QPFailure,
     RenderingUnavailable,
     ScenarioWaiting,
     SimulationUnstable,
     UnknownName,
+    WriterBusy,
 )
-from pik_mj.ik import fullbody_inverse_kinematics, inverse_kinematics
+from pik_mj.ik import WorldAvoidance, fullbody_inverse_kinematics, inverse_kinematics
 from pik_mj.progress import Progress
 from pik_mj.record import Recorder, read_recording
 from pik_mj.robot import Limb, Robot, RobotSource
@@ -90,6 +92,7 @@ __all__ = [
     "MotionReport",
     "NoCollisionGeometry",
     "OptionError",
+    "OutputError",
     "PikError",
     "Progress",
     "QPFailure",
@@ -110,6 +113,8 @@ __all__ = [
     "TaskRows",
     "UnknownName",
     "Waypoints",
+    "WorldAvoidance",
+    "WriterBusy",
     "add_box",
     "add_wall",
     "floor_environment",

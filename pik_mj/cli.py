@@ -55,6 +55,7 @@ import contextlib
 import importlib
 import inspect
 import json
+import math
 import signal
 import sys
 import threading
@@ -70,11 +71,14 @@ from pik_mj import inputs
 from pik_mj.exceptions import (
     InvalidInput,
     OptionError,
+    OutputError,
     ScenarioWaiting,
     SimulationUnstable,
     UnknownName,
 )
+from pik_mj.outputs import write_atomic
 from pik_mj.record import Recorder, screenshot
+from pik_mj.record.reader import verify
 from pik_mj.robot import Robot, RobotSource
 from pik_mj.scenario import balance_summary, jsonable, positive
 from pik_mj.scenario.exit_status import EXIT_FAILED, EXIT_PASSED, EXIT_USAGE, exit_code, guarded
@@ -167,13 +171,16 @@ def _run(name: str | None, argv: list[str]) -> int:
     print(f"running {name}: {describe(name)[0]}", file=sys.stderr)
     with _sigints() as received:
         try:
-            return int(module.main(argv))
+            status = int(module.main(argv))
         except SystemExit as exc:  # the scenario's argparse: --help (0) or bad options (2)
             return exit_code(exc)
         except OptionError as exc:  # an option the user gave cannot be used: exit 2
             print(f"pik-mj: error: {exc}", file=sys.stderr)
             return EXIT_USAGE
-        except KeyboardInterrupt:
+        except OutputError as exc:  # the recording or the JSON is incomplete: exit 1
+            print(f"pik-mj: error: {exc}", file=sys.stderr)
+            return EXIT_FAILED
+        except (KeyboardInterrupt, BrokenPipeError):
             _recording_note(argv, "up to the interrupt")
             raise
         except Exception as exc:
@@ -185,6 +192,27 @@ def _run(name: str | None, argv: list[str]) -> int:
             print(f"pik-mj: scenario {name} raised {type(exc).__name__}: {exc}", file=sys.stderr)
             _recording_note(argv, "up to the error")
             return EXIT_FAILED
+    saved = _saved_path(argv)
+    if saved is not None and Path(saved).is_file():
+        try:
+            check_recording(saved)
+        except OutputError as exc:
+            print(f"pik-mj: error: {exc}", file=sys.stderr)
+            return EXIT_FAILED
+    return status
+
+
+def check_recording(path: str | Path) -> None:
+    """A recording the command wrote, verified once closed: whole, and its
+    manifest read by rerun (:func:`pik_mj.record.reader.verify`).
+
+    Raises:
+        OutputError: It is not (the reason given).
+    """
+    try:
+        verify(path)
+    except InvalidInput as exc:
+        raise OutputError(f"{exc}; it is incomplete") from None
 
 
 @contextlib.contextmanager
@@ -211,9 +239,14 @@ def _sigints() -> Iterator[list[int]]:
         signal.signal(signal.SIGINT, previous)
 
 
+def _saved_path(argv: list[str]) -> str | None:
+    """The ``--save`` file of a scenario's options, or None."""
+    return _option(argv, "--save")
+
+
 def _recording_note(argv: list[str], when: str) -> None:
     """Say where the recording of an unfinished run is, if it was started."""
-    save = _option(argv, "--save")
+    save = _saved_path(argv)
     if save and Path(save).is_file():
         print(f"recording ({when}): {save}")
 
@@ -253,6 +286,12 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
             f"pose file {str(p)!r} holds no pose: expected a `pik-mj run --json` summary "
             'of a floating-base scenario (its "robot" entry) or {"model": ..., "q": [...]}'
         )
+    where = _non_finite({k: v for k, v in src.items() if k != "q"})  # q: by joint, below
+    if where is not None:
+        raise InvalidInput(
+            f"pose file {str(p)!r}: {where} is not a finite number; every number of a pose "
+            "must be finite"
+        )
     q = src["q"]
     if not isinstance(q, list) or not all(
         isinstance(x, (int, float)) and not isinstance(x, bool) for x in q
@@ -280,6 +319,23 @@ def read_pose_file(path: str | Path) -> dict[str, Any]:
         "grasps": [tuple(g[k] for k in keys) for g in grasps],
         "external": [tuple(w) for w in external],
     }
+
+
+def _non_finite(value: Any, path: str = "") -> str | None:
+    """Where in the JSON ``value`` a number is NaN or infinite (``"at"[0]``), or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return f"{path or 'the value'} = {value}"
+    if isinstance(value, dict):
+        items: Any = ((f"{path}[{k!r}]" if path else repr(k), v) for k, v in value.items())
+    elif isinstance(value, list):
+        items = ((f"{path}[{i}]", v) for i, v in enumerate(value))
+    else:
+        return None
+    for where, item in items:
+        found = _non_finite(item, where)
+        if found is not None:
+            return found
+    return None
 
 
 def _validate_parser() -> argparse.ArgumentParser:
@@ -351,9 +407,10 @@ def _validate(argv: list[str]) -> int:
     if args.json:
         out = Path(args.json)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(jsonable(report), indent=2))
+        write_atomic(out, json.dumps(jsonable(report), indent=2), "JSON report")
         print(f"JSON report: {out}")
     if args.save:
+        check_recording(args.save)
         print(f"recording: {args.save}")
     return EXIT_PASSED if report["passed"] else EXIT_FAILED
 

@@ -114,3 +114,28 @@ class ScenarioWaiting(PikError):
     def __init__(self, name: str, missing: str):
         super().__init__(f"scenario {name!r} is waiting for {missing} (not available yet)")
         self.missing = missing
+
+
+class OutputError(PikError):
+    """An output could not be written completely (a full disk, an I/O error): the
+    message names the file, the operating system's reason and what is left of it.
+    ``pik-mj`` exits 1 with the message, no traceback."""
+
+
+class WriterBusy(InvalidInput):
+    """A file or directory is being written by another writer (a second
+    ``Recorder`` on one ``.rrd``, a second ``pik-mj sweep`` on one directory).
+
+    Attributes:
+        path: What is being written.
+        holder: Who holds it (``"pid 123 on host"``), or None when unknown.
+    """
+
+    def __init__(self, what: str, path: str, holder: str | None):
+        by = f" by {holder}" if holder else " by another writer"
+        super().__init__(
+            f"{what} {path!r} is being written{by}; wait for it to finish, stop it, "
+            "or write elsewhere"
+        )
+        self.path = path
+        self.holder = holder

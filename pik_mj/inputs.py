@@ -16,6 +16,7 @@ checks that a file can be written before any work starts.
 
 from __future__ import annotations
 
+import errno
 import inspect
 import math
 import os
@@ -498,7 +499,8 @@ def output_path(path: Any, what: str) -> Path:
 
     Raises:
         InvalidInput: Not a path, a directory, below a file, or not writable (the
-            operating system's reason given).
+            operating system's reason given; a full file system, a device that
+            refuses writes such as ``/dev/full``).
     """
     if not isinstance(path, (str, os.PathLike)) or os.fspath(path) in ("", b""):
         raise InvalidInput(f"{what} must be a file path, got {path!r}")
@@ -516,8 +518,10 @@ def output_path(path: Any, what: str) -> Path:
     try:
         for d in reversed(made):
             d.mkdir()
-        with open(p, "ab"):
-            pass
+        with open(p, "ab", buffering=0) as f:
+            f.write(b"")  # a device such as /dev/full refuses even this
+            if p.is_file() and os.statvfs(p).f_bavail == 0:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     except OSError as exc:
         raise InvalidInput(f"{what} {str(p)!r} cannot be written: {exc.strerror or exc}") from None
     finally:

@@ -63,6 +63,7 @@ from pik_mj import (
     Robot,
     Scene,
     Waypoints,
+    WorldAvoidance,
     fullbody_inverse_kinematics,
     inverse_kinematics,
 )
@@ -104,6 +105,7 @@ YELLOW = 0.1  # [m] pairs nearer than this are constrained
 ORANGE = 0.03  # [m] the distance kept
 GAIN = 0.2  # velocity-damper gain: a slow approach keeps the linearized rows from overshooting
 STEPS = TrustRegion(radius=0.02, max_radius=0.04)  # short steps: a dense path to play
+GRASPED = WorldAvoidance(allowed=["kettle"])  # the world kept off, the grasped kettle excepted
 
 
 @dataclass(frozen=True)
@@ -357,6 +359,7 @@ def reach_handle(
         [(kettle.p_handle, R_grasp)],
         path=approach,
         collision_avoidance=avoid(robot, [p for p in pairs if p not in inside]),
+        avoid_world=GRASPED,
         **options,
     )
     gaze = gaze_angle(robot, kettle.p_center) if head else None
@@ -378,6 +381,7 @@ def lift(
         move_targets=[hand.frame],
         rotation_axis=[Hand.name(hand.grip)],
         look_at=(lambda r: kettle.center_with(r, hand, X_grasp)) if "head" in robot.limbs else None,
+        avoid_world=GRASPED,
         stop=100,
         trust_region=STEPS,
         callback=watch.callbacks,

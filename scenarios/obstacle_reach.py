@@ -100,6 +100,7 @@ def reach(
         limbs=["rarm"],
         rotation_axis=[None],
         collision_avoidance=avoid,
+        avoid_world=False,  # the scenario's own avoidance task, or none
         trust_region=STEPS,
         stop=200,
     )

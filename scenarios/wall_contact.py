@@ -29,6 +29,7 @@ from pik_mj import (
     ScfrTask,
     SolveResult,
     Waypoints,
+    WorldAvoidance,
     fullbody_inverse_kinematics,
 )
 from pik_mj.balance import ContactConstraint, contact_from_normal, foot_contact, static_equilibrium
@@ -58,6 +59,8 @@ TOUCHING = 1e-3  # [m] hand-wall distance at which the palm is on the wall
 # the wall by the lean's clearance, so that the lean's avoidance holds from its start.
 STEPS = TrustRegion(radius=1.0)
 FEET = ("rleg_end", "lleg_end")
+# The wall is a planned contact (the palm on it); the lean keeps the arm and head off it.
+PALM_ON_WALL = WorldAvoidance(allowed=["wall"])
 
 
 @dataclass(frozen=True)
@@ -142,6 +145,7 @@ def palm_to_wall(stage: Stage, support: WallSupport, path: Waypoints) -> SolveRe
         total=100,
         limbs=["rarm"],
         rotation_axis=["y"],
+        avoid_world=PALM_ON_WALL,
         stop=100,
         trust_region=STEPS,
     )
@@ -176,6 +180,7 @@ def lean_on_wall(
         rotation_axis=["y"],
         balance=[scfr_task],
         collision_avoidance=avoid,
+        avoid_world=PALM_ON_WALL,
         extra_levels=[[lean_task]],
         stop=100,
         min_loop=15,  # the lean is not checked (it stops where the SCFR keeps it)

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import signal
+import subprocess
+import tempfile
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -20,3 +23,24 @@ def ctrl_c() -> Iterator[None]:
         yield
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@pytest.fixture
+def small_disk() -> Iterator[Path]:
+    """A 512 KiB tmpfs mounted for the test (the machine must allow it: root in a
+    sandbox); the test is skipped, saying why, where it does not. A full disk is
+    made by filling it."""
+    mount = Path(tempfile.mkdtemp(prefix="pkdisk"))
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=512k", "tmpfs", str(mount)],
+        capture_output=True,
+        text=True,
+    )
+    if done.returncode != 0:
+        mount.rmdir()
+        pytest.skip(f"cannot mount a small tmpfs here ({done.stderr.strip() or 'not root'})")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
+        mount.rmdir()

@@ -39,6 +39,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
             "spatial",
             "frames",
             "inputs",
+            "outputs",
             "checks",
             "callbacks",
             "progress",

@@ -378,7 +378,7 @@ CLI_CASES: list[tuple[str, list[str], str]] = [
     ("dt negative", ["run", "walk_go_pos", "--dt", "-0.01"], r"argument --dt: a value must be a finite number > 0, got -0.01"),
     ("goal inf", ["run", "walk_go_pos", "--x", "inf"], r"argument --x: a value must be a finite number, got inf"),
     # recording destination
-    ("viewer address", ["run", "--connect", "--url", "nope"], r"cannot open the recording's destination: invalid endpoint \"nope\""),
+    ("viewer address", ["run", "--connect", "--url", "nope"], r"--url 'nope' is not a rerun viewer URL"),
     # validate
     ("validate without file", ["validate"], r"the following arguments are required: file"),
     ("validate missing file", ["validate", "{tmp}/missing.json"], r"pose file '.*missing.json' does not exist"),

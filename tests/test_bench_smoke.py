@@ -166,3 +166,10 @@ def test_bench_cascade_small(capsys):
         assert e[2] == e[3] > 1.0 and e[0] == e[1] >= e[2] + c - 1e-12
     # the step rule: the feet never move more than 1e-4 m, raw mink tasks included
     assert f["foot_drift_m"] <= 1e-4 and f["foot_drift_raw_mink_m"] <= 1e-4
+    # a level left out of the stop test keeps its priority too: the CoM pinned
+    # with check=False stays within 1e-4 m, with the feet; mink's moves
+    unchecked = f["unchecked_level"]
+    for solver in ("pik osqp", "pik daqp-hqp"):
+        assert unchecked[solver]["feet_m"] <= 1e-4 and unchecked[solver]["com_m"] <= 1e-4
+    assert unchecked["mink daqp"]["com_m"] > 1e-3
+    assert all(u["ms_per_iteration"] > 0.0 for u in unchecked.values())

@@ -3,18 +3,23 @@ checked against MuJoCo's own distances (mj_geomDistance) and contacts on a floor
 
 from __future__ import annotations
 
+import itertools
+
 import mujoco
 import numpy as np
 import pytest
 from local_menagerie import menagerie_model
+from mesh_sole_humanoid import mesh_sole_humanoid
+from scipy.spatial import ConvexHull
 
-from pik_mj.balance import convex_hull_2d, polygon_area
+from pik_mj.balance import convex_hull_2d, polygon_area, support_polygon
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import Frame
 from pik_mj.robot import Limb, Robot, ground
 from pik_mj.robot.keyframes import standing_pose
 from pik_mj.robot.limbs import find_limbs
 from pik_mj.robot.loading import load_model, load_spec
+from pik_mj.sim import Scene
 
 # A free body carrying one geom of each kind (and a mesh box), visual geoms
 # larger than the collision ones, plus a plane: the floor z = 0.
@@ -221,19 +226,40 @@ def test_sole_geoms_given_by_name_and_bad_names():
         ground.sole_polygons(robot, ["leg"], soles={"leg": ["heel"]})
 
 
-def test_tilted_foot_has_no_area():
-    model = mujoco.MjModel.from_xml_string(_FEET)
-    q = model.qpos0.copy()
-    q[model.jnt_qposadr[1]] = 0.2  # the box foot's hinge: pitched 0.2 rad
+def test_a_foot_tilted_in_the_start_pose_has_no_area():
+    """The sole comes from the start pose: a box foot pitched 0.2 rad there
+    touches a floor along one edge."""
+    spec = mujoco.MjSpec.from_string(_FEET)
+    qpos = spec.compile().qpos0.copy()
+    qpos[7] = 0.2  # the box foot's hinge
+    spec.add_key(name="tilted", qpos=qpos.tolist())
+    model = spec.compile()
     robot = Robot(model, limbs={"leg": Limb("leg", (), "box_foot", "body", "box_foot")})
-    robot.configuration.update(q)
     with pytest.raises(InvalidInput, match="tilted"):
         ground.sole_polygons(robot, ["leg"])
 
 
+def test_the_sole_goes_with_its_foot():
+    """A foot pitched 0.2 rad after the start pose carries its sole polygon along:
+    the start pose's polygon moved by the foot's motion ``X_WB' X_WB^-1``."""
+    model = mujoco.MjModel.from_xml_string(_FEET)
+    robot = Robot(model, limbs={"leg": Limb("leg", (), "box_foot", "body", "box_foot")})
+    before = ground.sole_polygons(robot, ["leg"])[0]
+    foot = model.body("box_foot").id
+    X0 = (robot.data.xpos[foot].copy(), robot.data.xmat[foot].reshape(3, 3).copy())
+    q = robot.configuration.q.copy()
+    q[model.jnt_qposadr[1]] = 0.2
+    robot.configuration.update(q)
+    after = ground.sole_polygons(robot, ["leg"])[0]
+    R = robot.data.xmat[foot].reshape(3, 3) @ X0[1].T
+    expected = robot.data.xpos[foot] + (before - X0[0]) @ R.T
+    np.testing.assert_allclose(after, expected, atol=1e-12)
+    assert np.ptp(after[:, 2]) > 0.02  # tilted with the foot
+
+
 def test_sample_humanoid_soles_are_its_box_soles():
-    """Box feet without visual geoms: each sole is its box's bottom face, centred
-    on the leg's end site (the sole's centre)."""
+    """Box feet without visual geoms: each sole is its box's bottom face; its frame
+    (from MuJoCo's 4 corner contacts) is the leg's end site, the sole's centre."""
     robot = Robot(load_model("sample_humanoid"))
     for leg, poly in zip(("rleg", "lleg"), ground.sole_polygons(robot), strict=True):
         box = robot.model.geom(f"{leg}_sole")
@@ -241,6 +267,103 @@ def test_sample_humanoid_soles_are_its_box_soles():
         centre = robot.frame_pose(f"{leg}_end").translation()
         assert poly.mean(axis=0) == pytest.approx(centre, abs=1e-9)
     assert ground.sole_size(robot) == pytest.approx((0.22, 0.12), abs=1e-9)
+    for leg, sole in ground.robot_soles(robot).items():
+        p_WS, R_WS = sole.pose(robot.model, robot.data)
+        X = robot.frame_pose(f"{leg}_end")
+        np.testing.assert_allclose(p_WS, X.translation(), atol=1e-9)
+        np.testing.assert_allclose(R_WS, X.rotation().as_matrix(), atol=1e-9)
+        assert sole.geoms == (f"{leg}_sole",) and sole.size == pytest.approx((0.22, 0.12))
+
+
+def test_with_and_without_the_robots_spec():
+    """``Robot(model)`` has no spec: its probe copies the geoms; on primitive soles
+    the polygons are the ones of the spec's probe."""
+    with_spec = ground.sole_polygons(Robot.from_model("sample_humanoid"))
+    without = ground.sole_polygons(Robot(load_model("sample_humanoid")))
+    for a, b in zip(with_spec, without, strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-9)
+
+
+# ------------------------------------------------------------- mesh soles
+def _mesh_sole_robot() -> Robot:
+    return Robot.from_model(mujoco.MjSpec.from_string(mesh_sole_humanoid()))
+
+
+def test_mesh_soles_are_mujocos_contacts_not_the_mesh_vertices():
+    """A humanoid without sites whose mesh soles sit off the ankle: each sole is the
+    hull of MuJoCo's contacts with a floor in the start pose (the scene's
+    collision detection, an independent call), 4 of the 9 bottom vertices of the
+    mesh; its frame is their centroid, off the ankle."""
+    robot = _mesh_sole_robot()
+    assert robot.model.nsite == 0
+    scene = Scene.from_robot(robot)
+    probe = scene.probe(robot.start_q())
+    touching = _contacts_by_geom(scene.model, probe, scene.contact_tolerance)
+    soles = ground.robot_soles(robot)
+    for leg, side in (("rleg", -1.0), ("lleg", 1.0)):
+        sole = soles[leg]
+        poly = sole.polygon(robot.model, robot.data)
+        contacts = touching[f"{'right' if side < 0 else 'left'}_sole"]
+        assert len(poly) == 4 == len(contacts)
+        assert _outside(contacts[:, :2], poly[:, :2]) <= 1e-6
+        assert _outside(poly[:, :2], convex_hull_2d(contacts[:, :2])) <= 1e-6
+        bottom = ground.bottom_points(robot.model, robot.data, robot.model.geom(sole.geoms[0]).id)
+        assert len(bottom) == 9 and _outside(bottom[:, :2], poly[:, :2]) > 0.01
+        p_WS, _ = sole.pose(robot.model, robot.data)
+        ankle = robot.data.xpos[robot.model.body(sole.body).id]
+        assert np.hypot(*(p_WS - ankle)[:2]) > 0.03  # off-centre
+        assert p_WS[:2] == pytest.approx(_centroid(poly[:, :2]), abs=1e-9)
+
+
+def test_mesh_sole_com_margin_against_brute_force():
+    """The margin of the CoM (and of it leaning 7 cm forward, or sideways) in the
+    support polygon of both soles equals the brute-force distance to the hull of
+    MuJoCo's contacts (scipy's Qhull facets); leaning forward, the hull of every
+    bottom vertex of the meshes claims more than 1 cm too much."""
+    robot = _mesh_sole_robot()
+    region = support_polygon(ground.sole_polygons(robot))
+    scene = Scene.from_robot(robot)
+    touching = _contacts_by_geom(scene.model, scene.probe(robot.start_q()), 2e-3)
+    points = np.vstack([touching["right_sole"], touching["left_sole"]])[:, :2]
+    facets = ConvexHull(points).equations  # outward unit normals: n . p + d <= 0 inside
+    vertices = support_polygon(
+        [
+            ground.sole_polygon(robot.model, robot.data, robot.model.body(b).id)
+            for b in ("right_foot", "left_foot")
+        ]
+    )
+    for offset in ([0.0, 0.0], [0.07, 0.0], [-0.03, 0.05], [0.02, -0.2]):
+        c = robot.com() + np.array([*offset, 0.0])
+        brute = -np.max(facets[:, :2] @ c[:2] + facets[:, 2])
+        assert region.signed_distance(c) == pytest.approx(brute, abs=1e-9)
+    lean = robot.com() + np.array([0.07, 0.0, 0.0])
+    true, claimed = region.signed_distance(lean), vertices.signed_distance(lean)
+    assert claimed > true + 0.01
+    print(f"\nleaning CoM margin {true * 1e3:.1f} mm; the mesh vertices claim {claimed * 1e3:.1f}")
+
+
+def _contacts_by_geom(
+    model: mujoco.MjModel, data: mujoco.MjData, max_dist: float
+) -> dict[str, np.ndarray]:
+    """Contact points (k, 3) of each geom touching the scene's floor in ``data``."""
+    out: dict[str, list[np.ndarray]] = {}
+    floor = model.geom("floor").id
+    for c in data.contact[: data.ncon]:
+        if c.dist <= max_dist and floor in (c.geom1, c.geom2):
+            other = c.geom2 if c.geom1 == floor else c.geom1
+            out.setdefault(model.geom(other).name, []).append(c.pos.copy())
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def _centroid(poly: np.ndarray) -> np.ndarray:
+    """Area centroid of a polygon (k, 2), by triangles from its first vertex."""
+    a, total = poly[0], 0.0
+    c = np.zeros(2)
+    for b, d in itertools.pairwise(poly[1:]):
+        area = 0.5 * abs((b - a)[0] * (d - a)[1] - (b - a)[1] * (d - a)[0])
+        c += area * (a + b + d) / 3.0
+        total += area
+    return c / total
 
 
 # ---------------------------------------------------------------- real robots

@@ -528,11 +528,15 @@ class _Reports:
         ([[(True, True)], [(True, True)], [(True, True)]], (True, 2)),
         # level 0 (the hard rows) is never part of the prefix, but of "everything"
         ([[(False, True)], [(True, True)], [(False, True)]], (False, 1)),
-        # a level without a checked task ends the prefix, and counts as satisfied
+        # an unmet unchecked task ends the kept levels, and does not stop convergence
         ([[], [(True, True)], [(False, False)], [(True, True)]], (True, 1)),
+        ([[], [(True, True), (False, False)], [(True, True)]], (True, 0)),
         ([[], [(True, True), (False, True)], [(True, True)]], (False, 0)),
+        # a met unchecked task keeps its level like a checked one (check: convergence only)
         ([[], [(True, True), (True, False)], [(True, True), (False, True)]], (False, 1)),
+        ([[], [(True, True)], [(True, False)], [(False, True)]], (False, 2)),
+        ([[], [(True, False)], [(True, False)]], (True, 2)),
     ],
 )
-def test_satisfaction_counts_the_leading_satisfied_levels(levels, expected):
+def test_satisfaction_counts_the_leading_kept_levels(levels, expected):
     assert Point.satisfaction(_Reports(levels)) == expected

@@ -9,7 +9,6 @@ its processes is left once it is shut down (or its driver killed).
 
 from __future__ import annotations
 
-import logging
 import os
 import signal
 import subprocess
@@ -22,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import ray  # the test extra installs it
+from local_ray import local_ray
 
 from pik_mj import cli
 from pik_mj.exceptions import InvalidInput, UnknownName
@@ -96,21 +96,8 @@ def reference(tmp_path_factory):
 def ray_session(reference):
     """A local Ray instance of 2 CPUs for the module's later sweeps (run_sweep uses
     it and leaves it running); none of its processes outlive it."""
-    tmp = tempfile.mkdtemp(prefix="pkr")
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("RAY_USAGE_STATS_ENABLED", "0")
-        ray.init(
-            address="local",
-            num_cpus=2,
-            include_dashboard=False,
-            log_to_driver=False,
-            logging_level=logging.ERROR,
-            _temp_dir=tmp,
-        )
-        try:
-            yield tmp
-        finally:
-            ray.shutdown()
+    with local_ray(2) as tmp:
+        yield tmp
     assert wait_gone(tmp) == []
 
 

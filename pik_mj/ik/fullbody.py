@@ -10,7 +10,8 @@ centroid over the feet, targets reached, the floating base free within bounds.
 * level 1: feet fixed where they are, the balance task (the centroid over the feet
   on the selected axes, or inside the support polygon) and the
   ``collision_avoidance`` tasks;
-* level 2: the targets; then look-at, ``extra_levels``;
+* the robot kept clear of its world (``avoid_world``, :mod:`pik_mj.ik.world`);
+* then the targets; look-at, ``extra_levels``;
 * last: posture and a root-motion cost (irteus ``root-link-virtual-joint-weight``).
 
 Names follow irteus (:mod:`pik_mj.ik.arguments`), plus ``centroid_axes``
@@ -44,9 +45,10 @@ from pik_mj.ik.arguments import (
     used_joints,
 )
 from pik_mj.ik.measures import parse_forces, static_balance_point
+from pik_mj.ik.world import WorldAvoidance, world_avoidance
 from pik_mj.robot import Robot
 from pik_mj.robot.ground import sole_polygons
-from pik_mj.robot.stack import guard_level, posture_task
+from pik_mj.robot.stack import guard_level, moving_dofs, posture_task
 from pik_mj.solve import SolveResult, solve
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import ONE_DEGREE, FrameTask, constrained_axes
@@ -85,6 +87,7 @@ def fullbody_inverse_kinematics(
     centroid_thre: float = 1e-3,
     balance: str | Sequence[Task] = "centroid",
     collision_avoidance: Task | Sequence[Task] = (),
+    avoid_world: bool | WorldAvoidance = True,
     stop: int = 50,
     revert_if_fail: bool = True,
     joints: str | Sequence[str] | None = None,
@@ -127,6 +130,12 @@ def fullbody_inverse_kinematics(
             task, e.g. a :class:`pik_mj.tasks.collision.CollisionAvoidanceTask`
             (irteus ``:collision-avoidance-link-pair``). Above the targets: a
             target that would need a collision is given up, not the clearance.
+        avoid_world: Keep the robot clear of its world's geometry (the floor, a
+            counter, a wall) in a level directly above the targets
+            (:mod:`pik_mj.ik.world`): True (default zones), False (off), or a
+            :class:`pik_mj.ik.world.WorldAvoidance` (zones, planned contacts such
+            as a hand meant to touch a wall). Contacts the robot makes at the start
+            (the feet on the floor) are left to it.
 
     Raises:
         InvalidInput: No floating base, bad shapes, both ``centroid_offset`` and
@@ -173,6 +182,9 @@ def fullbody_inverse_kinematics(
     levels: list[list[Any]] = [level0]
     if level1:
         levels.append(level1)
+    world = world_avoidance(robot, avoid_world, moving_dofs(robot.model, used, root_dofs(robot)))
+    if world is not None:
+        levels.append([world])
     if frames:
         levels.append(
             list(frame_tasks(robot, frames, poses, translation_axis, rotation_axis, thre, rthre))

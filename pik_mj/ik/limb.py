@@ -8,6 +8,7 @@ and runs it:
   the MJCF couplings, every degree of freedom outside the used chains frozen,
   a floating base included);
 * the ``collision_avoidance`` tasks (if any, above the targets);
+* the robot kept clear of its world (``avoid_world``, :mod:`pik_mj.ik.world`);
 * one frame task per target (irteus manual: ``:move-target``/``:target-coords``);
 * look-at (if any); the caller's ``extra_levels``;
 * last: posture towards the start (not checked).
@@ -33,8 +34,9 @@ from pik_mj.ik.arguments import (
     targets_and_frames,
     used_joints,
 )
+from pik_mj.ik.world import WorldAvoidance, world_avoidance
 from pik_mj.robot import Robot
-from pik_mj.robot.stack import guard_level, posture_task
+from pik_mj.robot.stack import guard_level, moving_dofs, posture_task
 from pik_mj.solve import SolveResult, solve
 from pik_mj.tasks.frame import ONE_DEGREE
 from pik_mj.tasks.task import Task
@@ -57,6 +59,7 @@ def inverse_kinematics(
     gaze_axis: Sequence[float] = (1.0, 0.0, 0.0),
     posture_weight: float = 1e-2,
     collision_avoidance: Task | Sequence[Task] = (),
+    avoid_world: bool | WorldAvoidance = True,
     extra_levels: Sequence[Sequence[Any]] | None = None,
     callback: Callback | Sequence[Callback] | None = None,
     **solve_kwargs: Any,
@@ -95,6 +98,10 @@ def inverse_kinematics(
             ``:collision-avoidance-link-pair``): a target that would need a
             collision is given up, not the clearance (as in
             :func:`fullbody_inverse_kinematics`).
+        avoid_world: Keep the moving links clear of the robot's world (the floor,
+            a counter, a wall) in a level directly above the targets
+            (:mod:`pik_mj.ik.world`): True (default zones), False (off), or a
+            :class:`pik_mj.ik.world.WorldAvoidance` (zones, planned contacts).
         extra_levels: Levels inserted before the posture level.
         callback: A per-iteration callback or a list of them (see
             :func:`pik_mj.solve.solve`).
@@ -124,6 +131,7 @@ def inverse_kinematics(
         gaze_axis=gaze_axis,
         posture_weight=posture_weight,
         collision_avoidance=collision_avoidance,
+        avoid_world=avoid_world,
         extra_levels=extra_levels,
     )
     return solve(
@@ -151,6 +159,7 @@ def build_levels(
     gaze_axis: Sequence[float],
     posture_weight: float,
     collision_avoidance: Any,
+    avoid_world: Any,
     extra_levels: Any,
 ) -> list[list[Any]]:
     """The stack of :func:`inverse_kinematics` (module docstring), its arguments checked.
@@ -181,6 +190,9 @@ def build_levels(
         check_model(robot, task, f"collision_avoidance[{i}]")
     if avoid:
         levels.append(avoid)
+    world = world_avoidance(robot, avoid_world, moving_dofs(robot.model, used))
+    if world is not None:
+        levels.append([world])
     if frames:
         levels.append(
             list(frame_tasks(robot, frames, poses, translation_axis, rotation_axis, thre, rthre))

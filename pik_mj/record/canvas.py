@@ -21,12 +21,13 @@ import numpy.typing as npt
 import rerun as rr
 import rerun.blueprint as rrb
 
-from pik_mj.exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput, OutputError
 from pik_mj.record import geometry, style
 from pik_mj.record.blueprint import Framing, blueprint, blueprint_for, send_blueprint_for
 from pik_mj.record.columns import POINT, SCALAR, TRANSFORM
 from pik_mj.record.drawing import Extent
 from pik_mj.record.paths import PATHS, EntityPaths
+from pik_mj.record.sinks import SavedFiles
 from pik_mj.record.stream import BufferedStream, finite_array
 
 __all__ = ["Canvas"]
@@ -48,6 +49,8 @@ class Canvas:
             logged; None before.
         extent: The box of the robot's body positions seen on each timeline
             (what its 3D view frames).
+        files: The ``.rrd`` files the stream saves to, held by this writer and
+            checked whole when it closes (None: not known, not checked).
     """
 
     def __init__(
@@ -58,10 +61,12 @@ class Canvas:
         flush_interval: float | None,
         owns_stream: bool,
         paths: EntityPaths = PATHS,
+        files: SavedFiles | None = None,
     ) -> None:
         self._rows = BufferedStream(stream, flush_every, flush_interval)
         self.paths = paths
         self.owns_stream = owns_stream
+        self.files = files
         self.measures: geometry.Measures | None = None
         self.extent = Extent()
 
@@ -291,9 +296,29 @@ class Canvas:
         self.close()
 
     def flush(self) -> None:
-        """Send every buffered row and wait until the stream has written them."""
+        """Send every buffered row and wait until the stream has written them.
+
+        Raises:
+            OutputError: The stream's sink failed (a file on a full disk).
+        """
         self._rows.send()
-        self.stream.flush()
+        self._flush()
+
+    def _flush(self, timeout: float | None = None) -> None:
+        """The stream's flush (``timeout`` [s]; None: until written), its sink's
+        failure (rerun's file writer gone: only logged by rerun) raised."""
+        try:
+            if timeout is None:
+                self.stream.flush()
+            else:
+                self.stream.flush(timeout_sec=timeout)
+        except RuntimeError as exc:
+            raise OutputError(self._sink_failure(str(exc))) from None
+
+    def _sink_failure(self, reason: str) -> str:
+        files = [repr(str(p)) for p in self.files.paths] if self.files is not None else []
+        where = f"the recording {', '.join(files)}" if files else "the recording's sink"
+        return f"{where} could not be written: {reason}; it is incomplete"
 
     def send_buffered(self) -> None:
         """Send every buffered row without waiting: the stream encodes and writes
@@ -301,29 +326,42 @@ class Canvas:
         blueprint before :meth:`close`)."""
         self._rows.check_open()
         self._rows.send()
-        self.stream.flush(timeout_sec=0.0)  # start the pipeline, do not wait
+        self._flush(timeout=0.0)  # start the pipeline, do not wait
 
     def close(self, *, blueprint: bool = True) -> None:
         """Send the buffered rows and (with ``blueprint``) one blueprint laid out
         for everything logged; disconnect the stream if it is owned (``owns_stream``)
         (which flushes it and finalizes its file), else flush it. The stream is
-        closed also when sending fails. Idempotent."""
+        closed also when sending fails. Idempotent.
+
+        Raises:
+            OutputError: The sink failed, or a file of :attr:`files` is not whole
+                once closed (a full disk: rerun only logs it); the file is named.
+        """
         if self.closed:
             return
+        failure = None
         try:
             self._rows.send()
             # the stream writes the rows on its threads while the blueprint is built
-            self.stream.flush(timeout_sec=0.0)
+            self._flush(timeout=0.0)
             if blueprint:
                 send_blueprint_for(
                     self.stream, self._rows.logged_paths(), self.paths, framing=self._framing()
                 )
             if not self.owns_stream:
-                self.stream.flush()
+                self._flush()
+        except OutputError as exc:
+            failure = exc
         finally:
             self._rows.mark_closed()
             if self.owns_stream:
                 self.stream.disconnect()
+            problems = [] if self.files is None else self.files.finish()
+        if problems:
+            raise OutputError("; ".join(problems)) from failure
+        if failure is not None:
+            raise failure
 
     def logged(self) -> dict[str, set[str]]:
         """Every entity path logged so far (static data left out) -> the

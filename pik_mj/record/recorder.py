@@ -46,7 +46,6 @@ import numpy as np
 import numpy.typing as npt
 import rerun as rr
 
-from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput, PikError
 from pik_mj.record import geometry, style
 from pik_mj.record.canvas import Canvas
@@ -61,6 +60,7 @@ from pik_mj.record.drawing import (
 from pik_mj.record.geometry import BodyFrames
 from pik_mj.record.loggers import HoldLogger, MotionLogger, SolveLogger, WalkLogger, log_walk
 from pik_mj.record.paths import PATHS, EntityPaths
+from pik_mj.record.sinks import SavedFiles
 from pik_mj.record.stream import check_flush_every, finite_array
 from pik_mj.robot.camera import Camera, log_camera
 from pik_mj.walking.playback import PlaybackReport
@@ -107,6 +107,11 @@ class Recorder(Canvas):
         owns_stream: Whether :meth:`close` disconnects ``stream`` (finalizing its
             file sinks). A stream you pass in is only flushed by default.
         paths: Entity-path table.
+        files: The ``.rrd`` files ``stream`` saves to
+            (:class:`~pik_mj.record.sinks.SavedFiles`, claimed by this writer):
+            :meth:`close` (and :meth:`flush`) raise
+            :class:`~pik_mj.exceptions.OutputError` naming a file that is not
+            whole (a full disk, which rerun only logs).
 
     Attributes:
         paths: Entity-path table.
@@ -126,6 +131,7 @@ class Recorder(Canvas):
         flush_interval: float | None = 0.2,
         owns_stream: bool = False,
         paths: EntityPaths = PATHS,
+        files: SavedFiles | None = None,
     ) -> None:
         super().__init__(
             stream,
@@ -133,6 +139,7 @@ class Recorder(Canvas):
             flush_interval=flush_interval,
             owns_stream=owns_stream,
             paths=paths,
+            files=files,
         )
         self._model: mujoco.MjModel | None = None
         self.robot_root_body: str | None = None
@@ -167,15 +174,27 @@ class Recorder(Canvas):
         """A Recorder on a new stream that saves to the ``.rrd`` file ``path``.
 
         The Recorder owns the stream: :meth:`close` (or leaving the ``with`` block)
-        flushes and disconnects it, which writes the file's footer.
+        flushes and disconnects it, which writes the file's footer, and checks
+        the file whole. Until then no other writer may open ``path``.
+
+        Raises:
+            InvalidInput: ``path`` cannot be written, or its directory is missing.
+            WriterBusy: Another Recorder (of this process or another) writes ``path``.
         """
         check_flush_every(flush_every)
-        path = inputs.output_path(path, "recording")  # a file path that can be written
-        if not path.parent.is_dir():
-            raise InvalidInput(f"directory of the recording {str(path)!r} does not exist")
-        stream = rr.RecordingStream(application_id, recording_id=recording_id or uuid.uuid4().hex)
-        stream.save(path)
-        return cls(stream, flush_every=flush_every, flush_interval=None, owns_stream=True)
+        files = SavedFiles()
+        path = files.claim(path)
+        try:
+            stream = rr.RecordingStream(
+                application_id, recording_id=recording_id or uuid.uuid4().hex
+            )
+            stream.save(path)
+        except BaseException:
+            files.release()
+            raise
+        return cls(
+            stream, flush_every=flush_every, flush_interval=None, owns_stream=True, files=files
+        )
 
     @property
     def model(self) -> mujoco.MjModel | None:

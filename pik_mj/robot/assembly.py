@@ -19,6 +19,7 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput
 from pik_mj.robot.description import RobotDescription, load_description
+from pik_mj.robot.loading import check_finite
 from pik_mj.robot.source import ModelLike, RobotSource, source_description, source_name
 from pik_mj.robot.world import as_spec, attach_environment, name_unnamed, place_root
 
@@ -68,12 +69,15 @@ def compile_spec(spec: mujoco.MjSpec, what: str) -> mujoco.MjModel:
     """``spec`` compiled.
 
     Raises:
-        InvalidInput: It does not compile (``what`` names it in the message).
+        InvalidInput: It does not compile, or compiles with a NaN or infinite
+            number (:func:`pik_mj.robot.loading.check_finite`); ``what`` names it.
     """
     try:
-        return spec.compile()
+        model = spec.compile()
     except ValueError as err:
         raise InvalidInput(f"{what} does not compile: {err}") from err
+    check_finite(model, what)
+    return model
 
 
 def environment_of(

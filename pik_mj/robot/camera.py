@@ -3,7 +3,8 @@ r"""Cameras of a robot model (irteus manual: ``:cameras``, ``camera-model``).
 A :class:`Camera` is an MJCF ``<camera>`` taken by name. Everything geometric
 comes from MuJoCo:
 
-* **Extrinsics**: ``cam_xpos`` / ``cam_xmat`` after ``mj_kinematics``. A MuJoCo
+* **Extrinsics**: ``cam_xpos`` / ``cam_xmat``, computed from the bodies' poses
+  by ``mj_camlight`` where a camera is used. A MuJoCo
   camera frame ``C`` has x to the right of the image, y up, and looks along −z.
 * **Intrinsics** of a ``W x H`` image are those of the frustum MuJoCo renders
   the camera with. Pixel coordinates are continuous, u to the right, v down,
@@ -212,7 +213,12 @@ class Camera:
     # ------------------------------------------------------------------ pose
     def pose(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """``(p_WC (3,) [m], R_WC (3, 3))`` of the camera frame (x right, y up,
-        looking along −z). Kinematics must be current."""
+        looking along −z), computed here from the bodies' poses
+        (``mj_camlight``): ``mj_kinematics`` alone leaves ``cam_xpos`` and
+        ``cam_xmat`` stale. The bodies' poses must be current; a camera that
+        tracks a centre of mass needs them after ``mj_comPos`` (which
+        ``mj_forward`` runs)."""
+        mujoco.mj_camlight(self.model, data)
         return data.cam_xpos[self.id].copy(), data.cam_xmat[self.id].reshape(3, 3).copy()
 
     def project(self, data: mujoco.MjData, points: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -304,7 +310,7 @@ class Camera:
     ) -> Visibility:
         uv, depth = self.project(data, p_W)
         in_view = bool(self._inside(uv, depth)[0])
-        p_WC = data.cam_xpos[self.id]
+        p_WC = data.cam_xpos[self.id]  # computed by project
         ray = p_W - p_WC
         dist = float(np.linalg.norm(ray))
         occluder = None

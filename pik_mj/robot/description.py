@@ -38,10 +38,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from pik_mj.exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.frames import Frame
 from pik_mj.robot.keyframes import StandingPose, standing_pose
 from pik_mj.robot.limbs import HUMANOID_LIMBS, Limb, find_limbs, limb_from_end
-from pik_mj.robot.loading import looks_like_path
+from pik_mj.robot.loading import looks_like_path, model_path
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -144,6 +145,25 @@ class RobotDescription:
             out["soles"] = {n: list(g) for n, g in self.soles.items()}
         return out
 
+    def model_for(self, model: str | os.PathLike[str] | mujoco.MjSpec | None) -> Any:
+        """The model a robot of this description is built from: ``model``, else
+        the description's ``model``.
+
+        Raises:
+            InvalidInput: Both are given and name different MJCF files (a
+                description written for another robot); a model given as an
+                ``MjSpec`` is not compared.
+        """
+        if model is None or self.model is None or isinstance(model, mujoco.MjSpec):
+            return self.model if model is None else model
+        if not _same_file(self.model, model):
+            raise InvalidInput(
+                f"the robot description is for model {self.model!r}, but the model given is "
+                f"{str(model)!r}; give the description's model, or remove 'model' from the "
+                "description to use it with any model"
+            )
+        return model
+
     def standing_pose(self, model: mujoco.MjModel) -> StandingPose:
         """:func:`pik_mj.robot.keyframes.standing_pose` with this description's keyframe."""
         return standing_pose(model, self.keyframe, root_body=self.root_body)
@@ -206,9 +226,54 @@ def robot_limbs(
         root_body = description.root_body
     if qpos is None:
         qpos = standing_pose(model, description.keyframe, root_body=root_body).qpos
+    for name, x in description.limbs.items():
+        _check_chain(model, f"limbs.{name}", x, described[name])
     still = [n for n in required if n not in described]
     found = find_limbs(model, qpos, root_body=root_body, required=still)
     return {**found, **described}
+
+
+def _same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether two model names or paths resolve to one MJCF file (by name when
+    one does not resolve)."""
+    if str(a) == str(b):
+        return True
+    try:
+        return model_path(a) == model_path(b)
+    except PikError:
+        return False
+
+
+def _check_chain(model: mujoco.MjModel, where: str, described: LimbDescription, limb: Limb) -> None:
+    """Each described joint moves the limb's end frame: its body is the end
+    frame's body or above it.
+
+    Raises:
+        InvalidInput: A joint off that chain (e.g. a left elbow in ``rarm``);
+            the joints on the chain are listed.
+    """
+    if not described.joints:
+        return
+    end_body = Frame.find(model, limb.end_frame, limb.end_frame_type).body_id
+    chain = []
+    body = end_body
+    while body > 0:
+        chain.append(body)
+        body = int(model.body_parentid[body])
+    on_chain = [
+        model.joint(j).name
+        for j in range(model.njnt)
+        if int(model.jnt_bodyid[j]) in chain
+        and int(model.jnt_type[j]) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+    ]
+    for joint in described.joints:
+        if joint not in on_chain:
+            body_name = model.body(int(model.joint(joint).bodyid[0])).name
+            raise InvalidInput(
+                f"{where}.joints: joint {joint!r} (on body {body_name!r}) does not move the "
+                f"end frame {described.end!r}: it is not on the chain above it. The hinge and "
+                f"slide joints on that chain: {on_chain}"
+            )
 
 
 def _only(table: Mapping[str, Any], valid: Sequence[str], where: str) -> None:

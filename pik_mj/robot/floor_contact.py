@@ -25,10 +25,19 @@ height (within a tolerance) are what a floor under it touches: a box's bottom
 face or edge or corner, a sphere's lowest point, both end caps' lowest points of
 a capsule lying flat, the bottom disc (as a polygon) of a cylinder standing
 upright or the bottom line of one lying flat, a mesh's lowest vertices.
+
+What MuJoCo itself makes of a floor under some geoms is :func:`floor_contacts`:
+its collision detection (``mj_collision``) between copies of the geoms and a
+plane at their lowest point. A mesh touches that plane at the few points MuJoCo's
+plane–convex collision picks (at most 4), not at every vertex of its bottom
+face: these points, not the vertices, carry the load in the physics.
 """
 
 from __future__ import annotations
 
+import copy
+import hashlib
+from collections import OrderedDict
 from collections.abc import Sequence
 
 import mujoco
@@ -50,6 +59,8 @@ MIN_SOLE_POINTS = 3
 or a line."""
 
 _G = mujoco.mjtGeom
+
+_PROBE_FLOOR = "floor_contacts_plane"
 
 
 def _in_pairs(model: mujoco.MjModel) -> np.ndarray:
@@ -326,3 +337,174 @@ def geom_id(model: mujoco.MjModel, geom: int | str) -> int:
         InvalidInput: An id out of range.
     """
     return _element_id(model, "geom", geom)
+
+
+def floor_contacts(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    geoms: Sequence[int],
+    tolerance: float = DEFAULT_TOLERANCE,
+    *,
+    spec: mujoco.MjSpec | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """MuJoCo's contact points of the collision ``geoms`` with a floor put under
+    them: the horizontal plane through their lowest point (:func:`lowest_height`).
+
+    A probe world holds the plane and the geoms at their poses in ``data``: with
+    ``spec`` (the MJCF ``model`` was compiled from), ``spec`` itself with the
+    plane added (compiled once per spec), so every mesh is the same compiled hull
+    as in ``model`` and MuJoCo picks the same vertices; without it, a copy of
+    each geom (a mesh by its vertices in the world frame, whose hull MuJoCo
+    recomputes: among equally low vertices of a flat mesh bottom it may pick
+    others). The geoms get MuJoCo's contact ``margin`` ``tolerance`` and collide
+    with the plane whatever their ``contype``; ``mj_fwdPosition`` runs MuJoCo's
+    collision detection and the contacts with ``dist <= tolerance`` are kept,
+    their points put on the plane.
+
+    Args:
+        model: The model.
+        data: The pose (``qpos``, and ``geom_xpos``/``geom_xmat`` current).
+        geoms: Collision geom ids of ``model``.
+        tolerance: Distance [m] up to which a geom counts as touching the floor.
+        spec: The spec ``model`` was compiled from (not modified), or None.
+
+    Returns:
+        ``(points (k, 3) [m], geoms (k,))``: each contact point on the plane and the
+        geom (id in ``model``) it belongs to.
+
+    Raises:
+        InvalidInput: No geom, a geom without a lowest point (plane, height
+            field, SDF), or a negative tolerance.
+    """
+    ids = [int(g) for g in geoms]
+    if not ids:
+        raise InvalidInput("floor_contacts needs at least one collision geom")
+    if not np.isfinite(tolerance) or tolerance < 0.0:
+        raise InvalidInput(f"tolerance must be finite and >= 0 [m], got {tolerance}")
+    floor_z = min(lowest_height(model, data, g) for g in ids)
+    probe = _spec_probe(spec, model, ids) if spec is not None else None
+    if probe is None:
+        probe = _copy_probe(model, data, ids)
+        probe_of = {g: i + 1 for i, g in enumerate(ids)}  # the copies follow the plane
+        qpos = probe.qpos0
+    else:
+        probe_of = {g: probe.geom(model.geom(g).name).id for g in ids}
+        qpos = data.qpos
+    probe = copy.copy(probe)  # this call's margins
+    floor = probe.geom(_PROBE_FLOOR).id
+    own = list(probe_of.values())
+    probe.geom_margin[own] = tolerance
+    probe.geom_contype[own] = probe.geom_conaffinity[own] = 1
+    probe_data = mujoco.MjData(probe)
+    probe_data.qpos[:] = qpos
+    probe_data.mocap_pos[probe.body_mocapid[probe.geom_bodyid[floor]]] = [0.0, 0.0, floor_z]
+    mujoco.mj_fwdPosition(probe, probe_data)  # kinematics, bounding volumes, collisions
+    geom_of = {p: g for g, p in probe_of.items()}
+    points, owners = [], []
+    for c in probe_data.contact[: probe_data.ncon]:
+        other = int(c.geom2 if c.geom1 == floor else c.geom1 if c.geom2 == floor else -1)
+        if other in geom_of and c.dist <= tolerance:
+            points.append([c.pos[0], c.pos[1], floor_z])
+            owners.append(geom_of[other])
+    return np.array(points, dtype=float).reshape(-1, 3), np.array(owners, dtype=int)
+
+
+_SPEC_PROBES: OrderedDict[str, mujoco.MjModel] = OrderedDict()
+"""Compiled probes by :func:`_probe_key`, the most recent last (copying a spec
+with meshes takes a good part of a second: robots built alike share theirs)."""
+
+_MAX_SPEC_PROBES = 32
+
+
+def _probe_key(model: mujoco.MjModel, geoms: list[int]) -> str:
+    """A digest of what a probe of ``geoms`` depends on: the kinematic tree and
+    the geoms' names, shapes, poses and mesh vertices."""
+    h = hashlib.sha1()
+    for a in (
+        model.body_parentid,
+        model.body_pos,
+        model.body_quat,
+        model.jnt_type,
+        model.jnt_qposadr,
+        model.jnt_pos,
+        model.jnt_axis,
+    ):
+        h.update(np.ascontiguousarray(a).tobytes())
+    for g in sorted(geoms):
+        h.update(model.geom(g).name.encode() + b"\0")
+        for a in (model.geom_type, model.geom_size, model.geom_pos, model.geom_quat):
+            h.update(np.ascontiguousarray(a[g]).tobytes())
+        mesh = int(model.geom_dataid[g])
+        if model.geom_type[g] == _G.mjGEOM_MESH and mesh >= 0:
+            start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+            h.update(np.ascontiguousarray(model.mesh_vert[start : start + count]).tobytes())
+    return h.hexdigest()
+
+
+def _spec_probe(
+    spec: mujoco.MjSpec, model: mujoco.MjModel, geoms: list[int]
+) -> mujoco.MjModel | None:
+    """``spec`` with the probe's plane and without any geom but ``geoms`` (and
+    without the meshes they do not use, materials and textures), compiled
+    (cached by :func:`_probe_key`); None when a geom is unnamed or the probe does
+    not have the joints of ``model``."""
+    names = {model.geom(g).name for g in geoms}
+    if "" in names:
+        return None
+    key = _probe_key(model, geoms)
+    if key not in _SPEC_PROBES:
+        world = spec.copy()
+        for geom in list(world.geoms):
+            if geom.name not in names:
+                world.delete(geom)
+        used = {geom.meshname for geom in world.geoms}
+        for mesh in list(world.meshes):
+            if mesh.name not in used:
+                world.delete(mesh)
+        for geom in world.geoms:
+            geom.material = ""
+        for asset in [*world.materials, *world.textures]:  # (skyboxes take long)
+            world.delete(asset)
+        world.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+        for body in world.bodies[1:]:  # no mass is left on them: any will do
+            body.explicitinertial, body.mass, body.inertia = True, 1.0, [1.0, 1.0, 1.0]
+        _add_floor(world)
+        _SPEC_PROBES[key] = world.compile()
+        while len(_SPEC_PROBES) > _MAX_SPEC_PROBES:
+            _SPEC_PROBES.popitem(last=False)
+    _SPEC_PROBES.move_to_end(key)
+    probe = _SPEC_PROBES[key]
+    return probe if probe.nq == model.nq else None
+
+
+def _add_floor(spec: mujoco.MjSpec) -> None:
+    """The probe's plane, on a mocap body (its height set per call)."""
+    body = spec.worldbody.add_body(mocap=True)
+    body.add_geom(name=_PROBE_FLOOR, type=_G.mjGEOM_PLANE, size=[0.0, 0.0, 1.0])
+
+
+def _copy_probe(model: mujoco.MjModel, data: mujoco.MjData, geoms: list[int]) -> mujoco.MjModel:
+    """The probe world of :func:`floor_contacts` without a spec: the plane and, on
+    one free body (so that MuJoCo collides them with the static plane), a copy of
+    each geom at its world pose; the model's collision flags."""
+    spec = mujoco.MjSpec()
+    spec.option.enableflags = int(model.opt.enableflags)
+    spec.option.disableflags = int(model.opt.disableflags)
+    spec.compiler.inertiafromgeom = False
+    _add_floor(spec)
+    body = spec.worldbody.add_body(mass=1.0, inertia=[1.0, 1.0, 1.0])
+    body.add_freejoint()
+    for i, g in enumerate(geoms):
+        kind = int(model.geom_type[g])
+        geom = body.add_geom(type=kind)
+        if kind == _G.mjGEOM_MESH:
+            mesh = spec.add_mesh(name=f"probe_mesh_{i}")
+            mesh.uservert = _mesh_vertices(model, data, g).ravel().tolist()
+            geom.meshname = mesh.name
+            continue
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, data.geom_xmat[g])
+        geom.size = model.geom_size[g].copy()
+        geom.pos = data.geom_xpos[g].copy()
+        geom.quat = quat
+    return spec.compile()

@@ -16,8 +16,11 @@ In the standing configuration (:func:`pik_mj.robot.keyframes.standing_pose`):
   side;
 * **arms** are the other chains off the trunk lying wholly on one side: the
   highest body whose leaves (legs left out) all lie more than :data:`LATERAL`
-  to the left (or right) starts an arm; the arm ends at the deepest body common
-  to its leaves (the wrist, not one of the fingers);
+  to the left (or right) starts an arm; the arm follows its chain down through
+  **side bodies** (:meth:`_Tree.chain_end`: a gear welded to a link, a drive gear
+  whose joint an MJCF coupling drives) and ends where the chain branches into
+  parts of its own (the wrist, not one of the fingers), or at the deepest body
+  common to its leaves when nothing jointed hangs below;
 * **torso**: the joints between ``L`` and the arms' branching body ``A``, ending
   at the lower of the two; **head**: a chain with joints hanging off ``A`` that
   is neither arm nor leg and lies on the middle line;
@@ -47,6 +50,7 @@ import numpy as np
 
 from pik_mj.exceptions import InvalidInput, LimbsNotFound, NoCollisionGeometry
 from pik_mj.frames import Frame, robot_root_body
+from pik_mj.robot.couplings import find_couplings
 from pik_mj.robot.floor_contact import (
     DEFAULT_TOLERANCE,
     bottom_points,
@@ -103,6 +107,8 @@ class _Tree:
     root: int
     bodies: np.ndarray
     children: dict[int, list[int]] = field(default_factory=dict)
+    partners: dict[int, set[int]] = field(default_factory=dict)
+    """Joint id -> the joints an MJCF coupling ties it to (:func:`coupling_partners`)."""
 
     def name(self, b: int) -> str:
         return self.model.body(b).name or f"#{b}"
@@ -138,6 +144,46 @@ class _Tree:
                 out.append(x)
         return out
 
+    def subtree_joints(self, b: int) -> set[int]:
+        """Hinge/slide joint ids on ``b`` and the bodies below it."""
+        m = self.model
+        return {
+            j
+            for x in subtree_bodies(m, b)
+            for j in range(m.body_jntadr[x], m.body_jntadr[x] + m.body_jntnum[x])
+            if int(m.jnt_type[j]) in _ANGLE
+        }
+
+    def chain_end(self, start: int, without: set[int]) -> int:
+        """The end of the chain from ``start`` down (bodies in ``without`` left out).
+
+        At each body the children are weighed by the joints below them: a child
+        holding none is a side body (a gear welded to the link), and so is one
+        whose joints are all coupled to joints outside it (:attr:`partners`: a
+        drive gear that the elbow's coupling turns) and fewer than those below
+        the child holding the most. The chain goes on into the one child left; it
+        ends at a body where several are left (a hand with fingers, a gripper's
+        two jaws) or none, and where no child holds a joint at all, at the
+        deepest body common to the leaves (an end body welded below the last
+        joint).
+        """
+        body = start
+        while True:
+            kids = [c for c in self.children[body] if c not in without]
+            below = {c: self.subtree_joints(c) for c in kids}
+            jointed = [c for c in kids if below[c]]
+            if not jointed:
+                return self.common(self.leaves(body, without)) if kids else body
+            most = max(len(below[c]) for c in jointed)
+            chain = [c for c in jointed if len(below[c]) == most or not self._driven(below[c])]
+            if len(chain) != 1:
+                return body
+            body = chain[0]
+
+    def _driven(self, joints: set[int]) -> bool:
+        """Whether every joint of ``joints`` is coupled to a joint outside them."""
+        return all(self.partners.get(j, set()) - joints for j in joints)
+
     def joints(self, start: int, end: int) -> list[int]:
         """Hinge/slide joint ids on the bodies from ``start`` down to ``end``."""
         chain = self.path(end)
@@ -151,6 +197,18 @@ class _Tree:
         ]
 
 
+def coupling_partners(model: mujoco.MjModel) -> dict[int, set[int]]:
+    """Joint id -> the joints one of the model's couplings
+    (:func:`~pik_mj.robot.couplings.find_couplings`) ties it to."""
+    partners: dict[int, set[int]] = {}
+    for coupling in find_couplings(model).couplings:
+        sides = (coupling.y, coupling.x) if coupling.x is not None else (coupling.y,)
+        group = {int(model.dof_jntid[d]) for c in sides for d in c.dofadr}
+        for j in group:
+            partners.setdefault(j, set()).update(group - {j})
+    return partners
+
+
 def _tree(model: mujoco.MjModel, qpos: np.ndarray, root: int) -> _Tree:
     data = mujoco.MjData(model)
     data.qpos[:] = qpos
@@ -159,7 +217,7 @@ def _tree(model: mujoco.MjModel, qpos: np.ndarray, root: int) -> _Tree:
     children = {int(b): [] for b in bodies}
     for b in bodies[1:]:
         children[int(model.body_parentid[b])].append(int(b))
-    return _Tree(model, data, root, bodies, children)
+    return _Tree(model, data, root, bodies, children, coupling_partners(model))
 
 
 def end_frame(model: mujoco.MjModel, body: int) -> tuple[str, str]:
@@ -364,7 +422,7 @@ def _arms(tree: _Tree, leg_bodies: set[int], side) -> dict[str, tuple[int, int]]
                 sign * side(x) > LATERAL for x in tree.leaves(parent, leg_bodies)
             ):
                 continue  # not the highest such body
-            end = tree.common(leaves)
+            end = tree.chain_end(b, leg_bodies)
             if tree.joints(b, end):
                 candidates.append((len(tree.joints(b, end)), b, end))
         if candidates:

@@ -23,11 +23,13 @@ environment is composed by :meth:`pik_mj.Robot.from_model`
 from __future__ import annotations
 
 import difflib
+import functools
 import importlib.resources
 import os
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
 from pik_mj.exceptions import InvalidInput, UnknownName
 
@@ -184,11 +186,88 @@ def load_spec(name_or_path: str | os.PathLike[str]) -> mujoco.MjSpec:
 
 
 def load_model(name_or_path: str | os.PathLike[str]) -> mujoco.MjModel:
-    """Load and compile a model (see :func:`model_path` for the accepted names)."""
+    """Load and compile a model (see :func:`model_path` for the accepted names).
+
+    Raises:
+        InvalidInput: The file does not parse or compile, or a number of the
+            compiled model is NaN or infinite (:func:`check_finite`).
+    """
     path = model_path(name_or_path)
     try:
-        return mujoco.MjModel.from_xml_path(str(path))
+        model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as err:
         raise InvalidInput(
             f"cannot load MJCF file {str(path)!r}: {' '.join(str(err).split())}"
         ) from err
+    check_finite(model, f"MJCF file {str(path)!r}")
+    return model
+
+
+# The object type of a compiled array's rows, by the array's name prefix.
+_ROW_OBJECTS = {
+    "body": ("body", "nbody"),
+    "jnt": ("joint", "njnt"),
+    "geom": ("geom", "ngeom"),
+    "site": ("site", "nsite"),
+    "cam": ("camera", "ncam"),
+    "light": ("light", "nlight"),
+    "mesh": ("mesh", "nmesh"),
+    "mat": ("material", "nmat"),
+    "pair": ("pair", "npair"),
+    "eq": ("equality", "neq"),
+    "tendon": ("tendon", "ntendon"),
+    "actuator": ("actuator", "nu"),
+    "sensor": ("sensor", "nsensor"),
+    "key": ("key", "nkey"),
+}
+
+
+@functools.cache
+def _float_arrays() -> tuple[str, ...]:
+    """Names of the float arrays of a compiled model (the same for every model)."""
+    probe = mujoco.MjModel.from_xml_string("<mujoco/>")
+    return tuple(
+        a
+        for a in dir(probe)
+        if not a.startswith("_")
+        and isinstance(getattr(probe, a), np.ndarray)
+        and getattr(probe, a).dtype.kind == "f"
+    )
+
+
+def check_finite(model: mujoco.MjModel, what: str) -> None:
+    """Raise unless every number of the compiled ``model`` is finite.
+
+    MuJoCo compiles ``pos="nan 0 0"`` (it only warns); the NaN would surface
+    later, far from its cause (a servo gain, a solve). The error names the
+    element (``body 'b'``, ``joint 'j'``, ...) and its compiled field, the one
+    an MJCF attribute sets first (``body_pos`` before the derived
+    ``body_invweight0``).
+
+    Raises:
+        InvalidInput: A NaN or infinite value; ``what`` names the model.
+    """
+    bad = []
+    for attr in _float_arrays():
+        values = getattr(model, attr)
+        if values.size and not np.isfinite(values).all():
+            bad.append((attr.removeprefix(attr.partition("_")[0] + "_") not in _GIVEN, attr))
+    if not bad:
+        return
+    attr = min(bad)[1]
+    values = getattr(model, attr)
+    row = int(np.argwhere(~np.isfinite(values))[0][0])
+    kind, count = _ROW_OBJECTS.get(attr.partition("_")[0], (None, ""))
+    where = f"{attr}[{row}]"
+    if kind is not None and values.shape[0] == getattr(model, count):
+        name = mujoco.mj_id2name(model, getattr(mujoco.mjtObj, f"mjOBJ_{kind.upper()}"), row)
+        label = repr(name) if name else f"#{row}"
+        where = f"{kind} {label}: {attr} = {np.asarray(values[row]).tolist()}"
+    raise InvalidInput(f"{what}: a number is not finite at {where}; give the element finite values")
+
+
+# Compiled fields an MJCF attribute sets directly (named first in check_finite's error).
+_GIVEN = frozenset(
+    "pos quat size range axis mass inertia ipos iquat friction damping armature stiffness "
+    "frictionloss margin gap gear ctrlrange forcerange fovy rgba qpos qvel ctrl".split()
+)

@@ -161,8 +161,8 @@ class Robot(RobotModel):
             LimbsNotFound: A limb of ``required_limbs`` is not there.
         """
         described = as_description(description)
-        if model is None and described is not None and described.model is not None:
-            model = described.model
+        if described is not None:
+            model = described.model_for(model)
         spec = robot_spec(model, environment)
         alone = compile_spec(spec, f"model {spec.modelname!r}")
         robot = cls(

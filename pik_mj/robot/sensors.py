@@ -173,6 +173,28 @@ class ForceSensor:
             n = n - np.cross(data.subtree_com[self.body_id] - p_WS, weight)
         return ContactWrench(force=f, moment=n, point=p_WS)
 
+    def loaded(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
+        """Whether something outside the distal part pushes on it: a MuJoCo
+        contact between a body of the distal part (the site's body and the
+        bodies below it) and a body outside it, with a normal force > 0
+        (``mj_contactForce``). A foot in the air carries no load, whatever
+        the compensated reading says (in free fall the compensation alone
+        makes ``f_z = m_D g``)."""
+        ncon = int(data.ncon)
+        if ncon == 0:
+            return False
+        distal = np.zeros(model.nbody, dtype=bool)
+        distal[self.body_id] = True
+        for b in range(self.body_id + 1, model.nbody):  # a body comes after its parent
+            distal[b] = distal[model.body_parentid[b]]
+        sides = distal[model.geom_bodyid[data.contact.geom[:ncon]]]
+        wrench = np.zeros(6)
+        for i in np.flatnonzero(sides[:, 0] != sides[:, 1]):
+            mujoco.mj_contactForce(model, data, int(i), wrench)
+            if wrench[0] > 0:
+                return True
+        return False
+
 
 @dataclass(frozen=True)
 class ImuReading:
@@ -449,9 +471,11 @@ def zmp_from_force_sensors(
 ) -> SensorZmp | None:
     """The ZMP from foot force sensors (irteus manual: ``:calc-zmp-from-forces-moments``).
 
-    Each sensor's :meth:`ForceSensor.contact_wrench` whose ``f_z`` reaches
-    ``fz_threshold`` takes part; its centre of pressure and the combined ZMP
-    come from :func:`zmp_from_wrenches` on the plane ``z``.
+    Each sensor whose distal part carries a load (:meth:`ForceSensor.loaded`:
+    a MuJoCo contact pushes on it) and whose
+    :meth:`ForceSensor.contact_wrench` ``f_z`` reaches ``fz_threshold`` takes
+    part; its centre of pressure and the combined ZMP come from
+    :func:`zmp_from_wrenches` on the plane ``z``.
 
     Args:
         model: The model.
@@ -462,7 +486,8 @@ def zmp_from_force_sensors(
         compensate: Remove the distal parts' weight (see :class:`ForceSensor`).
 
     Returns:
-        A :class:`SensorZmp`, or None when no sensor reaches the threshold.
+        A :class:`SensorZmp`, or None when no sensor carries a load reaching
+        the threshold (irteus returns nil).
 
     Raises:
         InvalidInput: No sensors, a sensor without force or torque channel, or a
@@ -479,7 +504,11 @@ def zmp_from_force_sensors(
             )
     wrenches = {s.name: s.contact_wrench(model, data, compensate=compensate) for s in sensors}
     normal = {name: float(w.force[2]) for name, w in wrenches.items()}
-    used = {name: w for name, w in wrenches.items() if normal[name] >= fz_threshold}
+    used = {
+        s.name: wrenches[s.name]
+        for s in sensors
+        if normal[s.name] >= fz_threshold and s.loaded(model, data)
+    }
     if not used:
         return None
     return SensorZmp(

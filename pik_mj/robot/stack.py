@@ -3,7 +3,14 @@
 * The **guard level** (level 0, hard): every limited joint within its range
   (prioritized-IK manual: ``minmax-angle-task``), the model's MJCF couplings
   (:class:`~pik_mj.robot.couplings.CouplingTask`, when it has any), and every
-  degree of freedom the solve may not move frozen (``x_i = 0``).
+  degree of freedom the solve may not move held (:func:`hold_task`).
+* **Held joints that break level 0** at the start (a keyframe as shipped with
+  an arm joint outside its range, or gripper fingers off their coupling) are
+  projected onto its rows in the first step instead of making it infeasible: a
+  held joint outside its range steps back to its nearest bound, and a coupling
+  whose joints are all held gets its followed side (the ``joint1``/``tendon1``
+  of the MJCF equality) freed, so the coupling row moves it onto the coupling. A
+  warning names each joint and by how much (:func:`held_breaches`).
 * The **posture level** (last, not checked): a cost on moving away from the
   configuration the solve starts from.
 
@@ -13,6 +20,7 @@ The irteus entry points (:mod:`pik_mj.ik`) and the robot's flat stance
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable, Sequence
 
 import mink
@@ -62,15 +70,90 @@ def joint_dofs(model: mujoco.MjModel, joints: Iterable[str]) -> np.ndarray:
     return np.array(sorted(int(model.jnt_dofadr[model.joint(j).id]) for j in joints), dtype=int)
 
 
-def freeze_task(nv: int, moving: np.ndarray) -> LinearTask | None:
-    """Rows ``x_i = 0`` for every dof ``i`` of ``range(nv)`` not in ``moving``, or None
-    when every dof moves."""
-    frozen = np.setdiff1d(np.arange(nv), moving)
-    if frozen.size == 0:
+def moving_dofs(
+    model: mujoco.MjModel,
+    joints: Iterable[str],
+    free_dofs: Iterable[int] = (),
+    couplings: Sequence[Coupling] | None = None,
+) -> np.ndarray:
+    """Tangent-space indices (sorted) a solve moves: those of ``joints`` grown by the
+    couplings (:func:`coupled_joints`), and ``free_dofs`` (a floating base's six)."""
+    used = coupled_joints(model, joints, couplings)
+    return np.union1d(joint_dofs(model, used), np.asarray(list(free_dofs), dtype=int))
+
+
+_ANGLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
+
+
+def _range_gap(model: mujoco.MjModel, dofs: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``clip(q_j, lo, hi) - q_j`` [rad or m] of each dof of ``dofs`` (0 for a dof that
+    is not a limited hinge or slide)."""
+    joints = model.dof_jntid[dofs]
+    ranged = model.jnt_limited[joints].astype(bool) & np.isin(model.jnt_type[joints], _ANGLE)
+    value = q[model.jnt_qposadr[joints]]
+    lo, hi = model.jnt_range[joints].T
+    return np.where(ranged, np.clip(value, lo, hi) - value, 0.0)
+
+
+def hold_task(model: mujoco.MjModel, moving: np.ndarray) -> LinearTask | None:
+    """Rows holding every dof ``i`` not in ``moving`` (tangent-space indices): still,
+    ``x_i = 0``, or, for a hinge or slide outside its range, one step to its
+    nearest bound, ``x_i = clip(θ_i, θ_min, θ_max) - θ_i``. None when every dof
+    moves."""
+    held = np.setdiff1d(np.arange(model.nv), moving)
+    if held.size == 0:
         return None
-    A = np.zeros((frozen.size, nv))
-    A[np.arange(frozen.size), frozen] = 1.0
-    return LinearTask(A, np.zeros(frozen.size), name="frozen_dofs")
+    A = np.zeros((held.size, model.nv))
+    A[np.arange(held.size), held] = 1.0
+    return LinearTask(A, lambda c: _range_gap(model, held, c.q), name="frozen_dofs")
+
+
+def _joint_name(model: mujoco.MjModel, dof: int) -> str:
+    return model.joint(int(model.dof_jntid[dof])).name or f"joint#{int(model.dof_jntid[dof])}"
+
+
+def held_breaches(
+    configuration: mink.Configuration, moving: np.ndarray, couplings: Sequence[Coupling]
+) -> tuple[list[str], np.ndarray]:
+    """The level-0 rows the held dofs (those not in ``moving``) break at the current
+    configuration, and the dofs freed to repair them (module docstring).
+
+    A coupling of held dofs is broken when it is off by more than 1e-12, or when the
+    side it follows moves (a held joint stepping into its range, a freed joint):
+    its followed side (``y``) is freed, repeatedly until nothing more changes.
+
+    Returns:
+        ``(what, freed)``: one line per held joint outside its range and per broken
+        coupling, with by how much; the freed dofs (tangent-space indices).
+    """
+    model, q = configuration.model, configuration.q
+    held = np.setdiff1d(np.arange(model.nv), moving)
+    gap = _range_gap(model, held, q)
+    what = [
+        f"{_joint_name(model, d)} outside its range by {abs(g):.4g} (steps to its bound)"
+        for d, g in zip(held.tolist(), gap.tolist(), strict=True)
+        if g != 0.0
+    ]
+    changing = set(held[gap != 0.0].tolist())
+    freed: set[int] = set()
+    pending = list(couplings)
+    grown = True
+    while grown:
+        grown = False
+        for c in list(pending):
+            x = [] if c.x is None else c.x.dofadr.tolist()
+            if not set(c.y.dofadr.tolist() + x) <= set(held.tolist()):
+                pending.remove(c)
+                continue
+            error = c.error_and_jacobian(q, model.nv)[0]
+            if abs(error) > 1e-12 or set(x) & (changing | freed):
+                pending.remove(c)
+                freed |= set(c.y.dofadr.tolist())
+                follower = ", ".join(_joint_name(model, d) for d in c.y.dofadr)
+                why = f"off by {abs(error):.4g}" if abs(error) > 1e-12 else "its leader moves"
+                what.append(f"coupling {c.name!r} {why} ({follower} follows)")
+                grown = True
+    return what, np.array(sorted(freed), dtype=int)
 
 
 def guard_level(
@@ -78,25 +161,38 @@ def guard_level(
     joints: Iterable[str],
     free_dofs: Iterable[int] = (),
 ) -> list[Task]:
-    """Level 0 of a stack: joint limits, the MJCF couplings, and every dof frozen but
-    those of ``joints`` (grown by :func:`coupled_joints`) and ``free_dofs`` (e.g. a
-    floating base's six).
+    """Level 0 of a stack: joint limits, the MJCF couplings, and every dof held
+    (:func:`hold_task`) but those of ``joints`` (grown by :func:`coupled_joints`)
+    and ``free_dofs`` (e.g. a floating base's six); held joints that break these
+    rows at the current configuration are put on them by the first step
+    (:func:`held_breaches`).
 
     Args:
         configuration: The robot's configuration (its model's joints and couplings).
         joints: Hinge/slide joint names the solve may move.
         free_dofs: Further tangent-space indices the solve may move.
+
+    Warns:
+        RuntimeWarning: Held joints break level 0: each named, with by how much.
     """
     model = configuration.model
     couplings = find_couplings(model).couplings
     level: list[Task] = [JointLimitTask.all_limited(configuration)]
     if couplings:
         level.append(CouplingTask(configuration, couplings))
-    used = coupled_joints(model, joints, couplings)
-    moving = np.union1d(joint_dofs(model, used), np.asarray(list(free_dofs), dtype=int))
-    freeze = freeze_task(model.nv, moving)
-    if freeze is not None:
-        level.append(freeze)
+    moving = moving_dofs(model, joints, free_dofs, couplings)
+    breaches, freed = held_breaches(configuration, moving, couplings)
+    if breaches:
+        warnings.warn(
+            "held joints break level 0 at the start; the first step puts them on its rows: "
+            + "; ".join(breaches),
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        moving = np.union1d(moving, freed)
+    hold = hold_task(model, moving)
+    if hold is not None:
+        level.append(hold)
     return level
 
 

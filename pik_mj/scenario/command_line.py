@@ -14,6 +14,7 @@ import rerun as rr
 
 from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput
+from pik_mj.record.sinks import LOOPBACK, check_bind
 from pik_mj.scenario.arguments import duration, fraction
 from pik_mj.scenario.robot_option import RobotOption, RobotRefused
 from pik_mj.sim.motion import DEFAULT_SPEED
@@ -36,6 +37,10 @@ class ScenarioParser(argparse.ArgumentParser):
 
     def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
         ns = super().parse_args(args, namespace)
+        try:
+            check_destinations(ns)
+        except InvalidInput as exc:
+            self.error(str(exc))
         outputs = [
             (option, getattr(ns, dest))
             for option, dest in (("--save", "save"), ("--json", "json"))
@@ -61,6 +66,32 @@ class ScenarioParser(argparse.ArgumentParser):
         return ns
 
 
+def check_destinations(ns: argparse.Namespace) -> None:
+    """rerun's options (:func:`rerun.script_add_args`) that can go together: one live
+    destination (``--stdout``, ``--serve`` or ``--connect``), ``--save`` beside
+    ``--serve`` or ``--connect`` (both written) but not ``--stdout`` (the recording is
+    on standard output: ``| tee FILE.rrd`` keeps a copy), ``--bind`` with ``--serve``.
+
+    Raises:
+        InvalidInput: Options that contradict each other, or a ``--bind`` that is
+            not an IP address.
+    """
+    live = [o for o in ("stdout", "serve", "connect") if getattr(ns, o, False)]
+    if len(live) > 1:
+        raise InvalidInput(
+            f"--{live[0]} and --{live[1]} both say where the recording goes live; give one"
+        )
+    if getattr(ns, "stdout", False) and getattr(ns, "save", None) is not None:
+        raise InvalidInput(
+            "--stdout writes the recording to standard output; --save cannot go with it "
+            "(keep a copy with `... --stdout | tee FILE.rrd | rerun -`)"
+        )
+    if getattr(ns, "bind", None) is not None:
+        if not getattr(ns, "serve", False):
+            raise InvalidInput("--bind says where --serve listens; give it with --serve")
+        ns.bind = check_bind(ns.bind)
+
+
 def parser(
     doc: str | None,
     *,
@@ -73,7 +104,8 @@ def parser(
 ) -> ScenarioParser:
     """The options of a scenario's ``main``: rerun's (``--save FILE.rrd``,
     ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
-    :func:`rerun.script_add_args`), ``--json FILE``, ``--quiet`` (no progress) and,
+    :func:`rerun.script_add_args`; what each does: :mod:`pik_mj.scenario.output`),
+    ``--bind ADDRESS`` (where ``--serve`` listens), ``--json FILE``, ``--quiet`` (no progress) and,
     with ``hold``, ``--hold SECONDS`` (physics hold of the final pose, default 3;
     0: none) and ``--speed FRACTION`` (the iterates played in physics at this
     fraction of the joint velocity limits, default 0.2; 0: not played).
@@ -94,6 +126,12 @@ def parser(
     """
     p = ScenarioParser(description=(doc or "").strip().splitlines()[0])
     rr.script_add_args(p)
+    p.add_argument(
+        "--bind",
+        metavar="ADDRESS",
+        help=f"with --serve: the address its servers listen on (default {LOOPBACK}: this "
+        "machine only; 0.0.0.0: every interface)",
+    )
     p.add_argument("--json", help="JSON summary to write")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     if hold:

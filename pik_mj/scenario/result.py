@@ -14,6 +14,7 @@ import numpy as np
 
 from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput
+from pik_mj.outputs import write_atomic
 from pik_mj.robot import Robot
 from pik_mj.sim import (
     HoldCriteria,
@@ -305,12 +306,12 @@ class ScenarioResult:
         Raises:
             InvalidInput: ``path`` cannot be written (a directory, no permission),
                 or a figure JSON cannot hold; nothing is written then.
+            OutputError: The write failed (a full disk); nothing is left of it.
         """
         p = inputs.output_path(path, "JSON summary")
         text = json.dumps(self.to_dict(), indent=2)
         p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(text)
-        return p
+        return write_atomic(p, text, "JSON summary")
 
     def summary(self, *, recording: bool = True) -> str:
         """Readable summary; ``recording`` False leaves out the recording's path."""

@@ -9,8 +9,10 @@ Modules, lowest first (each imports only those above it):
 * :mod:`.physics` — :class:`Physics`: the compiled world in the robot's terms
   (contacts, wrenches, servo joints, stepping);
 * :mod:`.static` — :class:`StaticReport`, :class:`StaticChecks` (per iteration);
+* :mod:`.falls`, :mod:`.criteria` — what a fall is (:class:`Fall`,
+  :class:`FallLimits`); what a hold or motion must show (:class:`HoldCriteria`);
 * :mod:`.tracking` — the stepping loop a hold shares with a motion,
-  :class:`HoldCriteria`, :class:`HoldSample`;
+  :class:`HoldSample`;
 * :mod:`.hold` — :class:`HoldReport`: a pose held in physics;
 * :mod:`.path`, :mod:`.reference`, :mod:`.clearance` — :class:`Waypoints`, the
   timed reference the servos track, the clearance along a motion;
@@ -27,6 +29,8 @@ Environments (floor, boxes, walls) are built in :mod:`pik_mj.robot.world`.
 from pik_mj.mujoco_warnings import mujoco_warnings
 from pik_mj.robot.world import add_box, add_wall, floor_environment
 from pik_mj.sim.assembly import DEFAULT_CONTACT, ContactParams
+from pik_mj.sim.criteria import HoldCriteria
+from pik_mj.sim.falls import Fall, FallLimits
 from pik_mj.sim.grasp import Grasp
 from pik_mj.sim.guard import StateGuard
 from pik_mj.sim.hold import HoldReport
@@ -35,13 +39,15 @@ from pik_mj.sim.path import Waypoints
 from pik_mj.sim.physics import ContactInfo, Physics
 from pik_mj.sim.scene import Scene
 from pik_mj.sim.static import StaticChecks, StaticReport
-from pik_mj.sim.tracking import HoldCriteria, HoldSample
+from pik_mj.sim.tracking import HoldSample
 from pik_mj.sim.validate import balance_report, validate_pose
 
 __all__ = [
     "DEFAULT_CONTACT",
     "ContactInfo",
     "ContactParams",
+    "Fall",
+    "FallLimits",
     "Grasp",
     "HoldCriteria",
     "HoldReport",

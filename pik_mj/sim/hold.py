@@ -22,9 +22,11 @@ from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.dynamics import contact_wrenches
 from pik_mj.frames import Frame
+from pik_mj.sim.criteria import HoldCriteria, check_options
+from pik_mj.sim.falls import Fall
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.static import finite_or_none, point_contacts, static_check
-from pik_mj.sim.tracking import HoldCriteria, HoldSample, check_options, track
+from pik_mj.sim.tracking import HoldSample, track
 
 __all__ = [
     "HeldPose",
@@ -56,7 +58,8 @@ class HoldReport:
             it is the static margin: the physics alone reports a contact only once
             a geom penetrates, so a pose placed on the floor would start with an
             arbitrary subset of its sole corners (often one foot's).
-        fell: The root body dropped below ``fall_ratio`` times its initial height.
+        fell: The robot fell (:mod:`pik_mj.sim.falls`: its trunk tilted, its root
+            drifted off its footprint or sank below ``fall_ratio`` of its start height).
         unexpected_contacts: ``(robot_geom, other_geom, first_time [s])`` for
             contacts of robot geoms that are not allowed, and robot self-contacts.
         allowed: Robot geoms allowed to touch the environment.
@@ -67,6 +70,8 @@ class HoldReport:
         timestep: Physics time step [s].
         root_height: Root body height at the start and at the end [m].
         wall_time: Wall-clock time of the hold [s].
+        fall: The first sign of the fall, with its figure and time (None: no fall).
+        tilt: Largest tilt of the trunk (root body) from its start [rad].
     """
 
     passed: bool
@@ -88,6 +93,8 @@ class HoldReport:
     timestep: float
     root_height: tuple[float, float]
     wall_time: float
+    fall: Fall | None = None
+    tilt: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (non-finite margins become None)."""
@@ -111,6 +118,8 @@ class HoldReport:
             "timestep": self.timestep,
             "root_height": list(self.root_height),
             "wall_time": self.wall_time,
+            "fall": None if self.fall is None else self.fall.to_dict(),
+            "tilt": self.tilt,
         }
 
 
@@ -239,7 +248,8 @@ def hold(
     constant, the drift is the root body's displacement from its start, the
     slip each foot geom's horizontal displacement since it touched down.
     Verdict (:class:`HoldCriteria`): drift < ``max_drift``, foot slip <
-    ``max_slip``, no fall (root height >= ``fall_ratio`` of its start), no
+    ``max_slip``, no fall (:mod:`pik_mj.sim.falls`: trunk tilt, root drift off
+    the footprint, root height below ``fall_ratio`` of its start), no
     contact of a robot geom outside ``allowed`` with the environment and
     (unless ``allow_self_contact``) no self-contact.
 
@@ -300,11 +310,13 @@ def hold(
         fell=run.fell,
         unexpected_contacts=[(a, b, t) for (a, b), t in run.unexpected.items()],
         allowed=list(allowed),
-        thresholds=criteria.thresholds(),
+        thresholds={**criteria.thresholds(), **run.limits.thresholds()},
         duration=float(duration),
         simulated=run.end_time,
         steps=run.steps,
         timestep=float(scene.model.opt.timestep),
         root_height=run.root_height,
         wall_time=run.wall_time,
+        fall=run.fall,
+        tilt=run.tilt,
     )

@@ -48,6 +48,8 @@ from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
 from pik_mj.sim.clearance import Clearance, min_distance
+from pik_mj.sim.criteria import HoldCriteria, check_options
+from pik_mj.sim.falls import Fall
 from pik_mj.sim.path import Waypoint, Waypoints
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.reference import (
@@ -58,7 +60,7 @@ from pik_mj.sim.reference import (
     velocity_limits,
 )
 from pik_mj.sim.static import finite_or_none
-from pik_mj.sim.tracking import HoldCriteria, check_options, track
+from pik_mj.sim.tracking import track
 
 __all__ = [
     "DEFAULT_SETTLE",
@@ -117,7 +119,8 @@ class MotionReport:
             ground contacts (``-inf`` if contact was lost).
         slip: Largest foot slip relative to the reference [m].
         slip_per_geom: Slip of each planned contact geom [m].
-        fell: The root dropped below ``fall_ratio`` of its reference height.
+        fell: The robot fell (:mod:`pik_mj.sim.falls`: its trunk tilted, its root
+            drifted off its footprint or sank, measured against the reference).
         planned_contacts: Robot geoms allowed to touch the environment
             anywhere (the scene's ``allowed_contacts``, the criteria's ``allowed``).
         planned_pairs: ``(robot geom, other geom)`` touching at a waypoint
@@ -130,6 +133,8 @@ class MotionReport:
         series: ``time`` [s], ``margin`` [m], ``tracking_error`` and
             ``waypoint`` every ``margin_every`` steps.
         wall_time: Wall-clock time [s] of the physics.
+        fall: The first sign of the fall, with its figure and time (None: no fall).
+        tilt: Largest tilt of the trunk (root body) from its reference [rad].
     """
 
     passed: bool
@@ -157,6 +162,8 @@ class MotionReport:
     final_state: PhysicsState = field(repr=False)
     series: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     wall_time: float = 0.0
+    fall: Fall | None = None
+    tilt: float = 0.0
 
     @property
     def max_frame_error(self) -> float:
@@ -195,6 +202,8 @@ class MotionReport:
                 "unexpected": [list(c) for c in self.unexpected_contacts],
             },
             "fell": self.fell,
+            "fall": None if self.fall is None else self.fall.to_dict(),
+            "max_tilt_rad": self.tilt,
             "thresholds": dict(self.thresholds),
             "steps": self.steps,
             "timestep": self.timestep,
@@ -213,7 +222,8 @@ class MotionReport:
             f"(+{self.settle:g} s settle), {len(self.waypoint_times)} waypoints; tracking "
             f"error {self.tracking_error:.3f} rad, frames {self.max_frame_error * 1e3:.1f} mm; "
             f"drift {self.drift * 1e3:.1f} mm, slip {self.slip * 1e3:.2f} mm, min CoM margin "
-            f"{margin}; {'FELL' if self.fell else 'no fall'}, "
+            f"{margin}; tilt {math.degrees(self.tilt):.1f}°, "
+            f"{'FELL' if self.fell else 'no fall'}, "
             f"{len(self.unexpected_contacts)} unexpected contacts"
             + (f"; {'; '.join(self.failures)}" if self.failures else "")
         )
@@ -324,6 +334,7 @@ def play(
         SimulationUnstable: MuJoCo reported an invalid state.
     """
     path = _as_waypoints(path, scene.robot_nq)
+    path.check_finite(scene.model)
     if not (isinstance(speed, (int, float)) and 0.0 < speed <= 1.0):
         raise InvalidInput(f"speed must be in (0, 1] (a fraction of the limits), got {speed!r}")
     if not (math.isfinite(settle) and settle >= 0):
@@ -391,10 +402,12 @@ def play(
         planned_contacts=allowed,
         planned_pairs=pairs,
         unexpected_contacts=[(a, b, t) for (a, b), t in run.unexpected.items()],
-        thresholds=criteria.thresholds(),
+        thresholds={**criteria.thresholds(), **run.limits.thresholds()},
         steps=run.steps,
         timestep=float(scene.model.opt.timestep),
         final_state=PhysicsState.of(scene.data),
         series=run.series,
         wall_time=time.perf_counter() - t_wall,
+        fall=run.fall,
+        tilt=run.tilt,
     )

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import mink
+import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
@@ -107,6 +108,31 @@ class Waypoints:
             elif isinstance(task, JointVelocityTask):
                 for dof, lo, hi in zip(task.dofs, task.min_vel, task.max_vel, strict=True):
                     self.velocity_bounds[int(dof)] = (float(lo), float(hi))
+
+    def check_finite(self, model: mujoco.MjModel) -> None:
+        """Raise unless every configuration of the path is finite.
+
+        Args:
+            model: The model whose ``qpos`` the configurations are (a prefix of
+                it): it names the joint.
+
+        Raises:
+            InvalidInput: The first waypoint holding NaN or inf: its index,
+                segment and iteration, and the joint of the entry.
+        """
+        q = self.q
+        bad = np.argwhere(~np.isfinite(q))
+        if not len(bad):
+            return
+        i, k = (int(v) for v in bad[0])
+        w = self.items[i]
+        joint = int(np.searchsorted(model.jnt_qposadr, k, side="right")) - 1
+        name = model.joint(joint).name if joint >= 0 else f"qpos[{k}]"
+        raise InvalidInput(
+            f"waypoint {i} of {len(self.items)} (segment {w.segment!r}, iteration "
+            f"{w.iteration}) is not finite: joint {name!r} (qpos[{k}]) = {q[i, k]}; "
+            "give finite configurations"
+        )
 
     def finish(self, result: SolveResult) -> SolveResult:
         """Drop the current segment's iterates if ``result`` reverted; returns it."""

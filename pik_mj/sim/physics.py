@@ -37,6 +37,7 @@ from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.frames import Frame
 from pik_mj.robot import Robot
 from pik_mj.robot.ground import foot_geoms
+from pik_mj.sim.falls import foot_length
 from pik_mj.sim.grasp import Grasp
 from pik_mj.sim.guard import StateGuard
 from pik_mj.sim.servos import position_feedback, rest_controls
@@ -124,6 +125,9 @@ class Physics:
         geom_ids: ``{name: id}`` of the named geoms (read-only mapping).
         foot_geoms: The robot's foot geoms (:func:`pik_mj.robot.ground.foot_geoms`,
             by name): a hold's foot slip is theirs.
+        foot_length: The largest horizontal extent of one foot [m] in the
+            robot's configuration when the physics was made
+            (:func:`pik_mj.sim.falls.foot_length`); None without feet.
         allowed_contacts: Robot geoms allowed to touch the environment in a hold
             by default.
 
@@ -177,6 +181,10 @@ class Physics:
         self._body_names = [model.body(b).name for b in range(model.nbody)]
         self.geom_ids = MappingProxyType({n: g for g, n in enumerate(self.geom_names) if n})
         self.foot_geoms = [rm.geom(g).name for g in foot_geoms(robot)]
+        self._foot_ids = np.array([self.geom_ids[n] for n in self.foot_geoms], dtype=int)
+        self.foot_length = foot_length(
+            model, self.kinematics(robot.configuration.q), self._foot_ids.tolist(), self.up()
+        )
         self.allowed_contacts = (
             list(self.foot_geoms)
             if allowed_contacts is None
@@ -294,6 +302,20 @@ class Physics:
         for b in self._grasp_bodies:
             c = c + self.model.body_subtreemass[b] * d.subtree_com[b]
         return c / (self.mass + self.carried_mass)
+
+    def root_height(self, data: mujoco.MjData | None = None) -> float:
+        """Height [m] of the robot's root body along up in ``data`` (default: physics)."""
+        d = self.data if data is None else data
+        return float(d.xpos[self._root_id] @ self.up())
+
+    def com_height(self, data: mujoco.MjData | None = None) -> float | None:
+        """Height [m] of the CoM (:meth:`com`) above the mean of the foot geoms'
+        centres, along up, in ``data`` (default: physics; kinematics and
+        ``mj_comPos`` current); None without feet."""
+        if not len(self._foot_ids):
+            return None
+        d = self.data if data is None else data
+        return float((self.com(d) - d.geom_xpos[self._foot_ids].mean(axis=0)) @ self.up())
 
     # --------------------------------------------------------------- contacts
     def contacts(

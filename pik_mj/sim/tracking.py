@@ -25,72 +25,13 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj import inputs
 from pik_mj.callbacks import Callback
-from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
+from pik_mj.sim.criteria import HoldCriteria, slip_verdict_geoms
+from pik_mj.sim.falls import Fall, FallLimits, fall_measures, first_fall
 from pik_mj.sim.physics import External, Physics
 
-__all__ = [
-    "HoldCriteria",
-    "HoldSample",
-    "Reference",
-    "Tracked",
-    "check_options",
-    "slip_verdict_geoms",
-    "track",
-]
-
-
-@dataclass(frozen=True)
-class HoldCriteria:
-    """What a physics hold must show to pass.
-
-    Attributes:
-        max_drift: Largest root-body displacement [m] (drift < max_drift).
-        max_slip: Largest horizontal slip [m] of a foot geom while in contact.
-        fall_ratio: The robot fell when its root height drops below this ratio of
-            its start [-].
-        allowed: Robot geoms allowed to touch the environment (default: the
-            scene's ``allowed_contacts``, its soles); repeated names count once.
-        feet: Geoms whose slip is the verdict's foot slip (default: the allowed
-            geoms among the scene's ``foot_geoms``, else all allowed geoms;
-            :func:`slip_verdict_geoms`). A hand on a wall or a handle still
-            appears in ``slip_per_geom``.
-        allow_self_contact: Do not count robot self-contacts as unexpected.
-        stop_on_fall: End the simulation as soon as the robot fell.
-        max_ground_slope: Largest angle [rad] between a contact normal and up for
-            the contact to count in the support polygon.
-    """
-
-    max_drift: float = 0.01
-    max_slip: float = 0.002
-    fall_ratio: float = 0.8
-    allowed: Sequence[str] | None = None
-    feet: Sequence[str] | None = None
-    allow_self_contact: bool = False
-    stop_on_fall: bool = True
-    max_ground_slope: float = math.pi / 4
-
-    def __post_init__(self) -> None:
-        for label in ("max_drift", "max_slip"):
-            inputs.real(getattr(self, label), label, unit="m", low=0, low_open=True)
-        inputs.real(self.fall_ratio, "fall_ratio", low=0, high=1, low_open=True, high_open=True)
-        inputs.real(self.max_ground_slope, "max_ground_slope", unit="rad", low=0, high=math.pi / 2)
-        inputs.flag(self.allow_self_contact, "allow_self_contact")
-        inputs.flag(self.stop_on_fall, "stop_on_fall")
-        for label, names in (("allowed", self.allowed), ("feet", self.feet)):
-            if names is not None:
-                names = inputs.names(names, f"{label} (robot geoms)")
-                object.__setattr__(self, label, tuple(dict.fromkeys(names)))
-
-    def thresholds(self) -> dict[str, float]:
-        """``{"max_drift", "max_slip", "fall_ratio"}``: the pass/fail thresholds."""
-        return {
-            "max_drift": self.max_drift,
-            "max_slip": self.max_slip,
-            "fall_ratio": self.fall_ratio,
-        }
+__all__ = ["HoldSample", "Reference", "Tracked", "describe_contacts", "track"]
 
 
 @dataclass(eq=False)
@@ -209,7 +150,10 @@ class Tracked:
         slip_per_geom: Largest slip of each allowed geom that touched [m].
         foot_slip: Largest slip of a foot geom [m].
         min_margin: Smallest CoM margin to the support polygon [m].
-        fell: The root dropped below ``fall_ratio`` of its reference height.
+        fell: The robot fell (:mod:`pik_mj.sim.falls`).
+        fall: The first sign of the fall (None: no fall).
+        tilt: Largest trunk tilt from the reference [rad].
+        limits: The fall thresholds used.
         unexpected: ``(robot geom, other geom) -> first time [s]``.
         steps: Physics steps taken.
         simulated: Simulated time [s].
@@ -231,6 +175,9 @@ class Tracked:
     foot_slip: float
     min_margin: float
     fell: bool
+    fall: Fall | None
+    tilt: float
+    limits: FallLimits
     unexpected: dict[tuple[str, str], float]
     steps: int
     simulated: float
@@ -251,24 +198,17 @@ class Tracked:
             out.append(
                 f"foot slip {self.foot_slip * 1e3:.2f} mm >= {criteria.max_slip * 1e3:.2f} mm"
             )
-        if self.fell:
-            out.append(f"fell: root height below {criteria.fall_ratio:.0%} of its reference")
+        if self.fall is not None:
+            out.append(self.fall.describe())
         if self.unexpected:
-            pairs = ", ".join(f"{a}-{b}" for a, b in self.unexpected)
-            out.append(f"unexpected contacts: {pairs}")
+            out.append(describe_contacts(self.unexpected))
         return out
 
 
-def check_options(criteria: HoldCriteria | None, duration: float, **counts: int) -> HoldCriteria:
-    """``criteria`` (default :class:`HoldCriteria`) after checking it, a duration
-    > 0 [s] and positive integer ``counts`` (``every=...``)."""
-    criteria = HoldCriteria() if criteria is None else criteria
-    if not isinstance(criteria, HoldCriteria):
-        raise InvalidInput(f"criteria must be a HoldCriteria, got {type(criteria).__name__}")
-    inputs.real(duration, "duration", unit="s", low=0, low_open=True)
-    for label, v in counts.items():
-        inputs.integer(v, label, low=1)
-    return criteria
+def describe_contacts(unexpected: dict[tuple[str, str], float]) -> str:
+    """``unexpected contacts: a-b at 0.512 s, ...``: each pair with the time it began."""
+    pairs = ", ".join(f"{a}-{b} at {t:.3f} s" for (a, b), t in unexpected.items())
+    return f"unexpected contacts: {pairs}"
 
 
 def _external_wrench(
@@ -290,20 +230,6 @@ def _external_wrench(
     return apply
 
 
-def slip_verdict_geoms(scene: Physics, allowed: Sequence[str], criteria: HoldCriteria) -> set[str]:
-    """The geoms whose slip is the verdict's foot slip (:attr:`HoldCriteria.feet`;
-    by default the ``allowed`` geoms among the robot's foot geoms
-    (:attr:`~pik_mj.sim.physics.Physics.foot_geoms`), else all ``allowed``).
-
-    Raises:
-        UnknownName: A geom of ``criteria.feet`` that is not the robot's.
-    """
-    feet = criteria.feet
-    if feet is None:
-        feet = [n for n in allowed if n in scene.foot_geoms] or list(allowed)
-    return set(scene.check_robot_geoms(feet))
-
-
 class _Measures:
     """What :func:`track` accumulates step by step (see :func:`track` for the
     formulas and :class:`Tracked` for the fields)."""
@@ -315,6 +241,7 @@ class _Measures:
         allowed: Sequence[str],
         planned_pairs: set[frozenset[str]] | frozenset[frozenset[str]],
         frames: Sequence[Frame],
+        limits: FallLimits,
     ):
         m = scene.model
         self.scene = scene
@@ -332,7 +259,9 @@ class _Measures:
         self.slip: dict[str, float] = {}
         self.anchor: dict[int, np.ndarray] = {}  # geom id -> horizontal offset at touch-down
         self.unexpected: dict[tuple[str, str], float] = {}
-        self.fell = False
+        self.limits = limits
+        self.fall: Fall | None = None
+        self.tilt = 0.0
         self.tracking, self.tracking_at = 0.0, -1
         self.frame_errors = {f.name: 0.0 for f in frames}
         self.series: dict[str, list[float]] = {
@@ -412,12 +341,17 @@ class _Measures:
         return (np.zeros((0, 3)) if region is None else region.vertices_3d, margin)
 
     def falling(self, d: mujoco.MjData, ref: mujoco.MjData) -> bool:
-        """The root is below ``fall_ratio`` of its reference height now (then
-        :attr:`fell` stays True)."""
-        up, root = self.up, self.root
-        now = float(d.xpos[root] @ up) < self.criteria.fall_ratio * float(ref.xpos[root] @ up)
-        self.fell = self.fell or now
-        return now
+        """The robot has fallen now (:mod:`pik_mj.sim.falls`; the first fall is
+        kept in :attr:`fall`, the largest tilt in :attr:`tilt`)."""
+        root = self.root
+        tilt, drift, height, ref_height = fall_measures(
+            d.xpos[root], d.xmat[root], ref.xpos[root], ref.xmat[root], self.up
+        )
+        self.tilt = max(self.tilt, float(tilt[0]))
+        fall = first_fall(np.array([d.time]), tilt, drift, height, ref_height, self.limits)
+        if fall is not None and self.fall is None:
+            self.fall = fall
+        return fall is not None
 
     def tracked(
         self,
@@ -439,7 +373,10 @@ class _Measures:
             slip_per_geom=slip,
             foot_slip=max((v for n, v in slip.items() if n in self.feet), default=0.0),
             min_margin=self.min_margin,
-            fell=self.fell,
+            fell=self.fall is not None,
+            fall=self.fall,
+            tilt=self.tilt,
+            limits=self.limits,
             unexpected=self.unexpected,
             steps=steps,
             simulated=float(d.time) - t_start,
@@ -487,15 +424,15 @@ def track(
     A contact is unexpected unless its robot geom is in ``allowed`` (touching
     the environment anywhere), or the pair ``{robot geom, other geom}`` is in
     ``planned_pairs`` (environment or self contact), or it is a self-contact
-    and ``criteria.allow_self_contact``; the robot fell when its root height drops below
-    ``fall_ratio`` times the reference's. The CoM margin (a convex hull) and the
+    and ``criteria.allow_self_contact``; the robot fell when its trunk tilts, its
+    root drifts or sinks past the thresholds of :mod:`pik_mj.sim.falls`
+    (:meth:`HoldCriteria.fall_limits`, from the start state). The CoM margin (a convex hull) and the
     frames' errors are evaluated every ``margin_every`` steps, callbacks get a
     :class:`HoldSample` every ``every`` steps.
 
     Raises:
         SimulationUnstable: MuJoCo reported an invalid state.
     """
-    measures = _Measures(scene, criteria, allowed, planned_pairs, frames)
     wrenches = [_external_wrench(scene, *w) for w in external]
 
     def apply_wrenches(d: mujoco.MjData) -> None:
@@ -505,6 +442,8 @@ def track(
     before_step = apply_wrenches if wrenches else None
     d = scene.data
     reference.begin()
+    limits = criteria.fall_limits(scene, scene.com_height(d), scene.root_height(d))
+    measures = _Measures(scene, criteria, allowed, planned_pairs, frames, limits)
     t_start = float(d.time)
     t_wall = time.perf_counter()
     n_steps = max(1, round(duration / scene.model.opt.timestep))

@@ -20,12 +20,12 @@ from numpy.typing import ArrayLike
 from pik_mj import inputs
 from pik_mj.exceptions import UnknownName
 from pik_mj.robot import Robot, RobotSource
+from pik_mj.sim.criteria import HoldCriteria
 from pik_mj.sim.grasp import GraspLike
 from pik_mj.sim.hold import HoldReport
 from pik_mj.sim.physics import External
 from pik_mj.sim.scene import Scene
 from pik_mj.sim.static import StaticReport
-from pik_mj.sim.tracking import HoldCriteria
 
 __all__ = ["JOINT_LIMIT_TOLERANCE", "balance_report", "joint_limit_violations", "validate_pose"]
 

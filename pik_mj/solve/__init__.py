@@ -8,15 +8,20 @@ satisfied. ``revert_if_fail`` restores the initial configuration when it ends
 unsatisfied; any exception (and Ctrl-C) restores it too.
 
 The step length ``α ∈ (0, 1]`` comes from a trust region on ``‖x‖_∞``
-(:class:`TrustRegion`): a step is accepted when no level satisfied before it,
-and no hard row, ends more than ``drift`` (1e-4 in the task's units) worse
-than it was, after the correction below; otherwise it is retried shorter.
-This bounds the step of *every* task (mink's tasks and user tasks included)
-so that a lower level never moves a higher one through linearization error.
+(:class:`TrustRegion`). A step is accepted when, after the correction below,
+no task of level 0 or of a kept level (every task met, checked or not, and so
+every level above) ends worse than ``max(its error before, drift)``
+(``drift`` 1e-4 in the task's units, m or rad), and no task of the level in
+progress that was met ends worse than that or than the level's linear model
+gives it; otherwise it is retried shorter. ``check`` decides convergence
+only: a level's priority does not depend on it. This bounds the step of
+*every* task (mink's tasks and user tasks included) so that a lower level
+never moves a higher one through linearization error (docs/priority.md).
 
-The correction (``correct=True``): when a step made the satisfied levels
-drift, their rows at the new configuration are solved again alone (a Newton
-projection back onto them) within the same iteration.
+The correction (``correct=True``): when a step made the kept levels, or the
+met tasks of the level in progress, drift, their rows at the new
+configuration are solved again alone (a Newton projection back onto them)
+within the same iteration.
 
 Inputs are validated where they enter (configuration, options, every task's
 rows at the start: only their shapes for tasks whose rows are valid by

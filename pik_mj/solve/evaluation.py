@@ -89,7 +89,23 @@ def evaluate_level(
     nv: int | None = None,
 ) -> tuple[TaskRows, list[TaskReport]]:
     """The rows of level ``k`` (stacked) and a report per task at ``configuration``
-    (``nv``: the model's, if the caller has it at hand).
+    (``nv``: the model's, if the caller has it at hand); see
+    :func:`evaluate_tasks`."""
+    stacked, reports, _ = evaluate_tasks(configuration, k, level, stack, validate, nv)
+    return stacked, reports
+
+
+def evaluate_tasks(
+    configuration: mink.Configuration,
+    k: int,
+    level: list[Task],
+    stack: RowStack | None = None,
+    validate: bool = True,
+    nv: int | None = None,
+) -> tuple[TaskRows, list[TaskReport], list[TaskRows]]:
+    """The rows of level ``k`` (stacked), a report per task and each task's
+    own rows at ``configuration`` (``nv``: the model's, if the caller has it
+    at hand).
 
     One :meth:`Task.evaluate` per task: the rows of the next cascade step and
     the stop test of the one just taken come from the same evaluation. With
@@ -103,6 +119,8 @@ def evaluate_level(
     rows = []
     reports = []
     for task in level:
+        if validate:
+            task.check_model(configuration)
         try:
             state = task.evaluate(configuration)
         except (TypeError, ValueError, IndexError) as exc:
@@ -133,7 +151,7 @@ def evaluate_level(
             stack.checked_A = stacked.A
         if stacked.C is not stack.checked_C and frozen(stacked.C):
             stack.checked_C = stacked.C
-    return stacked, reports
+    return stacked, reports, rows
 
 
 def _foreign_task(task: Task, configuration: mink.Configuration, exc: Exception) -> str:
@@ -196,7 +214,7 @@ def _finite(
 
 class Point:
     """The tasks at one configuration ``q``, evaluated level by level on demand
-    (a trial step is judged on the levels satisfied before it first, and the
+    (a trial step is judged on the levels kept before it first, and the
     rest is evaluated only when it is accepted).
 
     Levels must be evaluated while ``configuration`` is at ``q`` (the loop
@@ -218,12 +236,14 @@ class Point:
         n = len(levels)
         self.rows: list[TaskRows] = [None] * n  # type: ignore[list-item]
         self.level_reports: list[list[TaskReport]] = [None] * n  # type: ignore[list-item]
+        self.task_rows: list[list[TaskRows]] = [None] * n  # type: ignore[list-item]
+        self._held: list[list[float] | None] = [None] * n
         self.done = 0
 
     def upto(self, k: int, validate: bool = False) -> Point:
         """Evaluate levels ``0..k`` (those not done yet)."""
         for j in range(self.done, min(k, len(self.levels) - 1) + 1):
-            self.rows[j], self.level_reports[j] = evaluate_level(
+            self.rows[j], self.level_reports[j], self.task_rows[j] = evaluate_tasks(
                 self.configuration, j, self.levels[j], self.stacks[j], validate, self.nv
             )
             self.counts[j] += 1
@@ -239,29 +259,41 @@ class Point:
         """The reports of every task of the levels evaluated so far."""
         return [r for level in self.level_reports[: self.done] for r in level]
 
+    def held(self, k: int) -> list[float]:
+        """The error each task of level ``k`` holds: its rows' residual at
+        ``x = 0`` over the rows it weights
+        (:meth:`~pik_mj.tasks.task.TaskRows.residual_norm`), what the step
+        rule bounds (a posture weighting a few joints holds those)."""
+        held = self._held[k]
+        if held is None:
+            held = self._held[k] = [rows.residual_norm() for rows in self.task_rows[k]]
+        return held
+
     def errors(self, k: int) -> list[float]:
-        """Error of each checked task of levels ``0..k`` (level 0: the hard rows'
-        violations); unchecked tasks carry no promise to keep. (A few floats:
-        Python lists, no numpy calls.)"""
-        return [r.error for level in self.level_reports[: k + 1] for r in level if r.checked]
+        """:meth:`held` of each task of levels ``0..k`` (level 0: the hard
+        rows' violations), checked or not: ``check`` decides convergence
+        only, every task keeps its priority."""
+        return [e for j in range(k + 1) for e in self.held(j)]
 
     def level_error(self, k: int) -> float:
-        """Norm of the errors of level ``k``'s checked tasks."""
-        return math.sqrt(sum(r.error * r.error for r in self.level_reports[k] if r.checked))
+        """Norm of the errors of level ``k``'s tasks."""
+        return math.sqrt(sum(r.error * r.error for r in self.level_reports[k]))
 
     def satisfaction(self) -> tuple[bool, int]:
-        """``(every checked task satisfied, number of leading solved levels
-        satisfied)`` over the levels evaluated so far.
+        """``(every checked task satisfied, number of leading solved levels kept)``
+        over the levels evaluated so far.
 
-        A level counts towards the prefix when it has a checked task and all its
-        checked tasks hold; level 0 (hard) does not count.
+        The first tells convergence (the stop test reads the checked tasks
+        only, level 0's included). The second tells priority: a solved level
+        is kept when every one of its tasks meets its stop test, checked or
+        not, and so are the levels above it; the step rule holds the kept
+        levels within its drift bound and corrects them (level 0, the hard
+        rows, is always held and never counted).
         """
-        everything, prefix, leading = True, 0, True
+        everything, kept, leading = True, 0, True
         for k, level in enumerate(self.level_reports[: self.done]):
-            checked = [r.satisfied for r in level if r.checked]
-            holds = all(checked)
-            everything = everything and holds
+            everything = everything and all(r.satisfied for r in level if r.checked)
             if k and leading:
-                leading = holds and bool(checked)
-                prefix += leading
-        return everything, prefix
+                leading = all(r.satisfied for r in level)
+                kept += leading
+        return everything, kept

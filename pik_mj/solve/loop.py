@@ -52,7 +52,7 @@ def solve(
         levels: ``[[level-0 tasks], [level-1 tasks], ...]``. Level 0 holds hard rows
             (e.g. ``mink.ConfigurationLimit``), assumed feasible and never solved on
             its own; each later level is one QP. Entries are pik_mj tasks,
-            ``mink.Task``s (equality rows) or ``mink.Limit``s (inequality rows).
+            ``mink.Task`` objects (equality rows) or ``mink.Limit`` objects (inequality rows).
         stop: Maximum iterations (prioritized-IK manual: ``stop``).
         min_loop: Iterations before the satisfaction test may end the loop
             (``<= stop``).
@@ -75,14 +75,17 @@ def solve(
             ``qp-solver``). Named backends keep their workspaces across solves.
         qp_args: Solver settings (``qp-args``), checked against the solver's
             list of settings.
-        correct: When a step makes the satisfied levels drift (beyond
+        correct: When a step makes the kept levels (every task met, checked
+            or not) or the met tasks of the level in progress drift (beyond
             :data:`~pik_mj.solve.trust_region.CORRECT_ABOVE` times the trust
             region's ``drift``), re-solve them alone at the new configuration
             and apply that projection (up to
             :data:`~pik_mj.solve.step.MAX_CORRECTIONS` times) within the same
             iteration.
-        trust_region: The step rule (:class:`TrustRegion`); None takes the full
-            step every iteration (the prioritized-IK manual's loop).
+        trust_region: The step rule (:class:`TrustRegion`), which keeps every
+            level's priority on every iterate within its ``drift``
+            (docs/priority.md); None takes the full step every iteration (the
+            prioritized-IK manual's loop, no bound).
         callback: One callable or a list of callables, each called in order with
             the same :class:`IterationInfo` after every iteration.
 
@@ -201,18 +204,18 @@ def _iterate(
     configuration = stepper.configuration
     # every task's rows validated once, where they enter
     here = stepper.point(configuration.q.copy()).complete(validate=True)
-    everything, prefix = here.satisfaction()
+    everything, kept = here.satisfaction()
     while record.iterations < stop:
         t0 = time.perf_counter()
         try:
-            here, step, alpha = stepper.iterate(here, prefix)
+            here, step, alpha = stepper.iterate(here, kept)
         except QPFailure as exc:
             if not revert_if_fail:
                 raise
             record.failure = str(exc)
             # the step may have moved the robot since the last evaluation
             return stepper.point(configuration.q.copy()).complete()
-        everything, prefix = here.satisfaction()
+        everything, kept = here.satisfaction()
         record.iterations += 1
         record.history.append(step.level_errors)
         record.lengths.append(alpha)
@@ -230,7 +233,7 @@ def _iterate(
                 # a callback moved the robot: check and re-linearize there
                 _check_after_callback(configuration)
                 here = stepper.point(configuration.q.copy()).complete(validate=True)
-                everything, prefix = here.satisfaction()
+                everything, kept = here.satisfaction()
                 record.converged = record.iterations >= min_loop and everything
         if record.converged:
             break

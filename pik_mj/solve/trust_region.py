@@ -15,14 +15,14 @@ from pik_mj.solve.evaluation import Point
 from pik_mj.tasks.task import TaskRows
 
 CORRECT_ABOVE = 0.9
-"""A satisfied task is corrected when its error exceeds this fraction of the
-trust region's ``drift``. Each step's QP already drives it back (its rows are
+"""A task of a kept level is corrected when its error exceeds this fraction of
+the trust region's ``drift``. Each step's QP already drives it back (its rows are
 in every step), so a drift within the bound needs no projection of its own;
 the margin below 1 keeps accepted errors within ``drift``."""
 
 UNBOUNDED_CORRECTION = 1e-5
-"""Without a trust region: the error [task units] above which a satisfied task
-is corrected."""
+"""Without a trust region: the error [task units] above which a kept task is
+corrected."""
 
 
 @dataclass(frozen=True)
@@ -30,18 +30,23 @@ class TrustRegion:
     """The step rule: a trust region on ``‖Δq‖_∞`` with an acceptance test.
 
     Each iteration takes ``α x`` with ``α = min(1, radius / ‖x‖_∞)``. If the
-    levels satisfied before the step drifted, the correction (``correct``)
-    projects back onto them, up to
-    :data:`~pik_mj.solve.step.MAX_CORRECTIONS` times, until each of their
-    checked tasks is within :data:`CORRECT_ABOVE` ``· drift``. The
-    step is accepted when every checked task of those levels and of level 0
-    (the hard rows, whose linearization a long step can overshoot) has an
-    error of at most ``max(its error before, drift)``: a lower level never moves a higher one
-    by more than ``drift`` through linearization error. A rejected step is
-    retried ``shrink`` times as long (at most ``retries`` times; then the
-    iteration keeps its configuration).
+    kept levels (the leading solved levels whose tasks all meet their stop
+    test, checked or not: ``check`` decides convergence only) drifted, or the
+    tasks of the level in progress that met theirs moved beyond what the
+    level's linear model gives them, the correction (``correct``) projects
+    back onto them, up to :data:`~pik_mj.solve.step.MAX_CORRECTIONS` times,
+    until each is within :data:`CORRECT_ABOVE` ``· drift`` (or that model's
+    residual). The step is accepted when every task of level 0 (the hard
+    rows, whose linearization a long step can overshoot) and of the kept
+    levels has an error of at most ``max(its error before, drift)``, and every
+    met task of the level in progress at most ``max(its error before, drift,
+    r)``, ``r`` its rows' residual after the step (:func:`met_tasks`): a
+    lower level never moves a higher one by more than ``drift`` through
+    linearization error (docs/priority.md). A rejected step is retried
+    ``shrink`` times as long (at most ``retries`` times; then the iteration
+    keeps its configuration).
 
-    The radius then adapts to the first unsatisfied level's error norm ``e``,
+    The radius then adapts to the error norm ``e`` of the level in progress,
     with ``ρ`` its decrease over the decrease its rows predicted: ``ρ > 3/4``
     lets it grow to ``2 α ‖x‖_∞`` (up to ``max_radius``); ``ρ < 1/4`` shrinks
     it to ``shrink · α ‖x‖_∞`` (not below ``min_radius``), but only when the
@@ -54,7 +59,7 @@ class TrustRegion:
         max_radius: Largest radius [rad or m].
         min_radius: Smallest radius kept for the next iterations [rad or m]
             (a rejected step is retried shorter than it, within its iteration).
-        drift: Error a satisfied task may reach [its units: m, rad, ...].
+        drift: Error a kept task may reach [its units: m, rad, ...].
         shrink: Factor of a rejected or poorly predicted step's length.
         retries: Rejections per iteration before it gives up.
     """
@@ -95,9 +100,9 @@ class StepRule:
     Attributes:
         region: The options, or None.
         radius: Current radius [rad or m] (``inf`` without a trust region).
-        drift: Error a satisfied task may reach [its units] (``inf`` without).
+        drift: Error a kept task may reach [its units] (``inf`` without).
         retries: Rejections per iteration before it gives up.
-        fix_above: Error above which a satisfied task is corrected
+        fix_above: Error above which a kept task is corrected
             (:data:`CORRECT_ABOVE` ``· drift``, or :data:`UNBOUNDED_CORRECTION`).
     """
 
@@ -106,7 +111,7 @@ class StepRule:
         self.radius = region.radius if region is not None else math.inf
         self.drift = region.drift if region is not None else math.inf
         self.retries = region.retries if region is not None else 0
-        # corrections bring satisfied levels back within the drift bound, with a margin
+        # corrections bring kept levels back within the drift bound, with a margin
         self.fix_above = CORRECT_ABOVE * self.drift if region is not None else UNBOUNDED_CORRECTION
 
     def length(self, size: float) -> float:
@@ -117,7 +122,7 @@ class StepRule:
         self,
         here: Point,
         there: Point,
-        prefix: int,
+        kept: int,
         step: np.ndarray,
         size: float,
         alpha: float,
@@ -128,8 +133,9 @@ class StepRule:
 
         Args:
             here: The point the step starts from.
-            there: The trial point, its levels ``0..prefix`` evaluated.
-            prefix: Number of leading solved levels satisfied at ``here``.
+            there: The trial point, its levels ``0..kept`` evaluated.
+            kept: Number of leading solved levels kept at ``here``
+                (:meth:`~pik_mj.solve.evaluation.Point.satisfaction`).
             step: The cascade's step ``x``.
             size: ``‖x‖_∞``.
             alpha: Its length ``α``.
@@ -138,11 +144,13 @@ class StepRule:
         region = self.region
         if region is None:
             return True
-        before, after = here.errors(prefix), there.errors(prefix)
+        before, after = here.errors(kept), there.errors(kept)
         if not _kept(before, after, self.drift):
             return False
+        progress_level = kept + 1 if kept < len(here.levels) - 1 else 0
+        if progress_level and not self.holds_met_tasks(here, there, progress_level, alpha * step):
+            return False
         ratio = 1.0
-        progress_level = prefix + 1 if prefix < len(here.levels) - 1 else 0
         # levels above improved (the correction repaired them): a lexicographic
         # gain whatever it cost the progress level
         repaired = _sq(after) < _sq(before) - self.fix_above**2
@@ -154,6 +162,22 @@ class StepRule:
             self.radius = min(region.max_radius, max(self.radius, 2.0 * alpha * size))
         return True
 
+    def holds_met_tasks(self, here: Point, there: Point, k: int, step: np.ndarray) -> bool:
+        """Whether the tasks of level ``k`` (the level in progress) that met
+        their stop test at ``here`` end no worse than before, than ``drift``,
+        or than the level's linear model gives them (:func:`met_tasks`):
+        ``e(there) <= max(e(here), drift, r(step))``. A task sharing its level
+        with an unmet one (feet beside a CoM target) keeps its pose through
+        linearization error as a level above would, and still yields what the
+        level's least squares trades off."""
+        met = met_tasks(here, k, step)
+        if met:
+            held = there.upto(k).held(k)
+            for i, before, predicted in met:
+                if held[i] > max(before, self.drift, predicted):
+                    return False
+        return True
+
     def retry(self, alpha: float, size: float) -> float:
         """The length of a rejected step's retry, ``shrink`` times ``alpha``;
         the radius follows it (not below ``min_radius``)."""
@@ -163,12 +187,30 @@ class StepRule:
         return alpha
 
 
+def met_tasks(here: Point, k: int, step: np.ndarray) -> list[tuple[int, float, float]]:
+    """The tasks of level ``k`` meeting their stop test at ``here``, as
+    ``(index in the level, error held at here, r(step))``
+    (:meth:`~pik_mj.solve.evaluation.Point.held`) with ``r`` the residual the
+    task's rows leave after ``step``
+    (:meth:`~pik_mj.tasks.task.TaskRows.residual_norm`): what the level's
+    linear model gives it (about zero when the level's tasks agree; more when
+    its least squares trades the task off against the others)."""
+    if not k:
+        return []
+    rows, held = here.task_rows[k], here.held(k)
+    return [
+        (i, held[i], rows[i].residual_norm(step))
+        for i, r in enumerate(here.level_reports[k])
+        if r.satisfied
+    ]
+
+
 def _ratio(here: Point, there: Point, k: int, step: np.ndarray, corrected: bool) -> float:
     """``ρ``: the decrease of level ``k``'s error norm from ``here`` to ``there``
     over the decrease its rows predicted for ``step`` (1: no verdict).
 
     Judged only when the step needed a correction or made the error grow: then
-    a poor ratio means a step too long for the curvature of the satisfied
+    a poor ratio means a step too long for the curvature of the kept
     levels (the correction undid the gain). Otherwise the task's own model
     decides (a callable target's motion is not in its Jacobian; an error that
     did not change is a saturated clamp).
@@ -186,17 +228,9 @@ def _ratio(here: Point, there: Point, k: int, step: np.ndarray, corrected: bool)
 
 def predicted_decrease(rows: TaskRows, x: np.ndarray) -> float:
     """What the rows' linear model predicts a step ``x`` takes off the level's
-    unweighted error norm, its clamp included: ``‖r(0)‖ − ‖r(x)‖`` with
-    ``r(x) = [A x − b; dist(C x, [d_l, d_u])]``."""
-    b = rows.b
-    r_eq = rows.A @ x - b
-    now, then = float(b @ b), float(r_eq @ r_eq)
-    if rows.n_in:
-        viol = rows.bound_distance()
-        now += float(viol @ viol)
-        viol = rows.bound_distance(rows.C @ x)
-        then += float(viol @ viol)
-    return math.sqrt(now) - math.sqrt(then)
+    unweighted error norm, its clamp included: ``‖r(0)‖ − ‖r(x)‖``
+    (:meth:`~pik_mj.tasks.task.TaskRows.residual_norm`)."""
+    return rows.residual_norm() - rows.residual_norm(x)
 
 
 def _sq(errors: list[float]) -> float:
@@ -205,5 +239,5 @@ def _sq(errors: list[float]) -> float:
 
 
 def _kept(before: list[float], after: list[float], drift: float) -> bool:
-    """Every task of the satisfied levels within ``max(its error before, drift)``."""
+    """Every task of the kept levels within ``max(its error before, drift)``."""
     return all(a <= max(b, drift) for a, b in zip(after, before, strict=True))

@@ -5,7 +5,8 @@
     pik-mj sweep OUT [--grid NAME=A:B:N|V1,V2,... ...] [--random N [--range NAME=LO:HI ...]]
                      [--robot NAME ...] [--stack balanced|unbalanced ...] [--seed S]
                      [--hold SECONDS] [--hand LIMB] [--workers N] [--num-cpus N]
-                     [--address ADDR] [--resume] [--batch-size N] [--png FILE] [--rrd FILE]
+                     [--address ADDR] [--connect-timeout SECONDS] [--resume [--repair]]
+                     [--batch-size N] [--png FILE] [--rrd FILE]
                      [--across x|y|z] [--no-views] [--quiet]
 
 Without ``--grid`` or ``--random`` it runs 100 random right-hand targets in the
@@ -19,11 +20,15 @@ unless ``--png``/``--rrd`` say otherwise or ``--no-views``. Also run as
 Every option is checked before any work starts (:mod:`pik_mj.inputs`; a bad one
 is a usage error, exit 2, and nothing is written): numbers in range, grid and
 range specifications, parameter names, each robot built with its hand and feet,
-the sweep directory (new, or holding the same sweep with ``--resume``), the
-picture and recording files writable, the workers within ``--num-cpus``.
+the sweep directory (new, or holding the same sweep with ``--resume``, written
+by no other process, its part files readable unless ``--repair``), the picture
+and recording files writable, the workers within ``--num-cpus``, a Ray cluster
+answering at ``--address`` within ``--connect-timeout``.
 
 Exit status: 0 when every case ran (whatever its verdict), 1 when a case
-raised, 2 for bad usage.
+raised or an output could not be written (a full disk: the file named, the rows
+written before kept), 2 for bad usage (also: another process writing OUT, its
+pid and host named; no cluster at ``--address``).
 """
 
 from __future__ import annotations
@@ -38,7 +43,9 @@ from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput
 from pik_mj.scenario.arguments import argument_type, as_integer, count, positive
 from pik_mj.scenario.exit_status import EXIT_FAILED, EXIT_PASSED, guarded
+from pik_mj.sweep import cluster
 from pik_mj.sweep.case import PARAMETERS, REQUIRED, STACKS, standing_robot
+from pik_mj.sweep.cluster import DEFAULT_CONNECT_TIMEOUT
 from pik_mj.sweep.dataset import Dataset
 from pik_mj.sweep.driver import run_sweep
 from pik_mj.sweep.spec import Grid, Sweep, Uniform
@@ -84,7 +91,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=count, help="worker processes (default: the cluster's CPUs)")
     p.add_argument("--num-cpus", type=count, help="CPUs of the local Ray instance")
     p.add_argument("--address", help="Ray cluster to join (default: a local instance)")
+    p.add_argument(
+        "--connect-timeout",
+        type=positive,
+        default=DEFAULT_CONNECT_TIMEOUT,
+        metavar="SECONDS",
+        help="longest wait for the cluster at --address to answer "
+        f"(default {DEFAULT_CONNECT_TIMEOUT:g})",
+    )
     p.add_argument("--resume", action="store_true", help="finish the sweep stored in OUT")
+    p.add_argument(
+        "--repair",
+        action="store_true",
+        help="with --resume: move part files that cannot be read to OUT/corrupt/ and run "
+        "their cases again",
+    )
     p.add_argument("--batch-size", type=count, default=8, help="cases per batch file (at most)")
     p.add_argument("--png", help="map picture (default OUT/map.png)")
     p.add_argument("--rrd", help="rerun recording of the map (default OUT/map.rrd)")
@@ -165,9 +186,9 @@ def check(args: argparse.Namespace) -> Sweep:
         InvalidInput, UnknownName: What is wrong, and what is valid.
     """
     given = sweep_from_args(args)
-    sweep = Dataset.check(args.out, given, resume=args.resume)
-    for robot in sweep.robots:
-        standing_robot(robot, sweep.hand)
+    if args.repair and not args.resume:
+        raise InvalidInput("--repair goes with --resume (it mends a stored sweep)")
+    sweep = Dataset.check(args.out, given, resume=args.resume, repair=args.repair)
     if not args.no_views:
         for option, value in (("--png", args.png), ("--rrd", args.rrd)):
             if value is not None:
@@ -178,6 +199,10 @@ def check(args: argparse.Namespace) -> Sweep:
         raise InvalidInput(
             f"--workers {args.workers} but --num-cpus {args.num_cpus}: each worker takes a CPU"
         )
+    if args.address is not None:
+        cluster.probe(args.address, args.connect_timeout)
+    for robot in sweep.robots:  # the slowest check last
+        standing_robot(robot, sweep.hand)
     return sweep
 
 
@@ -191,8 +216,10 @@ def run(args: argparse.Namespace) -> int:
         address=args.address,
         num_cpus=args.num_cpus,
         resume=args.resume,
+        repair=args.repair,
         batch_size=args.batch_size,
         progress=not args.quiet,
+        connect_timeout=args.connect_timeout,
     )
     print(report.summary())
     if not args.no_views and len(report.table):

@@ -5,6 +5,18 @@ Layout of a sweep directory::
     sweep.json                            the sweep definition (Sweep.to_dict)
     runs.jsonl                            one line per run: workers, cases, wall time
     rows/part-<first case>-<id>.parquet   one file per finished batch of cases
+    .lock                                 held by the one process writing (pid, host)
+    corrupt/                              part files set aside by a repair
+
+One process writes a sweep directory at a time: :meth:`Dataset.open` takes
+``.lock`` (:class:`pik_mj.outputs.WriterLock`; released when the writer closes
+it or its process ends, also when killed) and a second writer is refused with
+the holder's pid and host. Rows are keyed by ``case``: reading keeps one row per
+case (a row of a case that ran, over one that raised; else the first part's), so
+a case that somehow has two rows is never counted twice. A part file that cannot
+be read (a truncated or foreign file) is named, and a repair moves it to
+``corrupt/`` so that its cases run again. A failed start (an unknown robot, a
+full disk) removes what it created.
 
 ``rows/`` is the Parquet dataset (``pyarrow.dataset.dataset(OUT / "rows")``,
 pandas, polars, DuckDB read it). A batch file is written under a hidden name
@@ -22,20 +34,25 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import uuid
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pyarrow as pa
 
-from pik_mj.exceptions import InvalidInput
+from pik_mj.exceptions import InvalidInput, OutputError
+from pik_mj.outputs import WriterLock, write_atomic
 from pik_mj.sweep.spec import Case, Sweep
 
 SWEEP_FILE = "sweep.json"
 RUNS_FILE = "runs.jsonl"
 ROWS_DIR = "rows"
 PART_GLOB = "part-*.parquet"
+LOCK_FILE = ".lock"
+CORRUPT_DIR = "corrupt"
 
 _F64, _LIST_F64, _LIST_STR = pa.float64(), pa.list_(pa.float64()), pa.list_(pa.string())
 
@@ -137,6 +154,10 @@ class Dataset:
     Args:
         path: The directory.
         sweep: The sweep it holds.
+
+    Attributes:
+        lock: The writer's lock when opened by :meth:`open` (None: read only).
+        created: What :meth:`open` made (removed by :meth:`discard`).
     """
 
     def __init__(self, path: str | os.PathLike[str], sweep: Sweep):
@@ -144,10 +165,17 @@ class Dataset:
         self.rows = self.path / ROWS_DIR
         self.sweep = sweep
         self.schema = schema(sweep.parameters)
+        self.lock: WriterLock | None = None
+        self.created: list[Path] = []
 
     @classmethod
     def check(
-        cls, path: str | os.PathLike[str], sweep: Sweep | None = None, *, resume: bool = False
+        cls,
+        path: str | os.PathLike[str],
+        sweep: Sweep | None = None,
+        *,
+        resume: bool = False,
+        repair: bool = False,
     ) -> Sweep:
         """The sweep :meth:`open` would open in ``path``, checked without writing.
 
@@ -155,9 +183,21 @@ class Dataset:
             InvalidInput: ``path`` holds a sweep and ``resume`` is False; it holds
                 another sweep than ``sweep``; ``resume`` without a sweep there and
                 none given; ``path`` is a file, a non-empty directory holding no
-                sweep, or below a file.
+                sweep, or below a file; a part file cannot be read (unless
+                ``repair``: it will be set aside).
+            WriterBusy: Another process is writing the sweep (its pid and host named).
         """
         p = Path(path)
+        if (p / LOCK_FILE).is_file():  # try the lock, and let go at once
+            WriterLock(p / LOCK_FILE, "sweep directory", path=p, records_holder=True).release()
+        checked = cls._check(p, sweep, resume)
+        if not repair and cls.stored_sweep(p) is not None:
+            cls(p, checked).corrupt_parts(raise_them=True)
+        return checked
+
+    @classmethod
+    def _check(cls, p: Path, sweep: Sweep | None, resume: bool) -> Sweep:
+        """:meth:`check` of the sweep and the directory (no lock, no part read)."""
         stored = cls.stored_sweep(p)
         if stored is not None:
             if not resume:
@@ -173,7 +213,7 @@ class Dataset:
             return stored
         if sweep is None:
             raise InvalidInput(f"{str(p)!r} holds no sweep to resume ({SWEEP_FILE} is missing)")
-        if p.exists() and (not p.is_dir() or any(p.iterdir())):
+        if p.exists() and (not p.is_dir() or any(f.name != LOCK_FILE for f in p.iterdir())):
             raise InvalidInput(f"{str(p)!r} exists and is not an empty directory")
         parent = p.absolute().parent
         while not parent.exists():
@@ -186,25 +226,68 @@ class Dataset:
 
     @classmethod
     def open(
-        cls, path: str | os.PathLike[str], sweep: Sweep | None = None, *, resume: bool = False
+        cls,
+        path: str | os.PathLike[str],
+        sweep: Sweep | None = None,
+        *,
+        resume: bool = False,
+        repair: bool = False,
     ) -> Dataset:
-        """Create the directory for ``sweep``, or (``resume``) reopen it.
+        """Create the directory for ``sweep``, or (``resume``) reopen it, locked for
+        this writer until :meth:`close`. With ``repair``, part files that cannot be
+        read are moved to ``corrupt/`` (their cases have no row: they run again).
 
         Raises:
-            InvalidInput: As :meth:`check`.
+            InvalidInput: As :meth:`check`; the directory cannot be made.
+            WriterBusy: Another process is writing the sweep.
+            OutputError: The sweep file cannot be written (a full disk).
+            Nothing this call made is left behind when it raises.
         """
         p = Path(path)
-        checked = cls.check(p, sweep, resume=resume)
-        if cls.stored_sweep(p) is not None:
-            for tmp in (p / ROWS_DIR).glob(".tmp-*"):  # a batch cut short by a kill
-                tmp.unlink()
-            return cls(p, checked)
+        checked = cls.check(p, sweep, resume=resume, repair=True)
+        made = _missing_dirs(p)
         try:
-            (p / ROWS_DIR).mkdir(parents=True, exist_ok=True)
+            for d in made:
+                d.mkdir()
         except OSError as exc:
+            _remove(made)
             raise InvalidInput(f"{str(p)!r} cannot be made: {exc.strerror or exc}") from None
-        _write_atomic(p / SWEEP_FILE, json.dumps(checked.to_dict(), indent=2).encode())
-        return cls(p, checked)
+        new_lock = not (p / LOCK_FILE).exists()
+        try:
+            lock = WriterLock(p / LOCK_FILE, "sweep directory", path=p, records_holder=True)
+        except BaseException:
+            _remove(made)
+            raise
+        data = cls(p, checked)
+        data.lock = lock
+        data.created = [*made, *([p / LOCK_FILE] if new_lock else [])]
+        try:
+            data.sweep = cls._check(p, sweep, resume)  # again, holding the lock
+            if cls.stored_sweep(p) is None:
+                data.created += [data.rows, p / SWEEP_FILE]
+                data.rows.mkdir(exist_ok=True)
+                write_atomic(p / SWEEP_FILE, json.dumps(data.sweep.to_dict(), indent=2), "sweep")
+            else:
+                for tmp in data.rows.glob(".tmp-*"):  # a batch cut short by a kill
+                    tmp.unlink()
+                data.set_aside(data.corrupt_parts(raise_them=not repair))
+        except BaseException:
+            data.discard()
+            raise
+        return data
+
+    def close(self) -> None:
+        """Release the writer's lock (idempotent)."""
+        if self.lock is not None:
+            self.lock.release()
+
+    def discard(self) -> None:
+        """Undo a start that wrote no row: remove what :meth:`open` made (the
+        sweep file, the empty ``rows/``, the lock, new directories), then release
+        the lock. A sweep holding rows is kept (it can be resumed)."""
+        if not self.parts():
+            _remove(self.created)
+        self.close()
 
     @staticmethod
     def stored_sweep(path: str | os.PathLike[str]) -> Sweep | None:
@@ -221,37 +304,94 @@ class Dataset:
         return sorted(self.rows.glob(PART_GLOB))
 
     def write(self, rows: Sequence[Mapping[str, Any]]) -> Path:
-        """Write ``rows`` as one batch file (atomically); returns its path."""
+        """Write ``rows`` as one batch file (atomically); returns its path.
+
+        Raises:
+            OutputError: The file cannot be written (a full disk): nothing of it
+                is left, the rows written before are kept.
+        """
         import pyarrow.parquet as pq  # Parquet's modules load with a sweep, not with pik-mj
 
         table = pa.Table.from_pylist(list(rows), schema=self.schema)
-        first = min(r["case"] for r in rows)
-        final = self.rows / f"part-{first:08d}-{uuid.uuid4().hex[:8]}.parquet"
-        tmp = self.rows / f".tmp-{final.name}"
-        pq.write_table(table, tmp)
-        with open(tmp, "rb+") as f:
-            os.fsync(f.fileno())
-        os.replace(tmp, final)
-        return final
+        cases = sorted(r["case"] for r in rows)
+        final = self.rows / f"part-{cases[0]:08d}-{uuid.uuid4().hex[:8]}.parquet"
+        buffer = pa.BufferOutputStream()
+        pq.write_table(table, buffer)
+        try:
+            return write_atomic(final, buffer.getvalue().to_pybytes(), f"the rows of cases {cases}")
+        except OutputError as exc:
+            raise OutputError(
+                f"sweep {str(self.path)!r}: {exc} (the rows written before are kept: free "
+                "space, then --resume)"
+            ) from None
+
+    def _read_parts(self) -> tuple[list[pa.Table], list[tuple[Path, str]]]:
+        """The tables of the readable part files, and the others with the reason."""
+        import pyarrow.parquet as pq  # as in write
+
+        tables, bad = [], []
+        for part in self.parts():
+            try:
+                tables.append(pq.read_table(part, schema=self.schema))
+            except (pa.ArrowException, OSError) as exc:
+                bad.append((part, f"{type(exc).__name__}: {str(exc).splitlines()[0]}"))
+        return tables, bad
+
+    def corrupt_parts(self, *, raise_them: bool = False) -> list[Path]:
+        """The part files that cannot be read (truncated, not Parquet, another schema).
+
+        Raises:
+            InvalidInput: With ``raise_them``, when there is one: each named with
+                its reason, and the repair that sets them aside.
+        """
+        _, bad = self._read_parts()
+        if bad and raise_them:
+            listed = "; ".join(f"{p.name}: {why}" for p, why in bad)
+            raise InvalidInput(
+                f"sweep {str(self.path)!r} has {len(bad)} part file(s) that cannot be read "
+                f"({listed}). Resume with --repair (run_sweep(..., repair=True)) to move them "
+                f"to {CORRUPT_DIR}/ and run their cases again"
+            )
+        return [p for p, _ in bad]
+
+    def set_aside(self, parts: Sequence[Path]) -> None:
+        """Move ``parts`` to ``corrupt/`` (kept for a look; no longer read)."""
+        if parts:
+            (self.path / CORRUPT_DIR).mkdir(exist_ok=True)
+        for part in parts:
+            shutil.move(part, self.path / CORRUPT_DIR / part.name)
 
     def table(self) -> pa.Table:
-        """Every row written so far, sorted by case."""
-        import pyarrow.dataset as pads  # as pyarrow.parquet in write
+        """Every row written so far, one per case (module docstring), sorted by case.
 
-        parts = self.parts()
-        if not parts:
+        Raises:
+            InvalidInput: A part file cannot be read (named, with the repair).
+        """
+        tables, bad = self._read_parts()
+        if bad:
+            self.corrupt_parts(raise_them=True)
+        if not tables:
             return self.schema.empty_table()
-        data = pads.dataset([str(p) for p in parts], schema=self.schema, format="parquet")
-        return data.to_table().sort_by("case")
+        return one_row_per_case(pa.concat_tables(tables)).sort_by("case")
 
     def done(self) -> set[int]:
         """Indices of the cases with a row."""
         return set(self.table().column("case").to_pylist())
 
     def log_run(self, info: Mapping[str, Any]) -> None:
-        """Append one run's figures to ``_runs.jsonl``."""
-        with open(self.path / RUNS_FILE, "a") as f:
-            f.write(json.dumps(dict(info)) + "\n")
+        """Append one run's figures to ``runs.jsonl``.
+
+        Raises:
+            OutputError: It cannot be written (a full disk); the rows are kept.
+        """
+        try:
+            with open(self.path / RUNS_FILE, "a") as f:
+                f.write(json.dumps(dict(info)) + "\n")
+        except OSError as exc:
+            raise OutputError(
+                f"sweep {str(self.path)!r}: the run's figures could not be added to "
+                f"{RUNS_FILE}: {exc.strerror or exc}; the rows are kept"
+            ) from None
 
     def runs(self) -> list[dict[str, Any]]:
         """The figures of every run logged so far."""
@@ -261,18 +401,43 @@ class Dataset:
         return [json.loads(line) for line in f.read_text().splitlines() if line.strip()]
 
 
+def one_row_per_case(table: pa.Table) -> pa.Table:
+    """``table`` with one row per ``case``: of several, a row of a case that ran
+    over one that raised, else the first (in the order of ``table``)."""
+    cases = table.column("case").to_numpy()
+    if len(np.unique(cases)) == len(cases):
+        return table
+    raised = np.asarray(table.column("verdict").to_pylist()) == "error"
+    order = np.lexsort((np.arange(len(cases)), raised, cases))
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = cases[order][1:] != cases[order][:-1]
+    return table.take(pa.array(order[first]))
+
+
+def _missing_dirs(p: Path) -> list[Path]:
+    """The directories to make for ``p`` (itself included), outermost first."""
+    made = []
+    while not p.exists():
+        made.append(p)
+        p = p.parent
+    return made[::-1]
+
+
+def _remove(paths: Sequence[Path]) -> None:
+    """Remove ``paths`` (files, and directories left empty), innermost last made first."""
+    for f in reversed(paths):
+        if f.is_file():
+            f.unlink()
+        elif f.is_dir() and not any(f.iterdir()):
+            f.rmdir()
+
+
 def read_rows(path: str | os.PathLike[str]) -> pa.Table:
     """Every row of the sweep directory ``path``, sorted by case."""
     sweep = Dataset.stored_sweep(path)
     if sweep is None:
         raise InvalidInput(f"{str(path)!r} holds no sweep ({SWEEP_FILE} is missing)")
     return Dataset(path, sweep).table()
-
-
-def _write_atomic(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".tmp-{path.name}")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
 
 
 def comparable(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:

@@ -3,7 +3,9 @@
 With no address, :func:`run_sweep` starts a local Ray instance on this machine's
 cores (``ray.init(address="local")``: never someone else's running instance) and
 shuts it down when the sweep ends, also on an error or Ctrl-C; with ``address``
-it joins that cluster (whose nodes must have pik_mj installed). If the calling
+it joins that cluster (whose nodes must have pik_mj installed), giving up with
+an error naming the address when it does not answer within ``connect_timeout``
+(:mod:`pik_mj.sweep.cluster`). If the calling
 process already has Ray initialised, the sweep uses it and leaves it running.
 
 Each actor (one CPU) builds a :class:`pik_mj.sweep.case.Worker` per robot of
@@ -23,7 +25,6 @@ and is replaced by a new actor.
 from __future__ import annotations
 
 import importlib.util
-import logging
 import math
 import os
 import socket
@@ -40,12 +41,11 @@ import pyarrow as pa
 
 from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.sweep import cluster
 from pik_mj.sweep.case import Worker
 from pik_mj.sweep.dataset import Dataset, make_row
 from pik_mj.sweep.spec import Case, Sweep
 from pik_mj.sweep.views import summary_table
-
-OBJECT_STORE_BYTES = 128 * 2**20  # a local instance's object store: rows are small
 
 
 class SweepActor:
@@ -137,28 +137,6 @@ class SweepReport:
         return head + "\n" + summary_table(self.table)
 
 
-def _init_ray(address: str | None, num_cpus: int | None) -> bool:
-    """Start or join Ray unless this process already has it; True if we did."""
-    import ray
-
-    if ray.is_initialized():
-        if address is not None or num_cpus is not None:
-            raise InvalidInput(
-                "Ray is already initialised in this process: address and num_cpus "
-                "cannot apply (call ray.shutdown() first, or leave them out)"
-            )
-        return False
-    quiet = {"include_dashboard": False, "log_to_driver": False, "logging_level": logging.ERROR}
-    if address is None:
-        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")  # no network from a local run
-        ray.init(
-            address="local", num_cpus=num_cpus, object_store_memory=OBJECT_STORE_BYTES, **quiet
-        )
-    else:
-        ray.init(address=address, **quiet)
-    return True
-
-
 def run_sweep(
     sweep: Sweep | None,
     out: str | os.PathLike[str],
@@ -167,11 +145,17 @@ def run_sweep(
     address: str | None = None,
     num_cpus: int | None = None,
     resume: bool = False,
+    repair: bool = False,
     batch_size: int = 8,
     worker_class: type = Worker,
     progress: bool | Callable[[str], None] = True,
+    connect_timeout: float = cluster.DEFAULT_CONNECT_TIMEOUT,
 ) -> SweepReport:
     """Run ``sweep`` into the Parquet dataset directory ``out`` on Ray.
+
+    One process writes ``out`` at a time (:class:`pik_mj.sweep.dataset.Dataset`'s
+    lock, held until the call returns); a start that fails before any row is
+    written leaves nothing of what it created.
 
     Args:
         sweep: The sweep; None with ``resume`` runs the one stored in ``out``.
@@ -179,21 +163,54 @@ def run_sweep(
         workers: Worker processes (Ray actors of one CPU each); default: every
             CPU of the Ray cluster.
         address: Ray cluster to join (e.g. ``"ray://head:10001"`` or
-            ``"head:6379"``); None starts a local instance.
+            ``"head:6379"``, :mod:`pik_mj.sweep.cluster`); None starts a local
+            instance.
         num_cpus: CPUs of the local instance (default: Ray's count of this
             machine's cores).
         resume: Run only the cases of ``out`` without a row.
+        repair: With ``resume``, move part files that cannot be read to
+            ``out/corrupt/`` and run their cases again (without it they are an error).
         batch_size: Cases per batch (per task and per file) at most.
         worker_class: The per-robot worker (see :class:`SweepActor`).
         progress: Print progress lines on stderr (or pass them to this callable).
+        connect_timeout: Longest wait [s] for the cluster at ``address`` to answer.
 
     Returns:
         A :class:`SweepReport`.
 
     Raises:
-        InvalidInput: Bad arguments, ``out`` holding another sweep, or more
-            workers than the cluster has CPUs.
+        InvalidInput: Bad arguments, ``out`` holding another sweep or unreadable
+            part files, more workers than the cluster has CPUs, a cluster that
+            does not answer at ``address`` within ``connect_timeout``.
+        WriterBusy: Another process is writing ``out`` (its pid and host named).
+        OutputError: A batch file cannot be written (a full disk); the rows
+            written before are kept.
     """
+    batch_size, workers, num_cpus = _check_arguments(
+        sweep, batch_size, workers, num_cpus, address, connect_timeout
+    )
+    data = Dataset.open(out, sweep, resume=resume, repair=repair)
+    try:
+        return _run(
+            data, workers, address, num_cpus, batch_size, worker_class, progress, connect_timeout
+        )
+    except BaseException:
+        data.discard()  # a start that wrote no row leaves nothing behind
+        raise
+    finally:
+        data.close()
+
+
+def _check_arguments(
+    sweep: Sweep | None,
+    batch_size: int,
+    workers: int | None,
+    num_cpus: int | None,
+    address: str | None,
+    connect_timeout: float,
+) -> tuple[int, int | None, int | None]:
+    """:func:`run_sweep`'s arguments, checked before anything is written (a Ray
+    address probed); ``(batch_size, workers, num_cpus)`` as ints."""
     if sweep is not None and not isinstance(sweep, Sweep):
         raise InvalidInput(f"sweep must be a pik_mj.sweep.Sweep or None, got {sweep!r}")
     batch_size = inputs.integer(batch_size, "batch_size", low=1)
@@ -205,11 +222,30 @@ def run_sweep(
         num_cpus = inputs.integer(num_cpus, "num_cpus", low=1)
         if workers is not None and workers > num_cpus:
             raise InvalidInput(f"workers={workers} but num_cpus={num_cpus}: each worker takes one")
-    if address is not None and (not isinstance(address, str) or not address):
-        raise InvalidInput(f"address must be a Ray address such as 'head:6379', got {address!r}")
+    if address is not None:
+        if not isinstance(address, str) or not address:
+            raise InvalidInput(
+                f"address must be a Ray address such as 'head:6379', got {address!r}"
+            )
+    inputs.real(connect_timeout, "connect_timeout", unit="s", low=0.0, low_open=True)
+    if address is not None:
+        cluster.probe(address, connect_timeout)
     if importlib.util.find_spec("ray") is None:
         raise PikError("sweeps run on Ray, which is not installed: pip install 'pik_mj[sweep]'")
-    data = Dataset.open(out, sweep, resume=resume)
+    return batch_size, workers, num_cpus
+
+
+def _run(
+    data: Dataset,
+    workers: int | None,
+    address: str | None,
+    num_cpus: int | None,
+    batch_size: int,
+    worker_class: type,
+    progress: bool | Callable[[str], None],
+    connect_timeout: float,
+) -> SweepReport:
+    """The body of :func:`run_sweep` once ``data`` is open (and locked)."""
     sweep = data.sweep
     done = data.done()
     todo = deque(c for c in sweep.cases() if c.index not in done)
@@ -219,7 +255,7 @@ def run_sweep(
         import ray
 
         t0 = time.perf_counter()
-        started = _init_ray(address, num_cpus)
+        started = cluster.start(address, num_cpus, connect_timeout)
         actors = []
         try:
             cpus = int(ray.cluster_resources().get("CPU", 0))

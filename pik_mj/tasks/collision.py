@@ -31,7 +31,8 @@ Where the task stands in the priority list decides what wins: above the
 hand's target it avoids even against the target (irteus' orange zone);
 below it, avoidance uses only what the target leaves free (irteus' null
 space term). Pair lists are built like irteus'
-``collision-avoidance-link-pair-from-link-list``: see :func:`collision_pairs`.
+``collision-avoidance-link-pair-from-link-list`` from the pairs MuJoCo collides:
+see :mod:`pik_mj.tasks.collision_pairs`.
 
 A pair already closer than ``d_o`` when the task is made (standing, Unitree
 H1's torso and right shoulder link are 3.5 mm apart, G1's elbow and wrist pitch
@@ -56,164 +57,36 @@ import mink
 import mujoco
 import numpy as np
 
-from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.frames import names_of
-from pik_mj.tasks.joint_limit import find_joint
+from pik_mj.exceptions import InvalidInput
+from pik_mj.tasks.collision_pairs import (
+    GeomPair,
+    collision_pairs,
+    find_geom,
+    moving_pairs,
+)
 from pik_mj.tasks.task import Task, TaskRows, TaskState
+
+__all__ = [
+    "DEFAULT_CHECK_MARGIN",
+    "DEFAULT_YELLOW",
+    "CollisionAvoidanceTask",
+    "GeomPair",
+    "PairDistance",
+    "collision_pairs",
+    "moving_pairs",
+    "pair_distance",
+]
 
 DEFAULT_YELLOW = 0.2
 """``avoid-collision-distance`` [m] (irteus manual; 200 mm)."""
 
-
-class GeomPair(NamedTuple):
-    """Two geoms whose distance is watched (ids and names)."""
-
-    geom1: int
-    geom2: int
-    name1: str
-    name2: str
-
-
-def _geom_name(model: mujoco.MjModel, g: int) -> str:
-    return model.geom(g).name or f"geom#{g}"
-
-
-def _geom_id(model: mujoco.MjModel, name: str) -> int:
-    if not isinstance(name, str):
-        raise InvalidInput(f"geom name must be a string, got {type(name).__name__}")
-    g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
-    if g < 0:
-        raise UnknownName("geom", name, names_of(model, "geom"))
-    return int(g)
-
-
-def _collidable(model: mujoco.MjModel, g: int) -> bool:
-    return bool(model.geom_contype[g] or model.geom_conaffinity[g])
-
-
-def _body_geoms(model: mujoco.MjModel, body: int) -> list[int]:
-    start, count = int(model.body_geomadr[body]), int(model.body_geomnum[body])
-    return [g for g in range(start, start + count) if start >= 0 and _collidable(model, g)]
-
-
-def _excluded(model: mujoco.MjModel, b1: int, b2: int) -> bool:
-    """Adjacent (parent–child) bodies, the same body, or an MJCF ``<exclude>``."""
-    if b1 == b2 or model.body_parentid[b1] == b2 or model.body_parentid[b2] == b1:
-        return True
-    lo, hi = min(b1, b2), max(b1, b2)
-    return bool(np.any(model.exclude_signature == ((lo + 1) << 16) + hi + 1))
-
-
-def collision_pairs(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    links: Sequence[str],
-    obstacles: Sequence[str] = (),
-    *,
-    touching: float = 0.0,
-) -> list[GeomPair]:
-    """Geom pairs to watch, built like irteus' link-pair list.
-
-    1. every pair of collidable geoms of two different ``links`` (self collision),
-       and every link geom against every ``obstacles`` geom;
-    2. minus pairs of adjacent bodies (parent–child), pairs MJCF ``<exclude>``s;
-    3. minus pairs already touching at the reference pose in ``data``
-       (distance ``<= touching`` [m]): "links that always intersect".
-
-    Args:
-        model: The model (robot or scene).
-        data: Reference pose (kinematics current).
-        links: Robot body names (irteus links).
-        obstacles: Environment geom or body names (a body stands for its geoms).
-        touching: Distance [m] at or below which a pair counts as touching.
-
-    Returns:
-        The pairs, self pairs first.
-    """
-    if isinstance(links, str) or isinstance(obstacles, str):
-        raise InvalidInput("links and obstacles must be lists of names, not a string")
-    bodies = []
-    for name in links:
-        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
-        if b < 0:
-            raise UnknownName("body", name, names_of(model, "body"))
-        bodies.append(int(b))
-    obstacle_geoms: list[int] = []
-    for name in obstacles:
-        g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name)
-        if g >= 0:
-            obstacle_geoms.append(int(g))
-            continue
-        b = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
-        if b < 0:
-            valid = names_of(model, "geom") + names_of(model, "body")
-            raise UnknownName("geom or body", name, valid)
-        obstacle_geoms.extend(_body_geoms(model, int(b)))
-    candidates: list[tuple[int, int]] = []
-    for i, b1 in enumerate(bodies):
-        for b2 in bodies[i + 1 :]:
-            if _excluded(model, b1, b2):
-                continue
-            candidates += [
-                (g1, g2) for g1 in _body_geoms(model, b1) for g2 in _body_geoms(model, b2)
-            ]
-    link_geoms = [g for b in bodies for g in _body_geoms(model, b)]
-    candidates += [
-        (g1, g2)
-        for g1 in link_geoms
-        for g2 in obstacle_geoms
-        if g1 != g2 and not _excluded(model, model.geom_bodyid[g1], model.geom_bodyid[g2])
-    ]
-    pairs = []
-    for g1, g2 in candidates:
-        if mujoco.mj_geomDistance(model, data, g1, g2, touching + 1e-9, None) > touching:
-            pairs.append(GeomPair(g1, g2, _geom_name(model, g1), _geom_name(model, g2)))
-    return pairs
-
-
-def moving_pairs(
-    model: mujoco.MjModel, pairs: Sequence[GeomPair], joints: Sequence[str]
-) -> list[GeomPair]:
-    """The pairs whose distance the joints ``joints`` can change.
-
-    Two bodies move relative to each other only through the joints on the path
-    between them (up from each to their lowest common ancestor; a joint above
-    it, such as a floating base, moves both alike). A pair whose path holds no
-    joint of ``joints`` keeps its distance whatever the solve does: its row
-    could only be constant, and a solver given such rows (pinned by the hard
-    rows that freeze the other joints) converges slowly.
-
-    Args:
-        model: The model.
-        pairs: Candidate pairs (:func:`collision_pairs`).
-        joints: Names of the joints the solve moves.
-
-    Raises:
-        UnknownName: A joint name the model does not have.
-    """
-    moving = {find_joint(model, j).id for j in joints}
-
-    def chain(b: int) -> list[int]:
-        out = [b]
-        while out[-1] != 0:
-            out.append(int(model.body_parentid[out[-1]]))
-        return out
-
-    def path_joints(b1: int, b2: int) -> set[int]:
-        c1, c2 = chain(b1), chain(b2)
-        common = set(c1) & set(c2)
-        bodies = [b for b in c1 + c2 if b not in common]
-        return {
-            j
-            for b in bodies
-            for j in range(model.body_jntadr[b], model.body_jntadr[b] + model.body_jntnum[b])
-        }
-
-    return [
-        p
-        for p in pairs
-        if path_joints(int(model.geom_bodyid[p.geom1]), int(model.geom_bodyid[p.geom2])) & moving
-    ]
+DEFAULT_CHECK_MARGIN = 1e-4
+"""How far [m] a pair may be inside its bound and the task still hold (the stop
+test's tolerance, prioritized-IK manual: ``check-margin``). A row is the distance
+to first order at one witness point; where two faces meet, a step that turns one
+about that point brings a corner nearer to second order. Within the margin the
+task still holds, so the solve loop keeps it on every later step as it keeps any
+satisfied level (a step may not make it worse)."""
 
 
 class PairDistance(NamedTuple):
@@ -283,7 +156,8 @@ class CollisionAvoidanceTask(Task):
         gain: Velocity-damper gain ``γ`` in (0, 1].
         weight: Slack weight of the rows [cost/m²].
         check: Whether the solve loop's stop test looks at this task
-            (satisfied when every pair is at least ``orange`` apart).
+            (satisfied when every pair is within ``check_margin`` of its bound).
+        check_margin: Tolerance [m] of the stop test (:data:`DEFAULT_CHECK_MARGIN`).
         name: Display name.
     """
 
@@ -297,6 +171,7 @@ class CollisionAvoidanceTask(Task):
         gain: float = 0.5,
         weight: float = 1e3,
         check: bool = True,
+        check_margin: float = DEFAULT_CHECK_MARGIN,
         name: str = "collision",
     ):
         model = configuration.model
@@ -310,7 +185,7 @@ class CollisionAvoidanceTask(Task):
                 continue
             if not isinstance(p, (tuple, list)) or len(p) != 2:
                 raise InvalidInput(f"pairs[{i}] must be (geom1, geom2), got {p!r}")
-            g1, g2 = _geom_id(model, p[0]), _geom_id(model, p[1])
+            g1, g2 = find_geom(model, p[0]), find_geom(model, p[1])
             if g1 == g2:
                 raise InvalidInput(f"pairs[{i}] pairs geom {p[0]!r} with itself")
             self.pairs.append(GeomPair(g1, g2, p[0], p[1]))
@@ -323,6 +198,9 @@ class CollisionAvoidanceTask(Task):
             raise InvalidInput(f"gain must be in (0, 1], got {gain}")
         if not (np.isfinite(weight) and weight > 0):
             raise InvalidInput(f"weight must be > 0, got {weight}")
+        if not (np.isfinite(check_margin) and check_margin >= 0):
+            raise InvalidInput(f"check_margin must be finite and >= 0 [m], got {check_margin}")
+        self.check_margin = float(check_margin)
         self.yellow, self.orange = float(yellow), float(orange)
         self.gain, self.weight = float(gain), float(weight)
         self.check = check
@@ -371,7 +249,16 @@ class CollisionAvoidanceTask(Task):
 
         with ``c`` the geom centres, ``r`` MuJoCo's bounding radii, ``a`` and
         ``h = |R| h_G`` the centres and half sizes of the geoms' boxes in the
-        world. A plane has no bound (``r = 0``): its pairs are always measured.
+        world. A plane (infinite for MuJoCo's collisions) bounds the distance of
+        the other geom by its centre's height over the plane, as MuJoCo's own
+        bounding-sphere filter does,
+
+        .. math::
+
+            d \\ge n_p^T (c - p) - r
+
+        (``n_p`` the plane's normal, its ``z`` axis, ``p`` its centre). A height
+        field has no bound: its pairs are always measured.
         """
         m = self.model
         g1, g2 = self._g1, self._g2
@@ -384,8 +271,17 @@ class CollisionAvoidanceTask(Task):
         h1 = np.einsum("nij,nj->ni", np.abs(R1), m.geom_aabb[g1, 3:])
         h2 = np.einsum("nij,nj->ni", np.abs(R2), m.geom_aabb[g2, 3:])
         box_gap = np.linalg.norm(np.maximum(np.abs(a1 - a2) - h1 - h2, 0.0), axis=1)
-        unbounded = (m.geom_rbound[g1] == 0) | (m.geom_rbound[g2] == 0)
-        return np.flatnonzero(unbounded | (np.maximum(lower, box_gap) < distmax))
+        bound = np.maximum(lower, box_gap)
+        for plane, other, R_plane in ((g1, g2, R1), (g2, g1, R2)):
+            on = m.geom_type[plane] == mujoco.mjtGeom.mjGEOM_PLANE
+            height = np.einsum(
+                "ni,ni->n", R_plane[:, :, 2], data.geom_xpos[other] - data.geom_xpos[plane]
+            )
+            bound = np.where(on, height - m.geom_rbound[other], bound)
+        unbounded = (m.geom_type[g1] == mujoco.mjtGeom.mjGEOM_HFIELD) | (
+            m.geom_type[g2] == mujoco.mjtGeom.mjGEOM_HFIELD
+        )
+        return np.flatnonzero(unbounded | (bound < distmax))
 
     def _measure(
         self, configuration: mink.Configuration, distmax: float
@@ -443,7 +339,7 @@ class CollisionAvoidanceTask(Task):
         return np.maximum(self.bounds - self.distances(configuration, self.yellow), 0.0)
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        return bool(np.all(self.compute_error(configuration) <= 1e-6))
+        return bool(np.all(self.compute_error(configuration) <= self.check_margin))
 
     def evaluate(self, configuration: mink.Configuration) -> TaskState:
         """Rows, error and stop test from one measurement of the pairs."""
@@ -452,7 +348,7 @@ class CollisionAvoidanceTask(Task):
         return TaskState(
             self._rows(configuration, measured),
             float(np.linalg.norm(error)),
-            bool(np.all(error <= 1e-6)),
+            bool(np.all(error <= self.check_margin)),
         )
 
     def __repr__(self) -> str:

@@ -181,7 +181,7 @@ class FrameTask(EqualityTask):
         name: str | None = None,
         error_type: str | None = None,
     ):
-        model = configuration.model
+        model = self.model = configuration.model
         self.move_target = Frame.find(model, move_target, move_target_type)
         self.target_frame: Frame | None = None
         self.target_fn: Callable[[mink.Configuration], Any] | None = None

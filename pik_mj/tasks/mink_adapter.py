@@ -35,7 +35,8 @@ class MinkTask(Task):
         threshold: Stop-test tolerance on the error, in the task's units.
             For frame tasks, the first value applies to the translation norm [m]
             and the second to the rotation norm [rad]; otherwise it bounds
-            ``max |e_i|``.
+            ``max |e_i|``. Components of cost 0 are no part of the error norm
+            or the stop test (:meth:`weighted_part`).
         check: Whether the solve loop's stop test looks at this task.
     """
 
@@ -135,8 +136,19 @@ class MinkTask(Task):
             return np.asarray(self.task.compute_error(configuration), dtype=float)
         return self.compute_rows(configuration).violation()
 
+    def weighted_part(self, e: np.ndarray) -> np.ndarray:
+        """``e`` with the components of cost 0 zeroed: the task asks nothing
+        of them (a posture weighting a few joints, a frame task without an
+        orientation cost), so its error norm and stop test read the others."""
+        if not self._error_task:
+            return e
+        weights = self._weights_for(e.size)
+        if not weights.size or weights.min() > 0:
+            return e
+        return np.where(weights > 0, e, 0.0)
+
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
-        return self._satisfied_by(self.compute_error(configuration))
+        return self._satisfied_by(self.weighted_part(self.compute_error(configuration)))
 
     def _satisfied_by(self, e: np.ndarray) -> bool:
         if self._is_frame:
@@ -150,6 +162,7 @@ class MinkTask(Task):
             return super().evaluate(configuration)
         e = np.asarray(self.task.compute_error(configuration), dtype=float)
         rows = self._task_rows(e, configuration)
+        e = self.weighted_part(e)
         return TaskState(rows, math.sqrt(float(e @ e)), self._satisfied_by(e))
 
     def __repr__(self) -> str:

@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from typing import NamedTuple
 
 import mink
+import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
@@ -129,6 +130,31 @@ class TaskRows(NamedTuple):
         viol = self.bound_distance(self.C @ x)
         return float(r_eq @ (self.w_A * r_eq) + viol @ (self.w_C * viol))
 
+    def residual_norm(self, x: np.ndarray | None = None) -> float:
+        """The unweighted residual the rows leave after a step ``x`` (``x = 0``
+        if None) [row units], over the rows that constrain something: the
+        equality rows of positive weight and every inequality row.
+
+        .. math::
+
+            \\|r(x)\\|, \\qquad r(x) = \\begin{bmatrix} (A x - b)_{w_A > 0} \\\\
+                \\mathrm{dist}(C x, [d_l, d_u]) \\end{bmatrix}
+
+        At ``x = 0`` it is the error the rows see: a task's error on the
+        components it weights (for a mink task, times its ``gain``; for a
+        clamped task, the clamp's).
+        """
+        A, b, w = self.A, self.b, self.w_A
+        if w.size and not w.min() > 0:  # rows of weight 0 ask nothing
+            keep = w > 0
+            A, b = A[keep], b[keep]
+        r_eq = -b if x is None else A @ x - b
+        total = float(r_eq @ r_eq)
+        if self.n_in:
+            viol = self.bound_distance(None if x is None else self.C @ x)
+            total += float(viol @ viol)
+        return math.sqrt(total)
+
     def bound_distance(self, cx: np.ndarray | None = None) -> np.ndarray:
         """``dist(C x, [d_l, d_u])`` of each inequality row, from the row values
         ``cx = C x`` (``x = 0`` if None) [row units]."""
@@ -215,11 +241,40 @@ class Task(abc.ABC):
             rows of each level at each configuration to check them finite,
             except for a level whose tasks all declare this (a subclass that
             makes its rows otherwise should set it back to False).
+        model: The model the task was built on (its frame and joint ids are
+            that model's), or None for a task that fits any model.
+            :meth:`check_model` refuses a configuration of another model.
     """
 
     name: str = "task"
     check: bool = True
     finite_rows: bool = False
+    model: mujoco.MjModel | None = None
+    _accepted: mujoco.MjModel | None = None  # a copy of model seen by check_model
+
+    def check_model(self, configuration: mink.Configuration) -> None:
+        """Raise unless ``configuration`` is of the model the task was built on
+        (:attr:`model`): that object, or a model of the same structure (the same
+        ``nq``, ``nv``, body tree and names: a copy). The solve loop calls it on
+        every task before its first iteration.
+
+        Raises:
+            InvalidInput: A configuration of another model (its ids would
+                address other bodies and joints: the solve would converge on
+                nonsense).
+        """
+        model = configuration.model
+        if self.model is None or model is self.model or model is self._accepted:
+            return
+        if same_structure(self.model, model):
+            self._accepted = model
+            return
+        raise InvalidInput(
+            f"task {self.name!r} was built on model {_model_name(self.model)} (nq = "
+            f"{self.model.nq}, nv = {self.model.nv}) and is solved on a configuration of "
+            f"model {_model_name(model)} (nq = {model.nq}, nv = {model.nv}); build the "
+            "task on the configuration it is solved with"
+        )
 
     @abc.abstractmethod
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
@@ -316,6 +371,22 @@ class EqualityTask(Task):
         """Rows, ``‖e‖`` and stop test from one :meth:`error_and_jacobian`."""
         e, J = self.error_and_jacobian(configuration)
         return TaskState(self.rows_from(e, J), math.sqrt(float(e @ e)), self.satisfied_by(e))
+
+
+def same_structure(a: mujoco.MjModel, b: mujoco.MjModel) -> bool:
+    """Whether two models have the same configuration space and bodies: equal
+    ``nq``, ``nv``, body tree and names (a copy of one model, or the same MJCF
+    compiled twice)."""
+    return (
+        (a.nq, a.nv, a.nbody, a.njnt) == (b.nq, b.nv, b.nbody, b.njnt)
+        and a.names == b.names
+        and np.array_equal(a.body_parentid, b.body_parentid)
+    )
+
+
+def _model_name(model: mujoco.MjModel) -> str:
+    """The model's name (``<mujoco model="...">``, the first of ``model.names``), quoted."""
+    return repr(model.names.split(b"\0", 1)[0].decode() or "unnamed")
 
 
 def frozen(M: np.ndarray) -> bool:
