@@ -49,13 +49,13 @@ from pik_mj.tasks.collision import collision_pairs
 NAME = "fullbody_external_force"
 FORCE = np.array([-20.0, 0.0, 0.0])  # [N] on each hand (sample_humanoid, 58.5 kg)
 MOMENT = np.array([10.0, 0.0, 0.0])  # [N·m] on each hand (sample_humanoid, arm 0.61 m)
-PULL = 0.035  # other robots: each hand pulled back by this fraction of the weight
+LEAN = 0.1  # other robots: the pulls ask the CoM this many sole lengths forward
 TWIST = 0.8  # other robots: the moment is the pull times this many arm lengths
 HANDS = ("rarm", "larm")
 FEET = ("rleg", "lleg")
 ROBOT = RobotOption("sample_humanoid", (*HANDS, *FEET), floating_base=True)
 IRTEUS_TARGETS = ((0.4, -0.3, 0.0), (0.4, 0.3, 0.0))  # [m] from the root (sample_humanoid)
-OTHER_MODELS = (0.6, 0.0, -0.4)  # [arm lengths] from each shoulder, robot's frame
+OTHER_MODELS = (0.6, 0.0, 0.4)  # [hand-to-shoulder distances] from each hand's start, robot's frame
 Wrench = tuple[str, np.ndarray, np.ndarray]  # (frame, force [N], moment [N·m])
 
 
@@ -77,7 +77,7 @@ def run(
     feet0 = [end_pose(robot, x) for x in FEET]
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     targets = hand_targets(robot, model)
-    forces = hand_wrenches(robot, model)
+    forces = hand_wrenches(robot, model, targets)
     path = Waypoints(robot)
     res = reach(stage, targets, forces, p_mid, path)
     if speed:
@@ -96,28 +96,37 @@ def run(
 
 def hand_targets(robot: Robot, model: str | None) -> list[np.ndarray]:
     """The hands' targets [m]: the irteus example's ``#f(400 ∓300 0)`` mm from the
-    root on ``sample_humanoid``, else :data:`OTHER_MODELS` arm lengths from each
-    shoulder in the robot's frame."""
+    root on ``sample_humanoid``, else :data:`OTHER_MODELS` from each hand's start, in
+    the robot's frame, in units of the hand's distance to its shoulder."""
     if str(model) == "sample_humanoid":
         p_root = robot.root_pose()[0]
         return [p_root + np.array(offset) for offset in IRTEUS_TARGETS]
     stature = Stature.of(robot)
-    return [stature.from_shoulder(h, OTHER_MODELS) for h in HANDS]
+    targets = []
+    for h in HANDS:
+        p_hand = end_pose(robot, h).translation()
+        reach = float(np.linalg.norm(p_hand - stature.shoulders[h]))
+        targets.append(p_hand + reach * stature.direction(OTHER_MODELS))
+    return targets
 
 
-def hand_wrenches(robot: Robot, model: str | None) -> list[Wrench]:
-    """Each hand's wrench: the irteus example's on ``sample_humanoid``, else a pull
-    back of ``PULL`` times the weight ``M g`` [N] and a moment about the robot's x of
-    ``TWIST`` arm lengths times it [N·m], in the robot's frame."""
+def hand_wrenches(robot: Robot, model: str | None, targets: list[np.ndarray]) -> list[Wrench]:
+    """Each hand's wrench: the irteus example's on ``sample_humanoid``; else a pull
+    ``F`` back, the same on both hands, that asks the CoM to lean ``LEAN`` sole lengths
+    ``l`` forward, ``F = LEAN l M g / sum_h z_h`` [N] (``z_h`` a target's height above
+    the soles), and a moment about the robot's x of ``TWIST`` arm lengths times it
+    [N·m]."""
     if str(model) == "sample_humanoid":
         return [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
     stature = Stature.of(robot)
-    pull = PULL * robot.mass * float(np.linalg.norm(robot.model.opt.gravity))
-    force = stature.direction([-pull, 0.0, 0.0])
+    assert stature.sole is not None  # the robot has both legs (ROBOT)
+    weight = robot.mass * float(np.linalg.norm(robot.model.opt.gravity))  # [N]
+    heights = sum(float(p[2] - stature.p_WR[2]) for p in targets)
+    pull = LEAN * stature.sole[0] * weight / heights
     return [
         (
             robot.limb(h).end_frame,
-            force,
+            stature.direction([-pull, 0.0, 0.0]),
             stature.direction([TWIST * stature.arm_lengths[h] * pull, 0.0, 0.0]),
         )
         for h in HANDS

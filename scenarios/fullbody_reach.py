@@ -9,9 +9,8 @@ dm_control's humanoid has its root at the chest, not the waist, and cannot crouc
 as deep within the root bounds: its hand target is (0.3, 0.1, -0.5) m from its root.
 Any other robot (``--model unitree_g1``, an MJCF path; ``--description FILE``
 when its limbs are not found from its tree) reaches with its left hand
-(0.6, 0.2, 0.4) L from where the hand is at the start, in the robot's frame (x
-forward, y left, z up), L the arm's length along its chain
-(:class:`pik_mj.scenario.Stature`). Every iteration is checked statically in the robot's scene;
+(0.6, 0.2, 0.4) L from where the hand is at the start, L the arm's length
+(shoulder to hand). Every iteration is checked statically in the robot's scene;
 the iterates are played in physics as a motion, and the final pose is held in
 physics.
 """
@@ -37,7 +36,6 @@ from pik_mj.scenario import (
     RobotOption,
     ScenarioResult,
     Stage,
-    Stature,
     com_margin,
     end_pose,
     largest_move,
@@ -53,7 +51,7 @@ HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
     "dm_humanoid_cmu": (0.4, 0.1, -0.6),
     "dm_humanoid": (0.3, 0.1, -0.5),
 }
-OTHER_MODELS = (0.6, 0.2, 0.4)  # [arm lengths] from the hand's start, robot's frame
+OTHER_MODELS = (0.6, 0.2, 0.4)  # [arm lengths] from the hand's start, other robots
 FEET = ("rleg", "lleg")
 HAND = "larm"
 ROBOT = RobotOption("sample_humanoid", (HAND, *FEET), floating_base=True)
@@ -109,13 +107,12 @@ def run(
 
 def hand_target(robot: Robot, model: str | None) -> np.ndarray:
     """The left hand's target [m]: :data:`HAND_OFFSETS` from the root for the models
-    it names (the manual's example), else :data:`OTHER_MODELS` arm lengths from the
-    hand's start in the robot's frame."""
+    it names, else :data:`OTHER_MODELS` arm lengths from the hand's start."""
     if str(model) in HAND_OFFSETS:
         return robot.root_pose()[0] + np.array(HAND_OFFSETS[str(model)])
-    stature = Stature.of(robot)
-    offset = stature.arm_lengths[HAND] * stature.direction(OTHER_MODELS)
-    return end_pose(robot, HAND).translation() + offset
+    p_hand = end_pose(robot, HAND).translation()
+    shoulder = robot.frame_pose(robot.limb(HAND).root_body, "body").translation()
+    return p_hand + np.linalg.norm(p_hand - shoulder) * np.array(OTHER_MODELS)
 
 
 def figures(

@@ -60,7 +60,7 @@ def test_obstacle_distances_with_and_without_avoidance(tmp_path):
     """With avoidance: the iterates, the reference between them and the physical
     arm at least the orange distance (2 cm; 1 mm of linearization slack in
     physics) from the box; without: the iterates 5 cm inside it, the physical
-    hand against it (an unexpected contact, distance < 0)."""
+    hand against it (distance < 0)."""
     out = run(obstacle_reach, tmp_path)
     check_motion(out)
     f = out["figures"]
@@ -70,7 +70,9 @@ def test_obstacle_distances_with_and_without_avoidance(tmp_path):
     assert f["min_distance_physics_with_m"] >= orange - 1e-3
     assert f["min_distance_iterates_without_m"] < -0.05
     assert f["min_distance_physics_without_m"] < 0
-    assert [c[:2] for c in f["unexpected_contacts_without"]] == [["rarm_hand", "obstacle"]]
+    # a contact the path plans (the hand touching the box at a waypoint) is not
+    # unexpected; any other is the hand's against the box
+    assert all(c[:2] == ["rarm_hand", "obstacle"] for c in f["unexpected_contacts_without"])
     assert f["hand_error_with_m"] < 1e-3 and f["hand_error_without_m"] < 1e-3
 
 

@@ -5,6 +5,7 @@ is said in one line before any work (:class:`RobotRefused`)."""
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from pik_mj.exceptions import InvalidInput, PikError
@@ -41,6 +42,10 @@ class RobotOption:
         fixed_base: The scenario needs a fixed base (an arm bolted to the world).
         uses: What the scenario uses where the robot has it (shown by ``pik-mj
             list``), e.g. ``"a head camera"``; empty: nothing more.
+        requires: What else the robot must have, asked of the built robot: a
+            function that returns why the robot cannot play the scenario (a clause
+            about the robot, e.g. ``"its right arm has 4 joints; ... asks 5"``), or
+            None when it can.
     """
 
     default: str
@@ -48,6 +53,7 @@ class RobotOption:
     floating_base: bool = False
     fixed_base: bool = False
     uses: str = ""
+    requires: Callable[[Robot], str | None] | None = None
 
     def needs(self) -> str:
         """What the scenario needs of its robot, in words (``pik-mj list``): e.g.
@@ -83,13 +89,6 @@ class RobotOption:
             robot = Robot.from_model(model, description=description)
         except PikError as exc:
             raise InvalidInput(f"argument {option}: {exc}") from None
-        missing = [x for x in self.limbs if x not in robot.limbs]
-        if missing:
-            hint = "" if description else "; name them in a robot description: --description PATH"
-            raise RobotRefused(
-                f"argument {option}: {named} has no limb {', '.join(missing)}, which this "
-                f"scenario moves (its limbs: {', '.join(robot.limbs) or 'none'}){hint}"
-            )
         if self.floating_base and not robot.has_floating_base:
             raise RobotRefused(
                 f"argument {option}: {named} has no floating base (a free joint at its "
@@ -100,6 +99,16 @@ class RobotOption:
                 f"argument {option}: {named} has a floating base (a free joint at its root "
                 f"{robot.root_body!r}); this scenario moves an arm with a fixed base"
             )
+        missing = [x for x in self.limbs if x not in robot.limbs]
+        if missing:
+            hint = "" if description else "; name them in a robot description: --description PATH"
+            raise RobotRefused(
+                f"argument {option}: {named} has no limb {', '.join(missing)}, which this "
+                f"scenario moves (its limbs: {', '.join(robot.limbs) or 'none'}){hint}"
+            )
+        why = None if self.requires is None else self.requires(robot)
+        if why:
+            raise RobotRefused(f"argument {option}: {named} cannot play this scenario: {why}")
         return model, robot
 
 

@@ -28,6 +28,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mink
+import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
@@ -85,6 +86,11 @@ class Hand:
     def pose(self, robot: Robot) -> mink.SE3:
         """``X_WH``: the hand frame in the world."""
         return robot.frame_pose(self.frame, self.frame_type)
+
+    def geoms(self, model: mujoco.MjModel) -> list[int]:
+        """Ids of the hand's collision geoms in ``model``: the hand frame's geom, else
+        the hand body's."""
+        return hand_geoms(model, self.frame, self.frame_type, self.body)
 
     def axis(self, X_WH: mink.SE3, axis: tuple[int, int]) -> np.ndarray:
         """``axis`` of the hand frame at pose ``X_WH``, in the world."""
@@ -220,6 +226,13 @@ def hand_frame(robot: Robot, arm: str) -> tuple[str, str, int]:
     return robot.model.geom(int(g)).name, "geom", frame.body_id
 
 
+def hand_geoms(model: mujoco.MjModel, frame: str, frame_type: str, body: str) -> list[int]:
+    """Ids of a hand's collision geoms: its frame's geom, else its body's."""
+    if frame_type == "geom":
+        return [model.geom(frame).id]
+    return collision_geoms(model, [model.body(body).id]).tolist()
+
+
 def hand(robot: Robot, arm: str, R_WR: np.ndarray) -> Hand:
     """``arm``'s hand (:class:`Hand`) at the robot's current pose, ``R_WR`` the robot's
     frame. The forearm ``f`` runs from the arm's last joint anchor to the hand frame; a
@@ -238,7 +251,7 @@ def hand(robot: Robot, arm: str, R_WR: np.ndarray) -> Hand:
     grip = rest[int(np.argmax(np.abs(bar[rest])))]
     palm = next(k for k in rest if k != grip)
     m, d = robot.model, robot.data
-    geoms = [m.geom(name).id] if kind == "geom" else collision_geoms(m, [body]).tolist()
+    geoms = hand_geoms(m, name, kind, m.body(body).name)
     radius = max(
         (np.linalg.norm(d.geom_xpos[g] - X_WH.translation()) + m.geom_rbound[g] for g in geoms),
         default=0.0,
