@@ -89,11 +89,6 @@ class RobotOption:
             robot = Robot.from_model(model, description=description)
         except PikError as exc:
             raise InvalidInput(f"argument {option}: {exc}") from None
-        if self.floating_base and not robot.has_floating_base:
-            raise RobotRefused(
-                f"argument {option}: {named} has no floating base (a free joint at its "
-                f"root {robot.root_body!r}), which this scenario needs"
-            )
         if self.fixed_base and robot.has_floating_base:
             raise RobotRefused(
                 f"argument {option}: {named} has a floating base (a free joint at its root "
@@ -105,6 +100,11 @@ class RobotOption:
             raise RobotRefused(
                 f"argument {option}: {named} has no limb {', '.join(missing)}, which this "
                 f"scenario moves (its limbs: {', '.join(robot.limbs) or 'none'}){hint}"
+            )
+        if self.floating_base and not robot.has_floating_base:
+            raise RobotRefused(
+                f"argument {option}: {named} has no floating base (a free joint at its "
+                f"root {robot.root_body!r}), which this scenario needs"
             )
         why = None if self.requires is None else self.requires(robot)
         if why:
