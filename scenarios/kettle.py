@@ -94,9 +94,7 @@ from pik_mj.tasks.collision import GeomPair, collision_pairs, moving_pairs
 NAME = "kettle"
 ARM = "rarm"
 FEET = ("rleg", "lleg")
-ROBOT = RobotOption(
-    "sample_humanoid", (ARM, *FEET), floating_base=True, uses="a head and a head camera"
-)
+ROBOT = RobotOption("sample_humanoid", (ARM, *FEET), floating_base=True, uses="a head camera")
 LIFT = 0.1  # [m] at the kettle's scale 1
 CENTRED = 0.05  # the handle within this fraction of the image width of its centre
 BAR = 0.012  # [m] radius of the handle's bar at the kettle's scale 1

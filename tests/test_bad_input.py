@@ -351,7 +351,7 @@ CLI_CASES: list[tuple[str, list[str], str]] = [
     ("list with arguments", ["list", "all"], r"unrecognized arguments: all"),
     ("unknown scenario", ["run", "walking"], r"scenario 'walking' does not exist. Valid scenario names: \[.*'walk_forward'"),
     ("unknown option", ["run", "three_dof_reach", "--frob"], r"unrecognized arguments: --frob"),
-    ("option of another scenario", ["run", "kettle", "--model", "dm_humanoid"], r"unrecognized arguments: --model dm_humanoid"),
+    ("option of another scenario", ["run", "three_dof_reach", "--hold", "1"], r"unrecognized arguments: --hold 1"),
     # --model
     ("model unknown", ["run", "--model", "nope"], r"argument --model: model 'nope' does not exist. Valid model names:"),
     ("model missing value", ["run", "--model"], r"argument --model: expected one argument"),

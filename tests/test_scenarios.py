@@ -121,7 +121,9 @@ def test_kettle_is_held_in_the_hand_during_the_hold(tmp_path):
     hold = result.balance["hold"]
     assert hold["drift"] < 0.01 and hold["slip"] < 0.002 and hold["unexpected_contacts"] == []
     lift = result.figures["kettle_lift_m"]
-    assert abs(lift[2] - 0.1) < 2e-3 and np.linalg.norm(lift[:2]) < 2e-3
+    # lifted 0.1 m; the hand turns about the vertical bar (the lift leaves the rotation
+    # about the grip free), which swings the kettle's origin, off the bar, by a few mm
+    assert abs(lift[2] - 0.1) < 2e-3 and np.linalg.norm(lift[:2]) < 5e-3
     # The static check's system is the robot and the 1 kg kettle: the LP's
     # contact forces carry both weights.
     forces = np.array(result.balance["static"]["forces"])
