@@ -54,7 +54,7 @@ HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
 OTHER_MODELS = (0.6, 0.2, 0.4)  # [arm lengths] from the hand's start, other robots
 FEET = ("rleg", "lleg")
 HAND = "larm"
-ROBOT = RobotOption("sample_humanoid", (HAND, *FEET), floating_base=True)
+ROBOT = RobotOption("sample_humanoid", (*FEET, HAND), floating_base=True)
 
 
 def run(

@@ -25,7 +25,7 @@ def test_list_names_every_scenario(capsys):
     # the description is the first line of the scenario's docstring
     kettle = lines[names.index("kettle")]
     doc = cli.load_scenario("kettle").__doc__.strip().splitlines()[0]
-    assert kettle.split(None, 1)[1] == doc
+    assert kettle.split(None, 1)[1].startswith(doc + "  [--model: a right arm, two legs")
 
 
 def test_run_writes_json_and_recording(tmp_path, capsys):

@@ -34,8 +34,21 @@ REFUSED = {
 }
 """The pairs refused, and the reason their refusal gives."""
 
-FAILING: dict[tuple[str, str], str] = {}
-"""The pairs that run and fail, with why."""
+FAILING: dict[tuple[str, str], str] = {
+    ("kettle", "booster_t1"): "the servos cannot hold the grasp pose: its right shoulder roll "
+    "needs more torque at rest than its actuator's limit",
+    ("obstacle_reach", "unitree_h1"): "the reaches do not converge: the arm of 4 joints, ending "
+    "at the elbow, does not reach the target past the box (the iterates 14 mm inside it)",
+    ("obstacle_reach", "booster_t1"): "the reaches do not converge and the box, placed from "
+    "the arm's length, is off the straight way (35 mm clear without avoidance)",
+}
+"""The pairs that run and fail their checks, with why."""
+
+SLOW_FAILING = {
+    ("cocktail_shaker", "unitree_g1"): "the hand frame of G1's mesh hand has its grip axis "
+    "forward: the right hand's target lies ahead of the left hand, 0.5 m off (not run: 3 min)",
+}
+"""Failing pairs too slow to run in the suite (``bench_robots.py --scenarios`` runs them)."""
 
 
 def pairs() -> list:
@@ -44,6 +57,8 @@ def pairs() -> list:
         for robot in ROBOTS:
             reason = FAILING.get((scenario, robot))
             marks = [pytest.mark.xfail(reason=reason, strict=True)] if reason else []
+            if (scenario, robot) in SLOW_FAILING:
+                marks = [pytest.mark.xfail(reason=SLOW_FAILING[scenario, robot], run=False)]
             out.append(pytest.param(scenario, robot, marks=marks, id=f"{scenario}-{robot}"))
     return out
 
@@ -75,9 +90,7 @@ def test_refusal_through_the_command_line_is_one_line_before_any_work(capsys, tm
     arms and legs but no touch sensor on its hand; refused with exit status 2, one
     line on stderr, nothing written."""
     out = tmp_path / "out.json"
-    with pytest.raises(SystemExit) as exit_:
-        cli.main(["run", "wall_contact", "--model", "dm_humanoid", "--json", str(out)])
-    assert exit_.value.code == 2
+    assert cli.main(["run", "wall_contact", "--model", "dm_humanoid", "--json", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].endswith(
         "error: argument --model: model 'dm_humanoid' cannot play this scenario: its right "
