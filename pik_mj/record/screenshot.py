@@ -9,30 +9,38 @@ and saves a PNG of the whole viewer or of one view::
     pik-mj screenshot out/fullbody_reach.rrd --out reach.png --time last \\
         --view "solve:" --size 1280x800
 
-The viewer needs a graphics adapter; without a GPU, Mesa's software Vulkan
-rasterizer (``apt-get install mesa-vulkan-drivers``) does.
+The viewer renders with Vulkan (wgpu): a GPU's driver, or without a GPU Mesa's
+software rasterizer lavapipe (Debian and Ubuntu: ``apt-get install
+mesa-vulkan-drivers libvulkan1``). Without a Vulkan driver it falls back to
+OpenGL and stops (``Failed to get render context``, exit 102);
+:func:`viewer_problem` finds out once per process whether it can render here and
+says what to install when it cannot.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import ctypes.util
+import functools
 import os
+import re
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput, PikError
 from pik_mj.record.reader import check_complete
 from pik_mj.record.sinks import LOOPBACK, free_port, rerun_executable
 
-__all__ = ["Shot", "main", "screenshots"]
+__all__ = ["Shot", "main", "screenshots", "viewer_problem"]
 
 
 @dataclass(frozen=True)
@@ -62,18 +70,107 @@ class Shot:
 #: Seconds the headless viewer shows its start notice (kept off the pictures).
 NOTICE_SECONDS = 7.0
 
+#: Debian's and Ubuntu's packages of a software Vulkan driver (Mesa's lavapipe)
+#: and the Vulkan loader: what the headless viewer needs on a machine without a GPU.
+VULKAN_PACKAGES = ("mesa-vulkan-drivers", "libvulkan1")
+
+#: Where the Vulkan loader looks for driver manifests (ICD files) by default.
+ICD_FOLDERS = ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d", "/usr/local/share/vulkan/icd.d")
+
+
+def vulkan_hint() -> str:
+    """What keeps the Vulkan loader from finding a driver here, and what to install.
+
+    The loader is ``libvulkan.so.1``; it reads the driver manifests named by
+    ``VK_DRIVER_FILES`` or ``VK_ICD_FILENAMES`` (``:``-separated) when one is set,
+    else those in :data:`ICD_FOLDERS`.
+    """
+    install = f"apt-get install {' '.join(VULKAN_PACKAGES)}"
+    if ctypes.util.find_library("vulkan") is None:
+        return f"no Vulkan loader (libvulkan.so.1) is installed: {install}"
+    for variable in ("VK_DRIVER_FILES", "VK_ICD_FILENAMES"):
+        named = os.environ.get(variable)
+        if named:
+            if not any(Path(f).is_file() for f in named.split(os.pathsep) if f):
+                return f"{variable}={named} names no driver manifest: unset it, or {install}"
+            return f"{variable}={named} names the Vulkan driver; is it the right one?"
+    if not any(Path(d).is_dir() and any(Path(d).glob("*.json")) for d in ICD_FOLDERS):
+        return f"no Vulkan driver is installed (no manifest in {', '.join(ICD_FOLDERS)}): {install}"
+    return f"a Vulkan driver is installed but gave no adapter; without a GPU: {install}"
+
 
 _rerun_executable = rerun_executable  # the `rerun` CLI beside this interpreter
 
 
+def _exit_message(process: subprocess.Popen, log: IO[str]) -> str:
+    """Why the viewer ``process`` (exited) stopped, from its stderr ``log``: its
+    panic, and a hint when it found no renderer."""
+    log.seek(0)
+    err = re.sub(r"\x1b\[[0-9;]*m", "", log.read())
+    panic = re.search(r"panicked at '([^']*)'|panicked at [^\n]*\n([^\n]+)", err)
+    reason = next(g for g in panic.groups() if g) if panic else err.strip()[-1000:]
+    message = f"the headless rerun viewer exited ({process.returncode}): {reason}"
+    if re.search(r"render context|adapter|vulkan", err, re.IGNORECASE):
+        message += f" -- it renders with Vulkan; {vulkan_hint()}"
+    return message
+
+
 @contextlib.contextmanager
-def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
+def headless_viewer(size: tuple[int, int] = (1600, 900), *, notice: bool = True) -> Iterator[Any]:
     """A ``rerun --headless`` viewer of ``size`` (points) on a free port of
     :data:`~pik_mj.record.sinks.LOOPBACK` (this machine only), as a
-    :class:`rerun.experimental.ViewerClient`; stopped on leaving the block."""
+    :class:`rerun.experimental.ViewerClient`; stopped on leaving the block.
+
+    Args:
+        size: Viewer size [points].
+        notice: Wait until the viewer's start notice has faded
+            (:data:`NOTICE_SECONDS`), so that pictures do not show it.
+
+    Raises:
+        PikError: The viewer exited (no renderer: the message says what to
+            install) or did not start within 30 s.
+    """
     from rerun.experimental import ViewerClient
 
     port = free_port(LOOPBACK)
+    # its stderr in a file: a pipe left unread would fill and stall it
+    with tempfile.TemporaryFile("w+") as log:
+        process = _launch(port, size, log)
+        print(f"screenshot: a headless rerun viewer listens on {LOOPBACK}:{port}", file=sys.stderr)
+        started = time.monotonic()
+        try:
+            client = None
+            deadline = time.monotonic() + 30.0
+            while client is None:
+                if process.poll() is not None:
+                    raise PikError(_exit_message(process, log))
+                try:
+                    candidate = ViewerClient(f"rerun+http://{LOOPBACK}:{port}/proxy")
+                    candidate.get_state()
+                    client = candidate
+                except Exception:  # not listening yet
+                    if time.monotonic() > deadline:
+                        raise PikError("the headless rerun viewer did not start in 30 s") from None
+                    time.sleep(0.2)
+            # the viewer's "running headless" notice fades out after a few seconds
+            if notice:
+                time.sleep(max(0.0, started + NOTICE_SECONDS - time.monotonic()))
+            try:
+                yield client
+            except Exception as exc:  # the viewer may be stopping under the client
+                try:
+                    process.wait(timeout=5.0)
+                except subprocess.TimeoutExpired:
+                    raise exc from None
+                raise PikError(_exit_message(process, log)) from exc
+        finally:
+            _stop(process)
+
+
+def _launch(port: int, size: tuple[int, int], log: IO[str]) -> subprocess.Popen:
+    """Start ``rerun --headless`` on ``port``, its stderr to ``log``, in its own
+    process group (the ``rerun`` script starts the viewer binary as a child,
+    which must stop with it)."""
     command = [
         _rerun_executable(),
         "--headless",
@@ -85,41 +182,30 @@ def headless_viewer(size: tuple[int, int] = (1600, 900)) -> Iterator[Any]:
         f"{size[0]}x{size[1]}",
         "--hide-welcome-screen",
     ]
-    env = dict(os.environ, RERUN_ANALYTICS="0")
-    # its own process group: the `rerun` script starts the viewer binary as a
-    # child, which must stop with it
-    process = subprocess.Popen(
+    return subprocess.Popen(
         command,
         stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
+        stderr=log,
         text=True,
-        env=env,
+        env=dict(os.environ, RERUN_ANALYTICS="0"),
         start_new_session=True,
     )
-    print(f"screenshot: a headless rerun viewer listens on {LOOPBACK}:{port}", file=sys.stderr)
-    started = time.monotonic()
+
+
+@functools.cache
+def viewer_problem() -> str | None:
+    """Why rerun's headless viewer cannot render on this machine, or None when it can.
+
+    Starts the viewer and takes one picture, once per process (the answer is
+    cached). A viewer that exits (no Vulkan driver: the reason says what to
+    install) or does not start in time is a problem; any other error is raised.
+    """
     try:
-        client = None
-        deadline = time.monotonic() + 30.0
-        while client is None:
-            if process.poll() is not None:
-                raise PikError(
-                    f"the headless rerun viewer exited ({process.returncode}): "
-                    f"{(process.stderr.read() if process.stderr else '')[-2000:]}"
-                )
-            try:
-                candidate = ViewerClient(f"rerun+http://{LOOPBACK}:{port}/proxy")
-                candidate.get_state()
-                client = candidate
-            except Exception:  # not listening yet
-                if time.monotonic() > deadline:
-                    raise PikError("the headless rerun viewer did not start in 30 s") from None
-                time.sleep(0.2)
-        # the viewer's "running headless" notice fades out after a few seconds
-        time.sleep(max(0.0, started + NOTICE_SECONDS - time.monotonic()))
-        yield client
-    finally:
-        _stop(process)
+        with headless_viewer((160, 120), notice=False) as client:
+            client.take_screenshot()
+    except PikError as exc:
+        return str(exc)
+    return None
 
 
 def _stop(process: subprocess.Popen) -> None:

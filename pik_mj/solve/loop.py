@@ -52,7 +52,7 @@ def solve(
         levels: ``[[level-0 tasks], [level-1 tasks], ...]``. Level 0 holds hard rows
             (e.g. ``mink.ConfigurationLimit``), assumed feasible and never solved on
             its own; each later level is one QP. Entries are pik_mj tasks,
-            ``mink.Task``s (equality rows) or ``mink.Limit``s (inequality rows).
+            ``mink.Task`` objects (equality rows) or ``mink.Limit`` objects (inequality rows).
         stop: Maximum iterations (prioritized-IK manual: ``stop``).
         min_loop: Iterations before the satisfaction test may end the loop
             (``<= stop``).

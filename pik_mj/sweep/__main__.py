@@ -4,4 +4,5 @@ import sys
 
 from pik_mj.sweep.cli import command
 
-raise SystemExit(command(sys.argv[1:]))
+if __name__ == "__main__":  # importing the module (autosummary does) runs nothing
+    raise SystemExit(command(sys.argv[1:]))
