@@ -13,7 +13,7 @@ its defaults: with the world avoidance (``avoid_world=True``: the pairs of a rob
 geom and a world geom MuJoCo collides, :mod:`pik_mj.ik.world`) and without it
 (``avoid_world=False``).
 
-Columns: world pairs watched; the CPU ms per iteration (median over targets of
+Columns: world pairs watched; the wall-clock ms per iteration (median over targets of
 each solve's median) with and without, and their ratio; the time of one
 evaluation of the avoidance task at the start pose (bounding-volume test of
 every pair, ``mj_geomDistance`` of the near ones, their rows) [ms]; IK converged
@@ -25,7 +25,7 @@ The peer: mink's own avoidance (``mink.CollisionAvoidanceLimit`` on the same
 pairs, the same clearance, reach and gain, beside ``ConfigurationLimit``) in
 ``mink.solve_ik``'s single weighted QP: the right hand's position at cost 1, both
 feet's poses at cost 10, posture 1e-2, ``integrate_inplace`` per iteration, at
-most 50 iterations, stopping with the hand within 1 mm. Columns: its CPU ms per
+most 50 iterations, stopping with the hand within 1 mm. Columns: its wall-clock ms per
 iteration and pik_mj's ratio to it (with avoidance), its smallest robot–world
 distance [mm], converged %, and how far it moved a foot [mm] (the largest
 distance of a foot from its start over every iterate; pik_mj keeps the feet
@@ -38,10 +38,12 @@ from __future__ import annotations
 
 import argparse
 import time
+import warnings
 
 import mink
 import mujoco
 import numpy as np
+from qpsolvers.warnings import SparseConversionWarning
 
 from pik_mj import Robot
 from pik_mj.ik import fullbody_inverse_kinematics
@@ -117,6 +119,10 @@ def solve_mink(robot: Robot, target: np.ndarray, pairs) -> tuple[bool, float, fl
             collision_detection_distance=avoidance.reach,
         ),
     ]
+    # mink hands qpsolvers dense matrices, and qpsolvers calls OSQP's solve()
+    # without raise_error: both warn on every call
+    warnings.filterwarnings("ignore", category=SparseConversionWarning)
+    warnings.filterwarnings("ignore", "The default value of raise_error", PendingDeprecationWarning)
     start = [
         cfg.get_transform_frame_to_world(f, k).translation()
         for f, k in zip(feet, kinds, strict=True)

@@ -249,7 +249,7 @@ class CollisionAvoidanceTask(Task):
         self.bounds = np.minimum(self.orange, self.distances(configuration, self.yellow))
         self.row_pairs = np.zeros(0, dtype=int)
         self._recalled = np.full((len(self.pairs), 2, RECALL, 3), np.nan)
-        self._pending: tuple[np.ndarray, list] | None = None
+        self._pending: tuple[np.ndarray, tuple] | None = None
 
     @classmethod
     def from_links(
@@ -389,25 +389,25 @@ class CollisionAvoidanceTask(Task):
         m, data = configuration.model, configuration.data
         size = 2 * RECALL * (int(rows.max()) + 1) if len(rows) else 0
         C, lower = np.zeros((size, m.nv)), np.full(size, -self.yellow)
+        apart = np.flatnonzero(measured.distance >= 0.0)  # penetrating: the witness row pushes
+        pairs = measured.index[apart]
         J_x = np.empty((3, m.nv))
-        for k, i in enumerate(measured.index.tolist()):
-            if measured.distance[k] < 0.0:
-                continue  # penetrating: the witness row pushes the pair out
-            witness = (measured.fromto[k, :3], measured.fromto[k, 3:])
-            for side, geom in enumerate((self._g1[i], self._g2[i])):
-                body = m.geom_bodyid[geom]
-                points = self._recalled[i, side]
-                points = points[~np.isnan(points[:, 0])]
-                world = data.xpos[body] + points @ data.xmat[body].reshape(3, 3).T
-                for j, x in enumerate(world):
-                    if np.linalg.norm(x - witness[side]) < SAME_POINT:
-                        continue
-                    mujoco.mj_jac(m, data, J_x, None, x, body)
-                    sign = 1.0 if side == 0 else -1.0  # n points from b to a
-                    gap = sign * normal[k] @ (x - witness[1 - side])
-                    row = (2 * rows[k] + side) * RECALL + j
-                    C[row] = sign * normal[k] @ (J_x - J[k, 1 - side])
-                    lower[row] = -self.gain * (gap - self.bounds[i])
+        for side, geoms in enumerate((self._g1, self._g2)):
+            bodies = m.geom_bodyid[geoms[pairs]]
+            points = self._recalled[pairs, side]  # (k, RECALL, 3) in the bodies' frames
+            R = data.xmat[bodies].reshape(-1, 3, 3)
+            world = data.xpos[bodies][:, None, :] + np.einsum("kij,krj->kri", R, points)
+            own = measured.fromto[apart, 3 * side : 3 * side + 3]
+            other = measured.fromto[apart, 3 - 3 * side : 6 - 3 * side]
+            far = np.linalg.norm(world - own[:, None, :], axis=2) >= SAME_POINT  # nan: False
+            sign = 1.0 if side == 0 else -1.0  # n points from b to a
+            n = sign * normal[apart]
+            gap = np.einsum("ki,kri->kr", n, world - other[:, None, :])
+            for k, j in zip(*np.nonzero(far), strict=True):
+                mujoco.mj_jac(m, data, J_x, None, world[k, j], bodies[k])
+                row = (2 * rows[apart[k]] + side) * RECALL + j
+                C[row] = n[k] @ (J_x - J[apart[k], 1 - side])
+                lower[row] = -self.gain * (gap[k, j] - self.bounds[pairs[k]])
         return C, lower
 
     def _remember(
@@ -417,29 +417,32 @@ class CollisionAvoidanceTask(Task):
         b1: np.ndarray,
         b2: np.ndarray,
     ) -> None:
-        """Keep the witness points of the last configuration measured before this
-        one (apart pairs only), in their bodies' frames, the newest first,
-        :data:`RECALL` distinct ones per geom; this configuration's wait for the
-        next one, so that rows asked twice at one configuration are the same."""
+        """Keep the witness points of apart pairs, in their bodies' frames, the
+        newest first, :data:`RECALL` distinct ones per geom. A configuration's
+        points are kept once another configuration is measured, so that rows
+        asked twice at one configuration are the same."""
         data = configuration.data
         pending, self._pending = self._pending, None
         if pending is not None and not np.array_equal(pending[0], configuration.q):
-            for i, side, local in pending[1]:
-                kept = self._recalled[i, side]
-                if np.any(np.linalg.norm(kept - local, axis=1) < SAME_POINT):
-                    continue  # nan rows compare False
-                kept[1:] = kept[:-1].copy()
-                kept[0] = local
+            pairs, sides, local = pending[1]
+            kept = self._recalled[pairs, sides]  # (k, RECALL, 3)
+            seen = np.linalg.norm(kept - local[:, None, :], axis=2) < SAME_POINT  # nan: False
+            new = ~seen.any(axis=1)
+            pairs, sides = pairs[new], sides[new]
+            self._recalled[pairs, sides, 1:] = kept[new, :-1]
+            self._recalled[pairs, sides, 0] = local[new]
         elif pending is not None:
             self._pending = pending
             return
-        points = []
-        for k, i in enumerate(measured.index.tolist()):
-            if measured.distance[k] < 0.0:
-                continue
-            for side, body in enumerate((b1[k], b2[k])):
-                p = measured.fromto[k, 3 * side : 3 * side + 3]
-                points.append((i, side, data.xmat[body].reshape(3, 3).T @ (p - data.xpos[body])))
+        apart = measured.distance >= 0.0
+        pairs = measured.index[apart]
+        local = []
+        for side, bodies in enumerate((b1[apart], b2[apart])):
+            R = data.xmat[bodies].reshape(-1, 3, 3)
+            p = measured.fromto[apart, 3 * side : 3 * side + 3] - data.xpos[bodies]
+            local.append(np.einsum("kji,kj->ki", R, p))  # Rᵀ (p − x_body)
+        sides = np.repeat([0, 1], len(pairs))
+        points = (np.concatenate([pairs, pairs]), sides, np.concatenate(local))
         self._pending = (configuration.q.copy(), points)
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
