@@ -25,7 +25,8 @@ The peer: mink's own avoidance (``mink.CollisionAvoidanceLimit`` on the same
 pairs, the same clearance, reach and gain, beside ``ConfigurationLimit``) in
 ``mink.solve_ik``'s single weighted QP: the right hand's position at cost 1, both
 feet's poses at cost 10, posture 1e-2, ``integrate_inplace`` per iteration, at
-most 50 iterations, stopping with the hand within 1 mm. Columns: its wall-clock ms per
+most 50 iterations, stopping with the hand within 1 mm (or where OSQP finds no
+step: ``mink.NoSolutionFound``, not converged). Columns: its wall-clock ms per
 iteration and pik_mj's ratio to it (with avoidance), its smallest robot–world
 distance [mm], converged %, and how far it moved a foot [mm] (the largest
 distance of a foot from its start over every iterate; pik_mj keeps the feet
@@ -130,7 +131,10 @@ def solve_mink(robot: Robot, target: np.ndarray, pairs) -> tuple[bool, float, fl
     seen, drift, times, converged = [], 0.0, [], False
     for _ in range(STOP):
         t = time.perf_counter()
-        v = mink.solve_ik(cfg, [*tasks, hand, posture], 1.0, "osqp", limits=limits)
+        try:
+            v = mink.solve_ik(cfg, [*tasks, hand, posture], 1.0, "osqp", limits=limits)
+        except mink.NoSolutionFound:
+            break  # OSQP gave up on a step: the run ends there, not converged
         cfg.integrate_inplace(v, 1.0)
         times.append(time.perf_counter() - t)
         seen.append(min(mujoco.mj_geomDistance(m, cfg.data, a, b, 1.0, None) for a, b in pairs))
@@ -142,6 +146,8 @@ def solve_mink(robot: Robot, target: np.ndarray, pairs) -> tuple[bool, float, fl
         if np.linalg.norm(hand.compute_error(cfg)[:3]) < 1e-3:
             converged = True
             break
+    if not times:
+        return False, float("nan"), float("inf"), 0.0
     return converged, 1e3 * float(np.median(times)), min(seen), drift
 
 
@@ -173,7 +179,7 @@ def row(name: str, n: int, seed: int) -> str:
     conv_on = 100.0 * np.mean([r[0] for r in on])
     conv_off = 100.0 * np.mean([r[0] for r in off])
     d_on, d_off = 1e3 * min(r[2] for r in on), 1e3 * min(r[2] for r in off)
-    ms_mink = float(np.median([r[1] for r in peer]))
+    ms_mink = float(np.nanmedian([r[1] for r in peer]))
     mink_cells = (
         f"{ms_mink:.1f} | {ms_on / ms_mink:.2f} | {1e3 * min(r[2] for r in peer):.1f} | "
         f"{100.0 * np.mean([r[0] for r in peer]):.0f} | {1e3 * max(r[3] for r in peer):.1f} |"

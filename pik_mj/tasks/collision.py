@@ -391,7 +391,6 @@ class CollisionAvoidanceTask(Task):
         C, lower = np.zeros((size, m.nv)), np.full(size, -self.yellow)
         apart = np.flatnonzero(measured.distance >= 0.0)  # penetrating: the witness row pushes
         pairs = measured.index[apart]
-        J_x = np.empty((3, m.nv))
         for side, geoms in enumerate((self._g1, self._g2)):
             bodies = m.geom_bodyid[geoms[pairs]]
             points = self._recalled[pairs, side]  # (k, RECALL, 3) in the bodies' frames
@@ -400,14 +399,25 @@ class CollisionAvoidanceTask(Task):
             own = measured.fromto[apart, 3 * side : 3 * side + 3]
             other = measured.fromto[apart, 3 - 3 * side : 6 - 3 * side]
             far = np.linalg.norm(world - own[:, None, :], axis=2) >= SAME_POINT  # nan: False
+            k, j = np.nonzero(far)
+            if not len(k):
+                continue
             sign = 1.0 if side == 0 else -1.0  # n points from b to a
-            n = sign * normal[apart]
-            gap = np.einsum("ki,kri->kr", n, world - other[:, None, :])
-            for k, j in zip(*np.nonzero(far), strict=True):
-                mujoco.mj_jac(m, data, J_x, None, world[k, j], bodies[k])
-                row = (2 * rows[apart[k]] + side) * RECALL + j
-                C[row] = n[k] @ (J_x - J[apart[k], 1 - side])
-                lower[row] = -self.gain * (gap[k, j] - self.bounds[pairs[k]])
+            n = sign * normal[apart[k]]
+            x = world[k, j]
+            # J_p(x) = J_p(x_B) - [x - x_B]_x J_r(B), so
+            # n^T J_p(x) = n^T J_p(x_B) + ((x - x_B) x n)^T J_r(B)  (mj_jacBody at x_B)
+            unique, body_of = np.unique(bodies[k], return_inverse=True)
+            jacp, jacr = np.empty((2, len(unique), 3, m.nv))
+            for u, body in enumerate(unique.tolist()):
+                mujoco.mj_jacBody(m, data, jacp[u], jacr[u], body)
+            arm = np.cross(x - data.xpos[bodies[k]], n)
+            row = (2 * rows[apart[k]] + side) * RECALL + j
+            C[row] = np.einsum("pi,piv->pv", n, jacp[body_of] - J[apart[k], 1 - side]) + np.einsum(
+                "pi,piv->pv", arm, jacr[body_of]
+            )
+            gap = np.einsum("pi,pi->p", n, x - other[k])
+            lower[row] = -self.gain * (gap - self.bounds[pairs[k]])
         return C, lower
 
     def _remember(
