@@ -15,14 +15,18 @@ run sweeps.
                [--robot NAME] [--stack NAME] [--workers N] [--address HOST:PORT]
                [--resume] ...
 
+``list`` shows each scenario's description and what it needs of its robot (two arms,
+legs, a floating or a fixed base; ``--model``/``--description`` choose the robot).
+
 ``run`` runs the ``main`` of scenario ``NAME`` (default ``fullbody_reach``;
 ``pik_mj.scenarios.<name>``) with the remaining options, saving its rerun
-recording to ``out/NAME.rrd`` (``out/NAME-MODEL.rrd`` with ``--model``) unless a
-recording option (``--save``, ``--connect``, ``--serve``, ``--stdout``,
-``--headless``) says otherwise; see
-``pik-mj run NAME --help``. It prints the scenario's summary (progress on
-stderr), with ``--json`` a JSON summary whose ``robot`` entry is the final pose
-and what rebuilds its scene.
+recording to ``out/NAME-ROBOT.rrd`` (``out/fullbody_reach-unitree_g1.rrd``; the
+scenario's default robot keeps ``out/NAME.rrd``) unless a recording option
+(``--save``, ``--connect``, ``--serve``, ``--stdout``, ``--headless``) says
+otherwise; see ``pik-mj run NAME --help``. A robot the scenario cannot move is
+refused before any work, in one line (exit status 2). It prints the scenario's
+summary (progress on stderr), with ``--json`` a JSON summary whose ``robot`` entry is
+the final pose and what rebuilds its scene.
 
 ``validate`` reads a JSON summary written by ``run --json`` (its ``robot``
 entry) or a JSON ``{"model": NAME, "q": [...]}`` (optional ``environment``,
@@ -82,6 +86,7 @@ from pik_mj.record.reader import verify
 from pik_mj.robot import Robot, RobotSource
 from pik_mj.scenario import balance_summary, jsonable, positive
 from pik_mj.scenario.exit_status import EXIT_FAILED, EXIT_PASSED, EXIT_USAGE, exit_code, guarded
+from pik_mj.scenario.robot_option import RobotOption, model_label
 from pik_mj.sim import validate_pose
 from pik_mj.sweep import cli as sweep_cli
 from pik_mj.sweep.replay import parse_target, replay
@@ -114,10 +119,20 @@ def describe(name: str) -> tuple[str, list[str]]:
         module = load_scenario(name)
     except ScenarioWaiting as exc:
         return "", [*flags, f"waiting for {exc.missing}"]
-    if "model" in inspect.signature(module.run).parameters:
+    robot = scenario_robot(module)
+    if robot is not None:
+        flags.append(f"--model: {robot.needs()}")
+    elif "model" in inspect.signature(module.run).parameters:
         flags.append("--model")
     doc = (module.__doc__ or "").strip().splitlines()
     return (doc[0] if doc else ""), flags
+
+
+def scenario_robot(module: ModuleType) -> RobotOption | None:
+    """What the scenario declares it needs of its robot (its ``ROBOT``), or None for a
+    scenario that declares nothing."""
+    robot = vars(module).get("ROBOT")
+    return robot if isinstance(robot, RobotOption) else None
 
 
 def _list() -> int:
@@ -172,12 +187,16 @@ def _run(name: str | None, argv: list[str]) -> int:
 
 def default_recording(name: str, argv: Sequence[str]) -> Path:
     """Where ``pik-mj run NAME`` saves its recording when no recording option is
-    given: ``out/NAME.rrd``, or ``out/NAME-MODEL.rrd`` with ``--model MODEL``
-    (``MODEL``: a name, or the stem of an MJCF path), so that runs on other
-    robots do not overwrite each other."""
-    model = _option_value(argv, "--model")
-    stem = name if not model else f"{name}-{Path(model).stem}"
-    return Path("out") / f"{stem}.rrd"
+    given: ``out/NAME.rrd`` for the scenario's default robot, ``out/NAME-ROBOT.rrd``
+    for the robot ``--model``/``--description`` name
+    (:func:`~pik_mj.scenario.robot_option.model_label`: a name, or the stem of an MJCF
+    path), so that runs on other robots do not overwrite each other."""
+    model, description = _option_value(argv, "--model"), _option_value(argv, "--description")
+    robot = scenario_robot(load_scenario(name))
+    default = None if robot is None else robot.default
+    if (model is None and description is None) or (description is None and model == default):
+        return Path("out") / f"{name}.rrd"
+    return Path("out") / f"{name}-{model_label(model, description)}.rrd"
 
 
 @contextlib.contextmanager
