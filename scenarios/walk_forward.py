@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 from pik_mj import Recorder, Robot
 from pik_mj.robot.ground import robot_soles
@@ -27,7 +28,7 @@ from pik_mj.walking.robot_gait import DEFAULT_DT, RobotGait, gait_value, robot_g
 from pik_mj.walking.walk import Walk, robot_label, walk
 from pik_mj.walking.wholebody import feet_from_robot
 
-__all__ = ["LEGS", "NAME", "main", "run", "walk_parser", "walk_scenario"]
+__all__ = ["LEGS", "NAME", "main", "run", "walk_command", "walk_parser", "walk_scenario"]
 
 NAME = "walk_forward"
 LEGS = ("rleg", "lleg")
@@ -112,22 +113,32 @@ def run(
     return result
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = walk_parser(__doc__)
-    p.add_argument("--steps", type=count, default=6, help="number of steps (default 6)")
-    args = p.parse_args(argv)
-    with open_recorder(args, f"{NAME}_{robot_label(args.model, args.description)}") as recorder:
-        result = run(
+def walk_command(
+    name: str, run_walk: Callable[..., ScenarioResult], args: argparse.Namespace, **options: Any
+) -> int:
+    """Run a walking scenario's ``run_walk`` from its parsed command line
+    (:func:`walk_parser`), with ``options`` (its own), into the recorder the command
+    asks for; the exit status of its report."""
+    label = robot_label(args.model, args.description)
+    with open_recorder(args, f"{name}_{label}") as recorder:
+        result = run_walk(
             recorder,
             model=args.model,
             description=args.description,
             robot=args.robot,
             quiet=args.quiet,
-            n_steps=args.steps,
             dt=args.dt,
             gait=dict(args.gait),
+            **options,
         )
     return report(result, args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = walk_parser(__doc__)
+    p.add_argument("--steps", type=count, default=6, help="number of steps (default 6)")
+    args = p.parse_args(argv)
+    return walk_command(NAME, run, args, n_steps=args.steps)
 
 
 if __name__ == "__main__":
