@@ -1,9 +1,11 @@
-"""How fast does a sweep run on 1 and 2 Ray workers, and where does a case spend its time?
+"""How fast does a sweep run on 1 and 2 Ray workers, where does a case spend its time,
+and does checking the physics every 10th step change a verdict?
 
 The same sweep (default: the ``pik-mj sweep`` default, 100 random right-hand
 targets of the sample humanoid in the box x ∈ [0.2, 0.7], y ∈ [-0.5, 0.2],
-z ∈ [0.2, 1.3] m × the stacks ``balanced`` and ``unbalanced`` = 200 cases, 3 s
-holds) is run with each ``--workers`` count on one local Ray instance of
+z ∈ [0.2, 1.3] m × the stacks ``balanced`` and ``unbalanced`` = 200 cases: the
+solve, its static check, its iterates played in physics, a 3 s hold) is run with
+each ``--workers`` count on one local Ray instance of
 ``--num-cpus`` CPUs, each run into a fresh dataset; ``--rounds`` repeats the
 runs, alternating their order, so that a change of the machine's load hits both
 counts alike. Ray's workers run at niceness 0 here (Ray's default, 15, makes
@@ -21,17 +23,22 @@ the caller's session, share one session's part of a busy machine however many
 they are. The speedup "with a free core per worker" is ``k`` times the run's
 cases per CPU-second over the 1-worker run's (a projection from the measured
 CPU times, not a measurement). Per case, from the rows: the mean wall time of
-the solve, the static check and the hold, their shares, the mean CPU time, and
-the Ray overhead per case,
+the solve, the static check, the motion and the hold, their shares, the mean
+CPU time, and the Ray overhead per case,
 
 .. math::
 
-    t_{overhead} = \\frac{k \\, T_{wall} - \\sum_i (t_{solve,i} + t_{static,i} + t_{hold,i})}{n}
+    t_{overhead} = \\frac{k \\, T_{wall} - \\sum_i t_{case,i}}{n}, \\qquad
+    t_{case} = t_{solve} + t_{static} + t_{motion} + t_{hold}
 
 for ``k`` workers and ``n`` cases. The runs' rows must be equal but for the
-times and the worker names (checked).
+times and the worker names (checked). With ``--per-step`` the sweep runs once
+more on the largest worker count with the motions' and holds' checks sampled
+every step (:class:`PerStepWorker`, the slow path), and every case whose
+verdict differs from the sampled run's is listed with its figures.
 
-Run: ``python benchmarks/bench_sweep.py [--n 100] [--workers 1 2] [--rounds 1] [--hold 3]``
+Run: ``python benchmarks/bench_sweep.py [--n 100] [--workers 1 2] [--rounds 1] [--hold 3]
+[--per-step]``
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -46,18 +54,27 @@ from pathlib import Path
 import numpy as np
 import ray
 
-from pik_mj.sweep import Sweep, Uniform, run_sweep
+from pik_mj.sweep import Sweep, Uniform, Worker, run_sweep
 from pik_mj.sweep.cli import DEFAULT_BOX
 from pik_mj.sweep.dataset import comparable
 from pik_mj.sweep.views import summary_table
 
-PARTS = ("solve_time", "static_time", "hold_time")
+PARTS = ("solve_time", "static_time", "motion_time", "hold_time")
 
 
-def run(sweep: Sweep, workers: int, out: Path) -> dict:
+class PerStepWorker(Worker):
+    """The sweep's worker with the checks sampled every physics step."""
+
+    record_every = 1
+
+
+ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+def run(sweep: Sweep, workers: int, out: Path, worker_class: type = Worker) -> dict:
     """One sweep on ``workers`` workers; its figures."""
     load_before = os.getloadavg()
-    report = run_sweep(sweep, out, workers=workers, progress=False)
+    report = run_sweep(sweep, out, workers=workers, progress=False, worker_class=worker_class)
     load_after = os.getloadavg()
     rows = report.table.to_pylist()
     busy = {k: np.array([r[k] for r in rows if r[k] is not None]) for k in PARTS}
@@ -101,6 +118,9 @@ def main(argv=None) -> dict:
     parser.add_argument("--hold", type=float, default=3.0, help="hold duration [s]")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="directory for the datasets (default: a temporary one)")
+    parser.add_argument(
+        "--per-step", action="store_true", help="also run with every step checked and compare"
+    )
     args = parser.parse_args(argv)
     sweep = Sweep(Uniform(DEFAULT_BOX, args.n), hold=args.hold, seed=args.seed)
     base = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_sweep_"))
@@ -122,6 +142,9 @@ def main(argv=None) -> dict:
             order = args.workers if r % 2 == 0 else args.workers[::-1]
             for k in order:
                 runs.append({"round": r, **run(sweep, k, base / f"round{r}_workers{k}")})
+        if args.per_step:
+            k = max(args.workers)
+            slow = run(sweep, k, base / "per_step", worker_class=PerStepWorker)
     finally:
         ray.shutdown()
     same = all(comparable(r["rows"]) == comparable(runs[0]["rows"]) for r in runs)
@@ -174,7 +197,35 @@ def main(argv=None) -> dict:
         )
     print(f"\nrows equal across runs (times and workers aside): {same}")
     print(summary_table(runs[-1]["table"]))
-    return {"runs": runs, "same_rows": same, "ray_init_s": ray_start}
+    result = {"runs": runs, "same_rows": same, "ray_init_s": ray_start}
+    if args.per_step:
+        result["per_step"] = _compare(runs[-1], slow)
+    return result
+
+
+def _compare(fast: dict, slow: dict) -> list[dict]:
+    """Print and return the cases whose verdict differs between the sampled run
+    and the per-step one, with their figures."""
+    print(
+        f"\nper-step run ({slow['workers']} workers): {slow['cases_per_s']:.2f} cases/s, "
+        f"{slow['mean_cpu_s']:.3f} s CPU per case (sampled: {fast['mean_cpu_s']:.3f} s)"
+    )
+    keys = ("verdict", "motion_passed", "motion_drift", "hold_passed", "drift", "slip", "fell")
+    diff = []
+    for a, b in zip(fast["rows"], slow["rows"], strict=True):
+        if a["verdict"] != b["verdict"]:
+            diff.append({"case": a["case"], **{k: (a[k], b[k]) for k in keys}})
+    print(f"verdicts that differ (sampled, per step): {len(diff)} of {len(fast['rows'])}")
+    for d in diff:
+        print("  " + ", ".join(f"{k} {v}" for k, v in d.items()))
+    drift = [
+        abs(a["drift"] - b["drift"])
+        for a, b in zip(fast["rows"], slow["rows"], strict=True)
+        if a["drift"] is not None and b["drift"] is not None
+    ]
+    if drift:
+        print(f"largest hold drift difference: {1e3 * max(drift):.4f} mm")
+    return diff
 
 
 if __name__ == "__main__":

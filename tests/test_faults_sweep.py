@@ -45,6 +45,9 @@ def result(case_index: int) -> dict:
         "com": [0.0, 0.0, 0.8],
         "static_feasible": True,
         "static_margin": 0.05,
+        "motion_passed": True,
+        "motion_failures": [],
+        "motion_drift": 2e-3,
         "hold_passed": True,
         "hold_failures": [],
         "drift": 1e-3,
@@ -52,8 +55,11 @@ def result(case_index: int) -> dict:
         "hold_min_margin": 0.04,
         "fell": False,
         "unexpected_contacts": [],
+        "qpos": [0.0, 0.0, 0.9],
+        "path": [[0.0, 0.0, 0.9]],
         "solve_time": 0.1,
         "static_time": 0.01,
+        "motion_time": 0.3,
         "hold_time": 0.2,
     }
     assert set(values) == {f.name for f in RESULT_FIELDS}

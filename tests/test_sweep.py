@@ -183,9 +183,19 @@ def test_sweep_rows_are_the_cases_solved_checked_and_held(reference):
         if r["converged"]:
             assert r["hand_error"] < 1e-3  # the IK's own threshold
         assert r["solve_time"] > 0 and r["static_time"] > 0 and r["hold_time"] > 0
-    # without the CoM task the two low forward reaches tip over; the rest stands
-    fails = [(r["stack"], r["x"], r["z"]) for r in rows if r["verdict"] != "validated"]
-    assert fails == [("unbalanced", 0.45, 0.6), ("unbalanced", 0.6, 0.6)]
+        assert r["motion_time"] > 0
+    # without the CoM task the two low forward reaches tip over; with it, the far
+    # low one stands but its motion (the iterates played) topples: held, not validated
+    fails = [
+        (r["verdict"], r["stack"], r["x"], r["z"]) for r in rows if r["verdict"] != "validated"
+    ]
+    assert fails == [
+        ("held", "balanced", 0.6, 0.6),
+        ("fails", "unbalanced", 0.45, 0.6),
+        ("fails", "unbalanced", 0.6, 0.6),
+    ]
+    for r in rows:  # a row carries the pose it was validated with: the last iterate
+        assert np.allclose(r["path"][-1], r["qpos"], atol=1e-12)
     for r in rows:  # the static check agrees with the hold
         assert r["static_feasible"] == (r["static_margin"] > 0) == r["hold_passed"]
         if r["stack"] == "balanced":  # the CoM task's 2 cm margin, seen by the scene
@@ -298,7 +308,9 @@ def test_views_show_every_case_by_verdict(reference, tmp_path):
     table_text = summary_table(table)
     assert "sample_humanoid  balanced" in table_text
     line = next(x for x in table_text.splitlines() if "unbalanced" in x)
-    assert line.split()[2:6] == ["4", "2", "(50%)", "2"]
+    assert line.split()[2:7] == ["4", "2", "(50%)", "0", "2"]  # cases, validated, held, fails
+    line = next(x for x in table_text.splitlines() if " balanced" in x)
+    assert line.split()[2:7] == ["4", "3", "(75%)", "1", "0"]
 
 
 def test_usage_errors(ray_session, tmp_path, reference, capsys):

@@ -17,6 +17,7 @@ from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.robot import Robot
 from pik_mj.robot.world import EnvironmentLike, add_floor, attach_environment, has_plane
+from pik_mj.sim.drives import motor_torque_range
 from pik_mj.sim.servos import position_actuators, servo_gains
 
 __all__ = [
@@ -143,7 +144,10 @@ def add_servos(
     its joints and actuators come first): the robot's own position actuator
     (:func:`pik_mj.sim.servos.position_actuators`, its gains) where it has one,
     else a ``<joint>_servo`` position actuator added to ``spec`` with the given
-    gains or :func:`pik_mj.sim.servos.servo_gains`. Keyframes that set ``ctrl``
+    gains or :func:`pik_mj.sim.servos.servo_gains`, no control range (whatever
+    the MJCF's default actuator class says) and the torque range of the robot's
+    motors on that joint as its force range
+    (:func:`pik_mj.sim.drives.motor_torque_range`). Keyframes that set ``ctrl``
     get the added servos' targets at their own pose.
 
     Raises:
@@ -167,6 +171,16 @@ def add_servos(
             name=f"{joint}_servo", target=joint, trntype=mujoco.mjtTrn.mjTRN_JOINT
         )
         act.set_to_position(kp=gains[joint][0], kv=gains[joint][1])
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE  # not the defaults' range
+        act.gear = [1.0, 0, 0, 0, 0, 0]
+        motor = motor_torque_range(rm, j)
+        act.forcelimited = (
+            mujoco.mjtLimited.mjLIMITED_FALSE
+            if motor is None
+            else mujoco.mjtLimited.mjLIMITED_TRUE  # the drive is the robot's motor
+        )
+        if motor is not None:
+            act.forcerange = motor
     actuators = {rm.joint(j).name: a for j, (a, _, _) in own.items()}
     actuators.update({rm.joint(j).name: n_old + i for i, j in enumerate(added)})
     _extend_keyframe_ctrl(spec, n_old, [rm.joint(j).name for j in added])

@@ -4,12 +4,14 @@ The state is reset, the pose written at rest with the servo targets at it and
 the static torques that hold it (:func:`holding_torques`); the stepping loop
 (:func:`pik_mj.sim.tracking.track`, the one a motion uses) measures against that
 constant reference (:class:`HeldPose`). The thresholds are one
-:class:`~pik_mj.sim.tracking.HoldCriteria`, each callback gets a
+:class:`~pik_mj.sim.criteria.HoldCriteria`, each callback gets a
 :class:`~pik_mj.sim.tracking.HoldSample`, the outcome is a :class:`HoldReport`.
 """
 
 from __future__ import annotations
 
+import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -20,22 +22,17 @@ from numpy.typing import ArrayLike
 
 from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
-from pik_mj.dynamics import contact_wrenches
-from pik_mj.frames import Frame
 from pik_mj.sim.criteria import HoldCriteria, check_options
 from pik_mj.sim.falls import Fall
+from pik_mj.sim.measures import HoldSample, Tracked
 from pik_mj.sim.physics import External, Physics
-from pik_mj.sim.static import finite_or_none, point_contacts, static_check
-from pik_mj.sim.tracking import HoldSample, track
+from pik_mj.sim.servos import ServoLaw
+from pik_mj.sim.stability import diagnose
+from pik_mj.sim.static import finite_or_none
+from pik_mj.sim.torques import drive_shortfalls, holding_torques
+from pik_mj.sim.tracking import MARGIN_EVERY, RECORD_EVERY, track, track_many
 
-__all__ = [
-    "HeldPose",
-    "HoldCriteria",
-    "HoldReport",
-    "HoldSample",
-    "hold",
-    "holding_torques",
-]
+__all__ = ["HeldPose", "HoldCriteria", "HoldReport", "HoldSample", "hold", "hold_many"]
 
 
 @dataclass
@@ -123,82 +120,16 @@ class HoldReport:
         }
 
 
-def holding_torques(
-    scene: Physics, q: ArrayLike, external: Sequence[External] = ()
-) -> np.ndarray | None:
-    r"""Generalized forces that hold ``q`` still against gravity, the contact
-    forces and the external wrenches:
-
-    .. math::
-
-        \tau = g(q) - \tau_{passive}(q) - \sum_i J_{p}(p_i)^T f_i - \sum_e J_e^T w_e
-           - \sum_o J_{p,F_o}(c_o)^T m_o g
-
-    ``g`` comes from ``qfrc_bias`` at zero velocity, ``τ_passive`` from
-    ``qfrc_passive`` (joint springs: dm_control's humanoid has them); ``f_i`` are the
-    least-norm forces inside the friction pyramids that balance the robot at
-    the actual contacts ``p_i`` (:func:`pik_mj.dynamics.contact_wrenches`; the
-    equilibrium LP's own forces are any feasible point, often on a cone's
-    edge, which would push the feet to slip). The rows on the servo joints
-    are the static feed-forward of a PD hold with gravity compensation; the
-    free-joint rows are ~0. A grasped object's weight ``m_o g`` acts at its
-    CoM ``c_o`` on the grasping frame's body (the weld carries it in the
-    physics); the contact forces balance the robot and its objects.
-
-    Returns:
-        ``(nv,)`` [N, N·m], or None when the pose has no static equilibrium.
-    """
-    m, d = scene.model, scene.data
-    scene.set_pose(q)
-    wrenches = scene.external_wrenches(external, d)
-    report = static_check(scene, q, external=external)
-    if not report.feasible or report.forces is None:
-        return None
-    weight = (scene.mass + scene.carried_mass) * np.asarray(m.opt.gravity, dtype=float)
-    total = -np.concatenate([weight, np.cross(report.com, weight)])
-    for w in wrenches:
-        F, M = np.asarray(w.force, float), np.asarray(w.moment, float)
-        total -= np.concatenate([F, np.cross(np.asarray(w.p_W, float), F) + M])
-    env = report.environment_contacts
-    solved = contact_wrenches(point_contacts(env, report.mu), total)
-    if solved is None:
-        return None
-    scene.set_pose(q)
-    tau = d.qfrc_bias - d.qfrc_passive  # gravity, less the joints' springs
-    jacp = np.zeros((3, m.nv))
-    for c, f in zip(env, solved[:, :3], strict=True):
-        mujoco.mj_jac(
-            m, d, jacp, None, c.position, int(m.geom_bodyid[scene.geom_ids[c.robot_geom]])
-        )
-        tau -= jacp.T @ f
-    for frame, b in scene.held_objects:
-        # the weight of a grasped object hangs on the frame's body at its CoM
-        mujoco.mj_jac(m, d, jacp, None, d.subtree_com[b], frame.body_id)
-        tau -= jacp.T @ (m.body_subtreemass[b] * np.asarray(m.opt.gravity))
-    qfrc = np.zeros(m.nv)
-    for (frame, F, M), w in zip(external, wrenches, strict=True):
-        body = Frame.find(m, frame).body_id
-        mujoco.mj_applyFT(
-            m,
-            d,
-            np.asarray(F, float),
-            np.asarray(M, float),
-            np.asarray(w.p_W, float),
-            body,
-            qfrc,
-        )
-    return tau - qfrc
-
-
 class HeldPose:
     """The constant reference of a hold: the pose ``q`` at rest, the servo
-    targets at it, and the static torques ``tau`` on the servo joints.
+    targets at it, and the static torques ``tau`` as the servos' feed-forward.
 
     Args:
         scene: The scene.
         q: Robot configuration.
-        tau: Generalized forces (:func:`holding_torques`) written to
-            ``qfrc_applied`` of the servo joints, or None.
+        tau: Generalized forces (:func:`holding_torques`) the servos add to their
+            feedback (:class:`~pik_mj.sim.servos.ServoLaw`: through their
+            controls, within what the drives deliver), or None.
     """
 
     moving = False
@@ -210,22 +141,37 @@ class HeldPose:
         self.q = np.asarray(q, dtype=float)
         self.tau = tau
         self.data = mujoco.MjData(scene.model)
+        rm = scene.robot.model
+        self._servos = ServoLaw(scene.model, scene.position_actuators, scene.robot_nq, rm.nv)
 
     def begin(self) -> None:
         """Reset the state (environment at ``qpos0``), write the pose with zero
-        velocity, the servo targets at it and the static torques."""
+        velocity, the servo targets at it with the static torques."""
         scene = self.scene
         m, d = scene.model, scene.data
         mujoco.mj_resetData(m, d)
         scene.set_pose(self.q)
-        if self.tau is not None:  # less what the actuators exert at rest (0 for servos and motors)
-            dofs = scene.servo_dofs
-            d.qfrc_applied[dofs] = self.tau[dofs] - d.qfrc_actuator[dofs]
+        if self.tau is not None:
+            servos = self._servos
+            nv = scene.robot.model.nv
+            d.ctrl[servos.ids] = servos.controls(self.q, np.zeros(nv), self.tau[:nv])
+            held = servos.ids[m.actuator_actnum[servos.ids] > 0]
+            d.act[m.actuator_actadr[held]] = d.ctrl[held]  # activations at rest too
+            mujoco.mj_forward(m, d)
         self.data.qpos[:] = d.qpos
         mujoco.mj_kinematics(m, self.data)
+        self._ctrl = d.ctrl.copy()
 
     def update(self, t: float) -> None:
         """Nothing moves."""
+
+    def controls(self, t: np.ndarray) -> np.ndarray:
+        """The controls written at the start, in every step."""
+        return np.tile(self._ctrl, (len(t), 1))
+
+    def loads(self, t: np.ndarray) -> np.ndarray:
+        """The external wrenches as given."""
+        return np.ones(len(t))
 
 
 def hold(
@@ -237,7 +183,8 @@ def hold(
     external: Sequence[External] = (),
     callback: Callback | Sequence[Callback] | None = None,
     every: int = 1,
-    margin_every: int = 5,
+    record_every: int = RECORD_EVERY,
+    margin_every: int = MARGIN_EVERY,
     feedforward: bool = True,
 ) -> HoldReport:
     """Hold ``q`` with the scene's servos and step the physics for ``duration``.
@@ -263,15 +210,20 @@ def hold(
             at the frame's origin (a site or body name of the scene), written
             to ``xfrc_applied`` of the frame's body every step.
         callback: A callable or a list, each called with a :class:`HoldSample`
-            at the start and every ``every`` steps.
+            at the start and every ``every`` steps (the checks then sample
+            every ``every`` steps too: :mod:`pik_mj.sim.tracking`).
         every: Steps between callback calls (>= 1).
+        record_every: Steps between the checks' samples without callbacks
+            (the physics runs in C between them); 1: every step.
         margin_every: Steps between evaluations of the CoM margin (a convex hull
-            each).
+            of the ground contacts).
         feedforward: Add :func:`holding_torques` on the servo joints (PD
             with gravity compensation): the hold then starts in equilibrium
             rather than sagging onto its servos' error, an overshoot that can
             tip a pose with a small margin. Nothing is added when the pose has
-            no equilibrium.
+            no equilibrium. When a joint needs more than its drive gives
+            (:func:`drive_shortfalls`), the pose is not stepped: the report
+            fails, naming the joint, its torque and the drive's bound.
 
     Returns:
         A :class:`HoldReport`.
@@ -279,12 +231,18 @@ def hold(
     Raises:
         SimulationUnstable: MuJoCo reported an invalid state.
     """
-    criteria = check_options(criteria, duration, every=every, margin_every=margin_every)
+    criteria = check_options(
+        criteria, duration, every=every, record_every=record_every, margin_every=margin_every
+    )
     external = inputs.wrenches(external, "external")
     q = scene.qpos_of(q)[: scene.robot_nq]
     callbacks = as_callbacks(callback)
     allowed = scene.allowed(criteria.allowed)
     tau = holding_torques(scene, q, external) if feedforward else None
+    short = [] if tau is None else drive_shortfalls(scene, q, tau)
+    if short:
+        why = "the servos cannot hold this pose: " + "; ".join(s.describe() for s in short)
+        return _not_held(scene, q, duration, criteria, allowed, why)
     run = track(
         scene,
         HeldPose(scene, q, tau),
@@ -294,9 +252,18 @@ def hold(
         external=external,
         callbacks=callbacks,
         every=every,
+        record_every=record_every,
         margin_every=margin_every,
     )
-    failures = run.failures(criteria)
+    return _held(scene, run, criteria, allowed, duration)
+
+
+def _held(
+    scene: Physics, run: Tracked, criteria: HoldCriteria, allowed: list[str], duration: float
+) -> HoldReport:
+    """The report of a hold that ran (``run``), its failures diagnosed
+    (:func:`pik_mj.sim.stability.diagnose`)."""
+    failures = run.failures(criteria) + diagnose(scene, run, criteria)
     return HoldReport(
         passed=not failures,
         failures=failures,
@@ -319,4 +286,98 @@ def hold(
         wall_time=run.wall_time,
         fall=run.fall,
         tilt=run.tilt,
+    )
+
+
+def hold_many(
+    scene: Physics,
+    qs: Sequence[ArrayLike],
+    duration: float = 3.0,
+    *,
+    criteria: HoldCriteria | None = None,
+    nthread: int | None = None,
+    record_every: int = RECORD_EVERY,
+    margin_every: int = MARGIN_EVERY,
+    feedforward: bool = True,
+) -> list[HoldReport]:
+    """:func:`hold` of each configuration of ``qs``, stepped together: each chunk
+    of steps is one ``mujoco.rollout`` of every hold still going, on ``nthread``
+    threads with one ``MjData`` each (:func:`pik_mj.sim.tracking.track_many`);
+    a hold that falls stops early. The verdicts and figures are
+    :func:`hold`'s (up to the solver's warm start at each chunk: below 1e-9 m).
+    No external wrenches or callbacks (use :func:`hold` for those).
+
+    Args:
+        scene: The scene.
+        qs: Robot configurations.
+        duration: Simulated time [s] of each hold.
+        criteria: Pass/fail thresholds (default :class:`HoldCriteria`).
+        nthread: Rollout threads (default: one per CPU of this process, at most
+            one per configuration; 0: the calling thread).
+        record_every, margin_every, feedforward: As :func:`hold`.
+
+    Returns:
+        One :class:`HoldReport` per configuration, in order.
+
+    Raises:
+        InvalidInput: A configuration that is not the robot's, bad options.
+        SimulationUnstable: MuJoCo reported an invalid state.
+    """
+    criteria = check_options(
+        criteria, duration, record_every=record_every, margin_every=margin_every
+    )
+    allowed = scene.allowed(criteria.allowed)
+    reports: list[HoldReport | None] = [None] * len(qs)
+    held: list[tuple[int, HeldPose]] = []
+    for i, q in enumerate(qs):
+        q = scene.qpos_of(q)[: scene.robot_nq]
+        tau = holding_torques(scene, q) if feedforward else None
+        short = [] if tau is None else drive_shortfalls(scene, q, tau)
+        if short:
+            why = "the servos cannot hold this pose: " + "; ".join(s.describe() for s in short)
+            reports[i] = _not_held(scene, q, duration, criteria, allowed, why)
+        else:
+            held.append((i, HeldPose(scene, q, tau)))
+    if nthread is None:
+        nthread = min(len(held), len(os.sched_getaffinity(0)))
+    runs = track_many(
+        scene, [r for _, r in held], duration, criteria=criteria, allowed=allowed,
+        nthread=nthread if nthread > 1 else 0, record_every=record_every,
+        margin_every=margin_every,
+    )  # fmt: skip
+    for (i, _), run in zip(held, runs, strict=True):
+        reports[i] = _held(scene, run, criteria, allowed, duration)
+    return [r for r in reports if r is not None]
+
+
+def _not_held(
+    scene: Physics,
+    q: np.ndarray,
+    duration: float,
+    criteria: HoldCriteria,
+    allowed: list[str],
+    why: str,
+) -> HoldReport:
+    """The report of a hold that was not stepped: ``why``."""
+    h = scene.root_height(scene.kinematics(q))
+    return HoldReport(
+        passed=False,
+        failures=[why],
+        drift=0.0,
+        drift_horizontal=0.0,
+        drift_vertical=0.0,
+        final_displacement=np.zeros(3),
+        slip=0.0,
+        slip_per_geom={},
+        min_margin=-math.inf,
+        fell=False,
+        unexpected_contacts=[],
+        allowed=list(allowed),
+        thresholds=criteria.thresholds(),
+        duration=float(duration),
+        simulated=0.0,
+        steps=0,
+        timestep=float(scene.model.opt.timestep),
+        root_height=(h, h),
+        wall_time=0.0,
     )

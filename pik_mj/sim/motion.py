@@ -59,8 +59,9 @@ from pik_mj.sim.reference import (
     PhysicsState,
     velocity_limits,
 )
+from pik_mj.sim.stability import diagnose
 from pik_mj.sim.static import finite_or_none
-from pik_mj.sim.tracking import track
+from pik_mj.sim.tracking import MARGIN_EVERY, RECORD_EVERY, track
 
 __all__ = [
     "DEFAULT_SETTLE",
@@ -262,6 +263,43 @@ def _as_waypoints(path: Waypoints | ArrayLike, nq: int) -> Waypoints:
     return path
 
 
+def _not_played(
+    scene: Physics,
+    path: Waypoints,
+    reference: MotionReference,
+    speed: float,
+    settle: float,
+    t0: float,
+    why: str,
+) -> MotionReport:
+    """The report of a path that was not played: ``why``."""
+    return MotionReport(
+        passed=False,
+        failures=[why],
+        duration=reference.duration,
+        settle=settle,
+        simulated=0.0,
+        speed=speed,
+        waypoint_times=t0 + reference.times,
+        segments=[w.segment for w in path.items],
+        tracking_error=0.0,
+        tracking_joint=None,
+        frame_errors={},
+        drift=0.0,
+        min_margin=-math.inf,
+        slip=0.0,
+        slip_per_geom={},
+        fell=False,
+        planned_contacts=[],
+        planned_pairs=[],
+        unexpected_contacts=[],
+        thresholds={},
+        steps=0,
+        timestep=float(scene.model.opt.timestep),
+        final_state=PhysicsState.of(scene.data),
+    )
+
+
 def _check_planned(scene: Physics, planned: Sequence[tuple[str, str]]) -> None:
     """Each planned contact is a pair (robot geom, geom of the scene).
 
@@ -289,7 +327,8 @@ def play(
     external_ramp: bool = False,
     callback: Callback | Sequence[Callback] | None = None,
     every: int = 1,
-    margin_every: int = 10,
+    record_every: int = RECORD_EVERY,
+    margin_every: int = MARGIN_EVERY,
     feedforward: bool = True,
     start: MotionReport | PhysicsState | None = None,
     planned: Sequence[tuple[str, str]] = (),
@@ -313,11 +352,17 @@ def play(
             first waypoint, their value at the last): a load taken up while
             reaching, for a path solved with the full load.
         callback: A callable or a list, called with a
-            :class:`~pik_mj.sim.tracking.HoldSample` every ``every`` steps (its
-            ``reference`` and ``waypoint`` are set).
+            :class:`~pik_mj.sim.measures.HoldSample` every ``every`` steps (its
+            ``reference`` and ``waypoint`` are set; the checks then sample every
+            ``every`` steps too: :mod:`pik_mj.sim.tracking`).
         every: Steps between callback calls.
-        margin_every: Steps between evaluations of the CoM margin and the frame errors.
-        feedforward: Add the waypoints' static torques.
+        record_every: Steps between the checks' samples without callbacks; 1:
+            every step.
+        margin_every: Steps between evaluations of the CoM margin.
+        feedforward: Plan the torques the path needs: the servos' feed-forward
+            and a timing slowed down where the drives need it
+            (:func:`pik_mj.sim.effort.plan_torques`); False: the velocity
+            limits alone, no feed-forward.
         start: A motion (or its state) to continue from, e.g. the part before a
             grasp in the scene without the grasp; None: from rest at the first
             waypoint.
@@ -346,42 +391,35 @@ def play(
     lower, upper = velocity_limits(scene, max_velocity, path.velocity_bounds)
     t_wall = time.perf_counter()
     reference = MotionReference(
-        scene,
-        path,
-        lower,
-        upper,
-        speed=float(speed),
-        external=external,
-        external_ramp=external_ramp,
-        feedforward=feedforward,
-        start=state,
-    )
-    duration = reference.duration + settle
+        scene, path, lower, upper, speed=float(speed), external=external,
+        external_ramp=external_ramp, feedforward=feedforward, start=state,
+    )  # fmt: skip
+    duration = max(reference.duration + settle, scene.model.opt.timestep)
     criteria = check_options(
         MOTION_CRITERIA if criteria is None else criteria,
-        max(duration, scene.model.opt.timestep),
+        duration,
         every=every,
+        record_every=record_every,
         margin_every=margin_every,
     )
     _check_planned(scene, planned)
     pairs = list(dict.fromkeys([*planned_contacts(scene, path), *map(tuple, planned)]))
     allowed = list(dict.fromkeys([*scene.allowed_contacts, *scene.allowed(criteria.allowed)]))
     frames = [Frame.find(scene.model, name, kind) for name, kind in path.frames.items()]
-    run = track(
-        scene,
-        reference,
-        max(duration, scene.model.opt.timestep),
-        criteria=criteria,
-        allowed=allowed,
-        planned_pairs={frozenset(p) for p in pairs},
-        external=external,
-        callbacks=as_callbacks(callback),
-        every=every,
-        margin_every=margin_every,
-        frames=frames,
-    )
     t0 = 0.0 if state is None else state.time
+    if reference.shortfalls:
+        why = "the servos cannot track this path: " + "; ".join(
+            f.describe() for f in reference.shortfalls
+        )
+        return _not_played(scene, path, reference, float(speed), float(settle), t0, why)
+    run = track(
+        scene, reference, duration, criteria=criteria, allowed=allowed,
+        planned_pairs={frozenset(p) for p in pairs}, external=external,
+        callbacks=as_callbacks(callback), every=every, record_every=record_every,
+        margin_every=margin_every, frames=frames,
+    )  # fmt: skip
     failures = run.failures(criteria, drift="root drift from the reference")
+    failures += diagnose(scene, run, criteria)
     return MotionReport(
         passed=not failures,
         failures=failures,

@@ -165,6 +165,7 @@ class Physics:
         for b in self._grasp_bodies:
             system |= subtree_mask(model, b)
         self._system_geom = system[model.geom_bodyid]
+        self._system_view = _frozen(self._system_geom.copy())
         self._kin_data = mujoco.MjData(model)
         rm = robot.model
         servo_ids = [int(j) for j in robot.angle_joint_ids]
@@ -419,14 +420,51 @@ class Physics:
         up = self.up()
         cos_max = math.cos(max_slope)
         pts = [c.position for c in contacts if not c.self_contact and c.normal @ up >= cos_max]
-        if not pts:
-            return None, -math.inf
-        uv = np.array(pts) @ balance.plane_basis(up)[:, :2]
+        region = self.support_region(np.array(pts).reshape(-1, 3))
+        return region, (-math.inf if region is None else region.signed_distance(com))
+
+    def support_region(self, points: np.ndarray) -> balance.SupportRegion | None:
+        """Convex hull (:func:`pik_mj.balance.support_polygon`, degenerate allowed)
+        of ground contact points (n, 3) [m] projected along gravity; None without
+        points."""
+        if not len(points):
+            return None
+        up = self.up()
+        uv = points @ balance.plane_basis(up)[:, :2]
         extent = float(np.max(np.ptp(uv, axis=0))) if len(uv) > 1 else 0.0
-        region = balance.support_polygon(
-            [np.array(pts)], up, allow_degenerate=True, tol=max(1e-9, 1e-6 * extent)
+        return balance.support_polygon(
+            [points], up, allow_degenerate=True, tol=max(1e-9, 1e-6 * extent)
         )
-        return region, region.signed_distance(com)
+
+    def ground_points(self, qpos: np.ndarray, max_slope: float) -> tuple[np.ndarray, bytes]:
+        """The points ``p_WC`` (n, 3) [m] of :meth:`support`: the robot's (and its
+        grasped objects') environment contacts within ``contact_tolerance`` at
+        the world state ``qpos`` (the probe model, as :meth:`touching`) whose
+        normal into the robot is within ``max_slope`` [rad] of up, read from
+        MuJoCo's contact arrays at once; and their geom pairs as bytes (equal
+        bytes: the same contacts)."""
+        m, d = self._probe_model, self._probe_data
+        d.qpos[:] = qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        if not d.ncon:
+            return np.zeros((0, 3)), b""
+        con = d.contact
+        g = con.geom
+        r1, r2 = self._system_geom[g[:, 0]], self._system_geom[g[:, 1]]
+        normal = con.frame[:, :3] * np.where(r2, 1.0, -1.0)[:, None]  # into the robot
+        keep = (
+            (con.dist <= self.contact_tolerance)
+            & ((con.exclude == 0) | (con.exclude == 1))
+            & (r1 != r2)
+            & (normal @ self.up() >= math.cos(max_slope))
+        )
+        return con.pos[keep].copy(), g[keep].tobytes()
+
+    @property
+    def system_geoms(self) -> np.ndarray:
+        """Mask (ngeom,) of the geoms of the robot and its grasped objects (read-only)."""
+        return self._system_view
 
     def external_wrenches(
         self, external: Sequence[External], data: mujoco.MjData | None = None

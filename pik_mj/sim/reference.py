@@ -15,27 +15,25 @@ at a speed scale ``s``. The limits are, per degree of freedom: the caller's
 solve's levels, else the irteus joints' defaults (:data:`IRTEUS_MAX_VELOCITY`,
 irteus manual: ``rotational-joint`` 5 rad/s, ``linear-joint`` π/4 m/s, the
 ``6dof-joint`` of a floating base 1.6 m/s and π/4 rad/s). The waypoints sit at
-the nominal times ``σ_i = Σ_{k<i} T_k`` along a path linear between them in
-joint space (``mj_integratePos``); each segment (one solve's iterates, from
-the pose before its first iterate to its last) is travelled with the
-minimum-jerk time scaling
+the nominal times ``σ_i = Σ_{k<i} T_k``; each segment (one solve's iterates)
+is travelled with a minimum-jerk time scaling that starts and ends at rest
+(:class:`~pik_mj.sim.timing.Timing`): a sequence of solves (look, reach,
+lift) is a sequence of motions, not one path whose direction turns abruptly at
+a solve's boundary.
 
-.. math::
-
-    \sigma(t) = \sigma_a + S_k\, \big(10 τ^3 - 15 τ^4 + 6 τ^5\big), \quad
-    τ = (t - t_k) / T_k, \qquad T_k = \tfrac{15}{8}\, S_k
-
-(``S_k`` the segment's nominal time), which starts and ends at rest with zero
-acceleration: a sequence of solves (look, reach, lift) is a sequence of
-motions, not one path whose direction turns abruptly at a solve's boundary.
-The peak rate ``dσ/dt = 15 S_k / 8 T_k = 1`` keeps every joint within
-``s θ̇_max``.
+**What the drives deliver.** The torques the path needs at that timing
+(inverse dynamics along the reference with the contact forces that carry the
+robot) are checked against each servo joint's drive (force and control
+ranges, its gains near a range end; :mod:`pik_mj.sim.drives`): a segment
+whose torques pass a share of the bounds is slowed down, a path whose poses
+need more than the drives give even at rest is not played and the joints are
+named (:func:`pik_mj.sim.effort.plan_torques`).
 
 **Tracking.** The scene's position servos ``τ = k_p (u - q) - k_v q̇`` get the
-target ``u = q_{ref} + (k_v / k_p)\, \dot q_{ref}`` (the damping then acts on the
-velocity error) and the static torques of the waypoints
-(:func:`pik_mj.sim.hold.holding_torques`, linear in ``σ`` between knots) as
-feed-forward.
+target ``u = q_{ref} + (k_v / k_p)\, \dot q_{ref} + τ_{ff} / k_p`` (the damping
+then acts on the velocity error; :class:`~pik_mj.sim.servos.ServoLaw`) with
+the planned torques ``τ_ff`` (linear in time between knots) as feed-forward,
+through the actuators: MuJoCo clamps them with the rest of the drive's force.
 """
 
 from __future__ import annotations
@@ -48,9 +46,11 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
-from pik_mj.sim.hold import holding_torques
+from pik_mj.sim.effort import plan_torques
 from pik_mj.sim.path import Waypoints
 from pik_mj.sim.physics import External, Physics
+from pik_mj.sim.servos import ServoLaw
+from pik_mj.sim.timing import Timing
 
 __all__ = [
     "IRTEUS_MAX_VELOCITY",
@@ -74,9 +74,6 @@ per MuJoCo joint type [rad/s or m/s]: ``rotational-joint`` 5, ``linear-joint``
 SEED_MAX_VELOCITY = IRTEUS_MAX_VELOCITY
 """Alias of :data:`IRTEUS_MAX_VELOCITY`."""
 
-_PEAK_RATE = 15.0 / 8.0  # max of d/dτ (10τ³ - 15τ⁴ + 6τ⁵)
-_KNOT_SPACING = 0.05  # [s] of nominal time between knots of the torque feed-forward
-
 _DRIVEN = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 _JOINT_TYPES = {
     int(mujoco.mjtJoint.mjJNT_FREE): "free",
@@ -84,14 +81,6 @@ _JOINT_TYPES = {
     int(mujoco.mjtJoint.mjJNT_SLIDE): "slide",
     int(mujoco.mjtJoint.mjJNT_HINGE): "hinge",
 }
-
-
-def _min_jerk(tau: np.ndarray | float) -> np.ndarray | float:
-    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau**2)
-
-
-def _min_jerk_rate(tau: float) -> float:
-    return 30.0 * tau**2 * (1.0 - tau) ** 2
 
 
 def velocity_limits(
@@ -133,43 +122,6 @@ def velocity_limits(
     return lo, hi
 
 
-class _ServoLaw:
-    r"""The controls of the scene's position actuators (its servos and the
-    robot's own, joint transmissions) for a reference ``(q_ref, q̇_ref)``: an
-    actuator's force ``g_0 u + b_0 + b_1 L + b_2 L̇`` with ``L = γ q`` becomes
-    ``-b_1 γ (q_ref - q) - b_2 γ (q̇_ref - q̇)`` at
-
-    .. math::
-
-        u = -(b_0 + b_1 γ q_{ref} + b_2 γ \dot q_{ref}) / g_0
-
-    (for a scene servo ``g_0 = k_p = -b_1``, ``b_2 = -k_v``, ``γ = 1``:
-    ``u = q_ref + (k_v / k_p) q̇_ref``)."""
-
-    def __init__(self, scene: Physics):
-        m = scene.model
-        nq, nv = scene.robot_nq, scene.robot.model.nv
-        ids = [
-            int(a)
-            for a in scene.position_actuators
-            if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)
-            and int(m.jnt_type[m.actuator_trnid[a, 0]]) in _DRIVEN
-            and m.jnt_qposadr[m.actuator_trnid[a, 0]] < nq
-            and m.jnt_dofadr[m.actuator_trnid[a, 0]] < nv
-        ]
-        self.ids = np.array(ids, dtype=int)
-        joints = m.actuator_trnid[self.ids, 0]
-        self.qadr, self.dof = m.jnt_qposadr[joints], m.jnt_dofadr[joints]
-        self.gear = m.actuator_gear[self.ids, 0]
-        self.g0 = m.actuator_gainprm[self.ids, 0]
-        self.b = m.actuator_biasprm[self.ids, :3]
-
-    def write(self, d: mujoco.MjData, q: np.ndarray, qd: np.ndarray) -> None:
-        b0, b1, b2 = self.b.T
-        L, Ld = self.gear * q[self.qadr], self.gear * qd[self.dof]
-        d.ctrl[self.ids] = -(b0 + b1 * L + b2 * Ld) / self.g0
-
-
 @dataclass(frozen=True)
 class PhysicsState:
     """The physics state a motion ended in (what a following one starts from).
@@ -198,17 +150,23 @@ class MotionReference:
         path: The waypoints.
         lower, upper: Velocity limits (nv,) [rad/s or m/s] (:func:`velocity_limits`).
         speed: Fraction of the limits, in (0, 1].
-        external: Wrenches acting during the motion (in the static torques).
+        external: Wrenches acting during the motion (in the feed-forward).
         external_ramp: The wrenches grow with the path's progress ``σ / S``,
             from 0 at the first waypoint to their value at the last (:attr:`load`).
-        feedforward: Add the static torques of the waypoints.
+        feedforward: Plan the torques (:func:`pik_mj.sim.effort.plan_torques`):
+            the servos' feed-forward, and the timing slowed down where the
+            drives need it. False: the velocity limits alone, no feed-forward.
         start: Physics state to continue from, or None (reset, the first
             waypoint at rest).
 
     Attributes:
+        timing: The path's :class:`~pik_mj.sim.timing.Timing`.
         times: Time [s] of each waypoint from the start.
         duration: Time [s] of the path (the last waypoint's).
         nominal: Nominal time ``σ_i`` [s] of each waypoint.
+        torques: The :class:`~pik_mj.sim.effort.TorquePlan` (None without feed-forward).
+        shortfalls: Joints whose drives cannot hold the path at rest (then it
+            cannot be played).
         data: Kinematics of the reference now.
         waypoint: Index of the last waypoint passed.
         load: Scale of the external wrenches now.
@@ -242,68 +200,22 @@ class MotionReference:
         rate = np.where(self._dv >= 0, upper, -lower) * speed  # [rad/s] per dof and step
         with np.errstate(divide="ignore", invalid="ignore"):
             steps = np.where(self._dv == 0.0, 0.0, np.abs(self._dv) / rate)
-        self._T = steps.max(axis=1) if n > 1 else np.zeros(0)
-        self.nominal = np.concatenate([[0.0], np.cumsum(self._T)])
-        # each segment (solve) starts and ends at rest: its own min-jerk scaling
         labels = [w.segment for w in path.items]
-        firsts = [0] + [i for i in range(1, n) if labels[i] != labels[i - 1]]
-        ends = [f - 1 for f in firsts[1:]] + [n - 1]
-        self._seg_s = np.array(
-            [
-                [self.nominal[max(a - 1, 0)], self.nominal[b]]
-                for a, b in zip(firsts, ends, strict=True)
-            ]
+        self.timing = Timing(steps.max(axis=1) if n > 1 else np.zeros(0), labels)
+        self.nominal = self.timing.nominal
+        self.torques = (
+            plan_torques(scene, self.q, self._dv, self.timing, external, self._ramp)
+            if feedforward
+            else None
         )
-        self._seg_D = _PEAK_RATE * (self._seg_s[:, 1] - self._seg_s[:, 0])
-        self._seg_t = np.concatenate([[0.0], np.cumsum(self._seg_D)])
-        self.duration = float(self._seg_t[-1])
-        table = np.linspace(0.0, 1.0, 4001)
-        self.times = np.zeros(n)
-        for k, (a, b) in enumerate(zip(firsts, ends, strict=True)):
-            s0, s1 = self._seg_s[k]
-            if s1 > s0:
-                frac = (self.nominal[a : b + 1] - s0) / (s1 - s0)
-                self.times[a : b + 1] = self._seg_t[k] + self._seg_D[k] * np.interp(
-                    frac, _min_jerk(table), table
-                )
-            else:
-                self.times[a : b + 1] = self._seg_t[k]
+        self.shortfalls = [] if self.torques is None else self.torques.shortfalls
+        self.duration = self.timing.duration
+        self.times = self.timing.waypoint_times()
         self._start = start
         self.data = mujoco.MjData(scene.model)  # the environment at qpos0
         self.waypoint = 0
-        self._servos = _ServoLaw(scene)
-        self._knots, self._tau = self._torques(external) if feedforward else (None, None)
-        self._q_ref = self.q[0].copy()
-        self._qd_ref = np.zeros(rm.nv)
-
-    def _torques(
-        self, external: Sequence[External]
-    ) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
-        """Static torques on the servo dofs at knots spaced ``_KNOT_SPACING`` of
-        nominal time apart (and the last waypoint); knots without static
-        equilibrium are left out. Returns (knots' nominal times (k,), torques
-        (k, servos)), or (None, None) when no knot has an equilibrium."""
-        keep, last = [], -math.inf
-        for i, s in enumerate(self.nominal):
-            if s - last >= _KNOT_SPACING or i == len(self.nominal) - 1:
-                keep.append(i)
-                last = s
-        dofs = self.scene.servo_dofs
-        S = float(self.nominal[-1])
-        knots, taus = [], []
-        for i in keep:
-            load = (self.nominal[i] / S if S > 0 else 1.0) if self._ramp else 1.0
-            scaled = [
-                (f, load * np.asarray(F, float), load * np.asarray(M, float))
-                for f, F, M in external
-            ]
-            tau = holding_torques(self.scene, self.q[i], scaled)
-            if tau is not None:
-                knots.append(self.nominal[i])
-                taus.append(tau[dofs])
-        if not knots:
-            return None, None
-        return np.array(knots), np.array(taus)
+        self._servos = ServoLaw(scene.model, scene.position_actuators, scene.robot_nq, rm.nv)
+        self._ctrl = np.zeros(scene.model.nu)
 
     # -- the loop's interface ------------------------------------------------
 
@@ -325,48 +237,52 @@ class MotionReference:
             mujoco.mj_resetData(m, d)
             d.time = st.time
             d.qpos[:], d.qvel[:], d.act[:] = st.qpos, st.qvel, st.act
-        self._t0 = float(d.time)
+        self._ctrl = d.ctrl.copy()
+        d.ctrl[:] = self.controls(np.zeros(1))[0]
         self.update(0.0)
         mujoco.mj_forward(m, d)
 
     def update(self, t: float) -> None:
-        """The reference at time ``t`` [s]: kinematics, servo targets and torques."""
-        scene, rm = self.scene, self._rm
-        S = float(self.nominal[-1])
-        k = int(np.searchsorted(self._seg_t, t, side="right") - 1)
-        if 0 <= k < len(self._seg_D) and self._seg_D[k] > 0:
-            (s0, s1), D = self._seg_s[k], self._seg_D[k]
-            tau_t = (t - self._seg_t[k]) / D
-            s = s0 + (s1 - s0) * float(_min_jerk(tau_t))
-            rate = (s1 - s0) / D * _min_jerk_rate(tau_t)  # dσ/dt
-        else:
-            s, rate = S, 0.0
-        if self._ramp:
-            self.load = s / S if S > 0 else 1.0
-        i = int(np.searchsorted(self.nominal, s, side="right") - 1)
-        i = min(max(i, 0), len(self.q) - 1)
+        """The reference at time ``t`` [s]: its kinematics (:attr:`data`),
+        :attr:`waypoint` and :attr:`load`."""
+        scene, rm, timing = self.scene, self._rm, self.timing
+        sigma, _, _ = timing.progress(np.array([t]))
+        self.load = float(self.loads(np.array([t]))[0])
+        (i,), (alpha,) = timing.piece(sigma)
         self.waypoint = int(np.searchsorted(self.times, t, side="right") - 1)
         q = self.q[i].copy()
-        if i < len(self.q) - 1 and self._T[i] > 0:
-            alpha = (s - self.nominal[i]) / self._T[i]
+        if i < len(self.q) - 1 and timing.steps[i] > 0:
             mujoco.mj_integratePos(rm, q, self._dv[i], alpha)
-            self._qd_ref = self._dv[i] * (rate / self._T[i])
-        else:
-            self._qd_ref = np.zeros(rm.nv)
-        self._q_ref = q
         if scene.grasps:  # the grasped objects follow the hand
             self.data.qpos[:] = scene.qpos_of(q)
         else:  # the waypoints were checked (planned_contacts): no check per step
             self.data.qpos[: len(q)] = q
         mujoco.mj_kinematics(scene.model, self.data)
-        d = scene.data
-        self._servos.write(d, q, self._qd_ref)
-        if self._knots is not None:  # linear in σ between knots, constant outside
-            knots = self._knots
-            j = int(np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(knots) - 1))
-            if j == len(knots) - 1 or s <= knots[0]:
-                tau = self._tau[j]
-            else:
-                w = (s - knots[j]) / (knots[j + 1] - knots[j])
-                tau = (1.0 - w) * self._tau[j] + w * self._tau[j + 1]
-            d.qfrc_applied[scene.servo_dofs] = tau
+
+    def controls(self, t: np.ndarray) -> np.ndarray:
+        """The actuators' controls (len(t), nu) at times ``t`` [s] from the start:
+        the servos' (:class:`~pik_mj.sim.servos.ServoLaw`) for the reference's
+        servo joint positions and rates and the planned feed-forward; the other
+        actuators' as :meth:`begin` found them."""
+        timing, law = self.timing, self._servos
+        sigma, rate, accel = timing.progress(t)
+        i, alpha = timing.piece(sigma)
+        n = len(self.q)
+        step = np.minimum(i, max(n - 2, 0))
+        T = timing.steps[step] if n > 1 else np.zeros(len(t))
+        moving = (i < n - 1) & (T > 0)
+        dv = self._dv[step] if n > 1 else np.zeros((len(t), self._rm.nv))
+        q = self.q[i].copy()
+        q[:, law.qadr] += np.where(moving, alpha, 0.0)[:, None] * dv[:, law.dof]
+        qd = dv * np.where(moving, rate / np.where(moving, T, 1.0), 0.0)[:, None]
+        tau = None if self.torques is None else self.torques.at(sigma, rate, accel)
+        ctrl = np.tile(self._ctrl, (len(t), 1))
+        ctrl[:, law.ids] = law.controls(q, qd, tau)
+        return ctrl
+
+    def loads(self, t: np.ndarray) -> np.ndarray:
+        """The scale (len(t),) of the external wrenches: ``σ / S`` with the ramp, else 1."""
+        if not self._ramp:
+            return np.ones(len(t))
+        S = float(self.nominal[-1])
+        return self.timing.progress(t)[0] / S if S > 0 else np.ones(len(t))

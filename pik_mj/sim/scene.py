@@ -22,7 +22,7 @@ Modelling choices (documented here once):
   robot's joint-space inertia (``kp = ω² M_jj``, ``kv = 2 ζ ω M_jj``). The
   robot's other actuators (motors) stay at zero control, which exerts nothing.
   :meth:`Scene.hold` adds the static feed-forward of
-  :func:`pik_mj.sim.hold.holding_torques`, so the pose starts in equilibrium
+  :func:`pik_mj.sim.torques.holding_torques`, so the pose starts in equilibrium
   rather than sagging by ``τ_gravity / kp``. The integrator is ``implicitfast``,
   which treats ``kv`` implicitly.
 * **Contact pairs**: the robot's explicit ``<contact><pair>``\ s are kept (they
@@ -73,11 +73,12 @@ from pik_mj.sim.assembly import (
     set_physics_options,
 )
 from pik_mj.sim.grasp import Grasp, GraspLike, add_grasp_welds, parse_grasps
-from pik_mj.sim.hold import HoldCriteria, HoldReport, hold
+from pik_mj.sim.hold import HoldCriteria, HoldReport, hold, hold_many
 from pik_mj.sim.motion import DEFAULT_SPEED, MotionReport, PhysicsState, Waypoints, play
 from pik_mj.sim.physics import External, Physics, subtree_mask
 from pik_mj.sim.servos import DEFAULT_BANDWIDTH, DEFAULT_DAMPING_RATIO
 from pik_mj.sim.static import StaticChecks, StaticReport, static_check
+from pik_mj.sim.tracking import MARGIN_EVERY, RECORD_EVERY
 
 __all__ = ["DEFAULT_CONTACT", "ContactParams", "External", "Grasp", "GraspLike", "Scene"]
 
@@ -282,7 +283,8 @@ class Scene(Physics):
         external: Sequence[External] = (),
         callback: Any = None,
         every: int = 1,
-        margin_every: int = 5,
+        record_every: int = RECORD_EVERY,
+        margin_every: int = MARGIN_EVERY,
         feedforward: bool = True,
     ) -> HoldReport:
         """Hold ``q`` with the servos for ``duration`` [s] of physics
@@ -295,9 +297,24 @@ class Scene(Physics):
             external=external,
             callback=callback,
             every=every,
+            record_every=record_every,
             margin_every=margin_every,
             feedforward=feedforward,
         )
+
+    def hold_many(
+        self,
+        qs: Sequence[ArrayLike],
+        duration: float = 3.0,
+        *,
+        criteria: HoldCriteria | None = None,
+        nthread: int | None = None,
+        **options: Any,
+    ) -> list[HoldReport]:
+        """Hold each configuration of ``qs`` for ``duration`` [s], all stepped
+        together on ``nthread`` threads (:func:`pik_mj.sim.hold.hold_many`;
+        options: ``record_every``, ``margin_every``, ``feedforward``)."""
+        return hold_many(self, qs, duration, criteria=criteria, nthread=nthread, **options)
 
     # ------------------------------------------------------------------- play
     def play(
@@ -311,7 +328,7 @@ class Scene(Physics):
         """Play ``path`` (a solve's iterates, :class:`pik_mj.sim.Waypoints`) in
         physics, the servos tracking it (:func:`pik_mj.sim.motion.play`; options:
         ``max_velocity``, ``settle``, ``criteria``, ``external``, ``callback``,
-        ``every``, ``margin_every``, ``feedforward``)."""
+        ``every``, ``record_every``, ``margin_every``, ``feedforward``)."""
         return play(
             self, path, speed=DEFAULT_SPEED if speed is None else speed, start=start, **options
         )

@@ -66,6 +66,7 @@ from pik_mj.exceptions import InvalidInput
 __all__ = [
     "DEFAULT_BANDWIDTH",
     "DEFAULT_DAMPING_RATIO",
+    "ServoLaw",
     "position_actuators",
     "position_feedback",
     "rest_controls",
@@ -160,3 +161,63 @@ def servo_gains(
     mujoco.mj_fullM(model, data, M)
     m_jj = np.diag(M)[model.jnt_dofadr[np.asarray(joints, dtype=int)]]
     return bandwidth**2 * m_jj, 2.0 * damping_ratio * bandwidth * m_jj
+
+
+class ServoLaw:
+    r"""The controls of position actuators on hinge/slide joints (joint
+    transmissions) for a reference ``(q_ref, q̇_ref)`` and a feed-forward torque
+    ``τ_ff``: an actuator's joint torque ``γ (g_0 u + b_0 + b_1 L + b_2 L̇)`` with
+    ``L = γ q`` becomes ``-γ² b_1 (q_ref - q) - γ² b_2 (q̇_ref - q̇) + τ_ff`` at
+
+    .. math::
+
+        u = -\big(b_0 + b_1 γ q_{ref} + b_2 γ \dot q_{ref} - τ_{ff} / γ\big) / g_0
+
+    (for a scene servo ``g_0 = k_p = -b_1``, ``b_2 = -k_v``, ``γ = 1``:
+    ``u = q_ref + (k_v / k_p) q̇_ref + τ_ff / k_p``). The feed-forward goes
+    through the actuator, so MuJoCo clamps it with the rest of the actuator's
+    force (``ctrlrange``, ``forcerange``, the joint's ``actuatorfrcrange``). A
+    joint driven by several of them gets its feed-forward on the first.
+
+    Args:
+        model: The model.
+        actuators: Position actuators (ids, :func:`position_feedback`); those on
+            joints other than hinge/slide joints within the first ``nq``
+            coordinates and ``nv`` dofs are left out.
+        nq, nv: The robot's configuration and velocity sizes.
+
+    Attributes:
+        ids: The actuators driven.
+        qadr, dof: Their joints' ``qpos`` and dof addresses.
+    """
+
+    def __init__(self, model: mujoco.MjModel, actuators: Sequence[int], nq: int, nv: int):
+        m = model
+        ids = [
+            int(a)
+            for a in actuators
+            if int(m.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)
+            and int(m.jnt_type[m.actuator_trnid[a, 0]]) in _ANGLE
+            and m.jnt_qposadr[m.actuator_trnid[a, 0]] < nq
+            and m.jnt_dofadr[m.actuator_trnid[a, 0]] < nv
+        ]
+        self.ids = np.array(ids, dtype=int)
+        joints = m.actuator_trnid[self.ids, 0]
+        self.qadr, self.dof = m.jnt_qposadr[joints], m.jnt_dofadr[joints]
+        self.gear = m.actuator_gear[self.ids, 0]
+        self.g0 = m.actuator_gainprm[self.ids, 0]
+        self.b = m.actuator_biasprm[self.ids, :3]
+        _, first = np.unique(self.dof, return_index=True)
+        self.feeds = np.zeros(len(self.ids), dtype=bool)
+        self.feeds[first] = True
+
+    def controls(self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
+        """Controls (k, len(ids)) for references ``q`` (k, nq), ``qd`` (k, nv) and
+        feed-forward ``tau`` (k, nv) [N·m or N] (None: none); single rows too."""
+        b0, b1, b2 = self.b.T
+        q, qd = np.asarray(q, float), np.asarray(qd, float)
+        L, Ld = self.gear * q[..., self.qadr], self.gear * qd[..., self.dof]
+        u = -(b0 + b1 * L + b2 * Ld)
+        if tau is not None:
+            u = u + np.where(self.feeds, np.asarray(tau, float)[..., self.dof] / self.gear, 0.0)
+        return u / self.g0

@@ -131,9 +131,11 @@ def validate_pose(
         callback: Hold callbacks (e.g. a recorder's ``hold_logger()``).
 
     Returns:
-        :func:`balance_report` with the source under ``"robot"`` and the joints
+        :func:`balance_report` with the source under ``"robot"``, the joints
         outside their range under ``"joint_limits"``
-        (:func:`joint_limit_violations`; any makes ``passed`` False).
+        (:func:`joint_limit_violations`; any makes ``passed`` False) and
+        ``"checked": "hold"``: a pose alone has no motion to play, so its verdict
+        is a hold's, not a validated motion's.
 
     Raises:
         UnknownName: No such keyframe (or model, site, frame).
@@ -171,4 +173,5 @@ def validate_pose(
     report = balance_report(static, hold, robot.source.to_dict() if robot.source else None)
     report["joint_limits"] = violations
     report["passed"] = bool(report["passed"] and not violations)
+    report["checked"] = "hold"
     return report

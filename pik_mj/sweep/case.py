@@ -1,4 +1,4 @@
-"""One sweep case on pik_mj's API: solve, static check, physics hold → one result.
+"""One sweep case on pik_mj's API: solve, static check, motion, physics hold → one result.
 
 This is the only module of :mod:`pik_mj.sweep` that calls the robot, IK and
 simulation API; the rest (cases, Ray driver, dataset, views) sees a
@@ -19,8 +19,12 @@ feet, collision avoidance (every pair of robot bodies and every body against
 the floor, less adjacent pairs and pairs touching at the start; yellow zone
 10 cm, orange zone 1 cm) and, in the ``balanced`` stack, the CoM inside the
 soles' support polygon shrunk by ``margin``; level 2 the hand. The final pose is
-checked statically (:meth:`pik_mj.sim.Scene.static_check`) and held in physics
-(:meth:`pik_mj.sim.Scene.hold`, default :class:`pik_mj.sim.HoldCriteria`).
+checked statically (:meth:`pik_mj.sim.Scene.static_check`), the iterates are
+played in physics as a motion (:meth:`pik_mj.sim.Scene.play`, its default speed
+and criteria) and the final pose is held (:meth:`pik_mj.sim.Scene.hold`,
+default :class:`pik_mj.sim.HoldCriteria`). The result carries the final
+configuration (``qpos``) and the iterates (``path``): :func:`replay` checks a
+row again from them alone.
 """
 
 from __future__ import annotations
@@ -35,7 +39,16 @@ from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.robot import Robot
 from pik_mj.robot.ground import sole_polygons
 from pik_mj.robot.world import FLOOR
-from pik_mj.sim import HoldCriteria, Scene, floor_environment
+from pik_mj.sim import (
+    HoldCriteria,
+    HoldReport,
+    MotionReport,
+    Scene,
+    StaticReport,
+    Waypoints,
+    floor_environment,
+)
+from pik_mj.sim.tracking import RECORD_EVERY
 from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs
 from pik_mj.tasks.support_polygon import SupportPolygonTask
 
@@ -88,7 +101,13 @@ class Worker:
         robot: Robot model name or MJCF path.
         hand: Limb sent to the target.
         hold: Physics hold duration [s].
+
+    Attributes:
+        record_every: Steps between the samples of the motion's and the hold's
+            checks (:mod:`pik_mj.sim.tracking`; 1: every step).
     """
+
+    record_every = RECORD_EVERY
 
     def __init__(self, robot: str, *, hand: str = DEFAULT_HAND, hold: float = 3.0):
         self.robot = standing_robot(robot, hand)
@@ -119,6 +138,7 @@ class Worker:
             balance = [
                 SupportPolygonTask(config, self.soles, root_body=robot.root_body, margin=margin)
             ]
+        path = Waypoints(robot, "reach")
         t0 = time.perf_counter()
         result = fullbody_inverse_kinematics(
             robot,
@@ -130,31 +150,85 @@ class Worker:
             collision_avoidance=[avoid],
             stop=STOP,
             revert_if_fail=False,
+            callback=[path],
         )
         t1 = time.perf_counter()
         q = config.q.copy()
         p_hand = robot.frame_pose(self.limb.end_frame, self.limb.end_frame_type).translation()
-        static = self.scene.static_check(q)
-        t2 = time.perf_counter()
-        hold = self.scene.hold(q, self.hold_duration, criteria=self.criteria)
-        t3 = time.perf_counter()
+        checked = self.check(q, path.q)
         return {
             "converged": bool(result.converged),
             "iterations": int(result.iterations),
             "hand_error": float(np.linalg.norm(p_hand - target)),
             "level_errors": [float(e) for e in result.level_errors],
             "hand": [float(v) for v in p_hand],
-            "com": [float(v) for v in static.com],
-            "static_feasible": bool(static.feasible),
-            "static_margin": float(static.margin),
-            "hold_passed": bool(hold.passed),
-            "hold_failures": list(hold.failures),
-            "drift": float(hold.drift),
-            "slip": float(hold.slip),
-            "hold_min_margin": float(hold.min_margin),
-            "fell": bool(hold.fell),
-            "unexpected_contacts": [f"{a}-{b}" for a, b, _ in hold.unexpected_contacts],
+            **checked,
             "solve_time": t1 - t0,
-            "static_time": t2 - t1,
+        }
+
+    def check(self, q: np.ndarray, path: np.ndarray) -> dict[str, Any]:
+        """The checks of a case's final configuration ``q`` and iterates ``path``
+        (N, nq): the static check, the motion and the hold; their columns of
+        :data:`pik_mj.sweep.dataset.RESULT_FIELDS` (with ``qpos`` and ``path``)."""
+        t0 = time.perf_counter()
+        static = self.scene.static_check(q)
+        t1 = time.perf_counter()
+        every = {"record_every": self.record_every}
+        motion = self.scene.play(np.asarray(path, dtype=float), **every)
+        t2 = time.perf_counter()
+        hold = self.scene.hold(q, self.hold_duration, criteria=self.criteria, **every)
+        t3 = time.perf_counter()
+        return {
+            **_static_columns(static),
+            **_motion_columns(motion),
+            **_hold_columns(hold),
+            "qpos": [float(v) for v in q],
+            "path": [[float(v) for v in x] for x in path],
+            "static_time": t1 - t0,
+            "motion_time": t2 - t1,
             "hold_time": t3 - t2,
         }
+
+    def check_many(self, qs: list[np.ndarray], paths: list[np.ndarray]) -> list[dict[str, Any]]:
+        """:meth:`check` of many cases, their holds stepped together
+        (:meth:`pik_mj.sim.Scene.hold_many`: ``mujoco.rollout``'s threads)."""
+        out = []
+        for q, path in zip(qs, paths, strict=True):
+            static = self.scene.static_check(q)
+            every = {"record_every": self.record_every}
+            motion = self.scene.play(np.asarray(path, dtype=float), **every)
+            out.append({**_static_columns(static), **_motion_columns(motion)})
+        holds = self.scene.hold_many(
+            qs, self.hold_duration, criteria=self.criteria, record_every=self.record_every
+        )
+        for row, hold in zip(out, holds, strict=True):
+            row.update(_hold_columns(hold))
+        return out
+
+
+def _static_columns(static: StaticReport) -> dict[str, Any]:
+    return {
+        "com": [float(v) for v in static.com],
+        "static_feasible": bool(static.feasible),
+        "static_margin": float(static.margin),
+    }
+
+
+def _motion_columns(motion: MotionReport) -> dict[str, Any]:
+    return {
+        "motion_passed": bool(motion.passed),
+        "motion_failures": list(motion.failures),
+        "motion_drift": float(motion.drift),
+    }
+
+
+def _hold_columns(hold: HoldReport) -> dict[str, Any]:
+    return {
+        "hold_passed": bool(hold.passed),
+        "hold_failures": list(hold.failures),
+        "drift": float(hold.drift),
+        "slip": float(hold.slip),
+        "hold_min_margin": float(hold.min_margin),
+        "fell": bool(hold.fell),
+        "unexpected_contacts": [f"{a}-{b}" for a, b, _ in hold.unexpected_contacts],
+    }

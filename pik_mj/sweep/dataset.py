@@ -65,28 +65,35 @@ RESULT_FIELDS = (
     pa.field("com", _LIST_F64),  # (3,) [m] CoM of the final pose
     pa.field("static_feasible", pa.bool_()),  # contact forces balance gravity
     pa.field("static_margin", _F64),  # [m] CoM margin to the contacts' polygon
+    pa.field("motion_passed", pa.bool_()),  # the iterates played in physics: the verdict
+    pa.field("motion_failures", _LIST_STR),  # one line per failed motion criterion
+    pa.field("motion_drift", _F64),  # [m] largest root distance to the motion's reference
     pa.field("hold_passed", pa.bool_()),  # the hold's verdict
     pa.field("hold_failures", _LIST_STR),  # one line per failed hold criterion
     pa.field("drift", _F64),  # [m] largest root displacement in the hold
     pa.field("slip", _F64),  # [m] largest foot slip in the hold
     pa.field("hold_min_margin", _F64),  # [m] smallest CoM margin in the hold
-    pa.field("fell", pa.bool_()),  # root below 80 % of its start height
+    pa.field("fell", pa.bool_()),  # the hold fell: trunk tilt, root drift or height
     pa.field("unexpected_contacts", _LIST_STR),  # "robot_geom-other_geom"
+    pa.field("qpos", _LIST_F64),  # the final configuration (the robot's nq)
+    pa.field("path", pa.list_(_LIST_F64)),  # the iterates' configurations, first to last
     pa.field("solve_time", _F64),  # [s] wall time of the IK solve
     pa.field("static_time", _F64),  # [s] wall time of the static check
+    pa.field("motion_time", _F64),  # [s] wall time of the motion playback
     pa.field("hold_time", _F64),  # [s] wall time of the physics hold
 )
 """Columns a :class:`pik_mj.sweep.case.Worker` fills (its ``run`` returns them)."""
 
 VERDICTS = {
-    "validated": "reached, static check and hold passed",
+    "validated": "reached, static check, motion and hold passed",
+    "held": "reached, static check and hold passed, but the motion failed (a hold alone)",
     "fails": "reached, but the static check or the hold failed",
     "unreached": "IK did not converge",
     "error": "the case raised",
 }
 """The ``verdict`` column's values, in the order the views list them."""
 
-UNREPEATABLE = ("solve_time", "static_time", "hold_time", "worker", "cpu_time")
+UNREPEATABLE = ("solve_time", "static_time", "motion_time", "hold_time", "worker", "cpu_time")
 """Columns that differ between two runs of the same case (times, process)."""
 
 
@@ -116,7 +123,9 @@ def verdict(result: Mapping[str, Any] | None) -> str:
         return "error"
     if not result["converged"]:
         return "unreached"
-    return "validated" if result["static_feasible"] and result["hold_passed"] else "fails"
+    if not (result["static_feasible"] and result["hold_passed"]):
+        return "fails"
+    return "validated" if result["motion_passed"] else "held"
 
 
 def make_row(

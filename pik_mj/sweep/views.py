@@ -1,9 +1,10 @@
 """Views of a sweep's rows: a summary table, a PNG of map slices, a rerun recording.
 
 Each case is drawn at its hand target, coloured by its ``verdict``
-(:data:`pik_mj.sweep.dataset.VERDICTS`): green validated (reached, static check
-and hold passed), red reached but failing the static check or the hold, grey
-not reached, purple raised. The PNG (matplotlib, the ``sweep`` extra) cuts the
+(:data:`pik_mj.sweep.dataset.VERDICTS`): green validated (reached, static check,
+motion and hold passed), orange held (the hold alone passed: the motion failed),
+red reached but failing the static check or the hold, grey not reached, purple
+raised. The PNG (matplotlib, the ``sweep`` extra) cuts the
 targets into slices across one axis (default ``y``: side views, x forward and z
 up), one row of panels per stack, with the robot's start pose in grey.
 The recording holds the robot's geometry at its start pose and one point cloud
@@ -33,12 +34,14 @@ from pik_mj.sweep.spec import Grid, Sweep
 
 COLORS = {
     "validated": (44, 160, 44),
+    "held": (255, 160, 40),
     "fails": (214, 39, 40),
     "unreached": (170, 170, 170),
     "error": (148, 103, 189),
 }
 LEGEND = {
-    "validated": "reached and stands (validated)",
+    "validated": "reached, moves there and stands (validated)",
+    "held": "reached and stands, but the motion fails (a hold alone)",
     "fails": "reached, fails static check or hold",
     "unreached": "not reached",
     "error": "raised",
@@ -60,7 +63,7 @@ def summary_table(table: pa.Table) -> str:
         groups.setdefault((r["robot"], r["stack"]), []).append(r)
     w = max([len(k[0]) for k in groups] + [5])
     head = (
-        f"{'robot':<{w}}  {'stack':<10} {'cases':>6} {'validated':>14} {'fails':>6} "
+        f"{'robot':<{w}}  {'stack':<10} {'cases':>6} {'validated':>14} {'held':>5} {'fails':>6} "
         f"{'unreached':>9} {'error':>6} {'solve [s]':>10} {'static [ms]':>12} {'hold [s]':>9}"
     )
     lines = [head]
@@ -69,7 +72,7 @@ def summary_table(table: pa.Table) -> str:
         count = {v: sum(r["verdict"] == v for r in rs) for v in VERDICTS}
         valid = f"{count['validated']} ({count['validated'] / n:.0%})"
         lines.append(
-            f"{robot:<{w}}  {stack:<10} {n:>6} {valid:>14} {count['fails']:>6} "
+            f"{robot:<{w}}  {stack:<10} {n:>6} {valid:>14} {count['held']:>5} {count['fails']:>6} "
             f"{count['unreached']:>9} {count['error']:>6} "
             f"{_median([r['solve_time'] for r in rs]):>10.3f} "
             f"{1e3 * _median([r['static_time'] for r in rs]):>12.1f} "

@@ -1,0 +1,277 @@
+r"""The torques a timed path needs, and the timing that keeps them within what
+the robot's drives deliver (:func:`plan_torques`).
+
+At knots ``σ_k`` of the path's nominal time (every :data:`KNOT_SPACING` and at
+each waypoint; :class:`~pik_mj.sim.timing.Timing`) the reference is ``q(σ)``,
+``q̇ = q' σ̇`` and ``q̈ = q' σ̈`` with ``q' = dq/dσ``, so the torques the servo
+joints need are
+
+.. math::
+
+    τ = τ_s + P\,\big(M(q)\, q'\, \ddot σ + c(q, q')\, \dot σ^2 + D q'\, \dot σ\big)
+
+``τ_s`` the torques at rest (:func:`pik_mj.sim.torques.holding_torques`: gravity,
+the least-norm contact forces within their friction pyramids, the external
+wrenches), ``M q'``, the velocity product ``c`` and the joints' damping ``D q'``
+from MuJoCo's inverse dynamics (``mj_inverse`` at ``q̈ = q'`` and at
+``q̇ = ±q'``), and ``P`` the map that lets the contacts carry the free joint's
+part of a generalized force (the least-norm contact forces that apply it,
+without their limits: the moving part is small beside the weight). With the
+drive's bounds ``[τ_min, τ_max]`` at the knot's pose
+(:func:`pik_mj.sim.drives.torque_bounds`: force and control ranges, the gains
+of a position actuator near a range end):
+
+* ``τ_s`` outside the bounds at a knot: the drives cannot hold the path even
+  quasi-statically; the joint, its torque and bound are a
+  :class:`~pik_mj.sim.drives.DriveShortfall` and the path is not played;
+* ``τ`` outside ``ρ [τ_min, τ_max]`` (``ρ`` = :data:`DRIVE_RESERVE`; the rest
+  is left to the servo's feedback): the knot's segment is slowed down.
+  Stretching a segment's duration by ``c`` scales ``σ̇`` by ``1/c`` and ``σ̈`` by
+  ``1/c²`` at every ``σ``; the stretch is the smallest ``c`` (bisection, at most
+  :data:`MAX_STRETCH`) that brings every knot of the segment inside (or, where
+  ``τ_s`` is already past ``ρ`` of a bound, no farther out than ``τ_s``).
+
+The moving torques are the servos' feed-forward (:meth:`TorquePlan.at`,
+linear in ``σ`` between knots): they go through the actuators' controls
+(:class:`~pik_mj.sim.servos.ServoLaw`), so MuJoCo clamps them with the rest.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from pik_mj.dynamics import frame_jacobian, joint_torques
+from pik_mj.frames import Frame
+from pik_mj.sim.drives import DriveShortfall, shortfalls, torque_bounds
+from pik_mj.sim.physics import ContactInfo, External, Physics
+from pik_mj.sim.timing import Timing
+from pik_mj.sim.torques import holding_torques
+from pik_mj.spatial import skew
+
+__all__ = ["DRIVE_RESERVE", "KNOT_SPACING", "MAX_STRETCH", "TorquePlan", "plan_torques"]
+
+KNOT_SPACING = 0.05
+"""Nominal time [s] between the knots of the torque plan (at most)."""
+
+DRIVE_RESERVE = 0.8
+"""Share ``ρ`` of a drive's torque bounds a path's planned torques may use."""
+
+MAX_STRETCH = 10.0
+"""Largest factor by which a segment is slowed down for its drives."""
+
+
+@dataclass
+class TorquePlan:
+    """The torques of a path (module docstring), at knots with an equilibrium.
+
+    Attributes:
+        sigma: Knot nominal times [s] (k,).
+        rest: ``τ_s`` (k, nv) [N·m or N] on the robot's dofs.
+        inertia: ``P M q'`` (k, nv) [N·m·s²]: per unit ``σ̈``.
+        velocity: ``P c(q, q')`` (k, nv) [N·m·s²]: per unit ``σ̇²``.
+        damping: ``P D q'`` (k, nv) [N·m·s]: per unit ``σ̇``.
+        shortfalls: Joints whose drive cannot hold a knot's pose at rest (the
+            worst knot of each); empty when the path can be played.
+        stretched: Segments slowed down for their drives, ``{segment index: c}``.
+    """
+
+    sigma: np.ndarray
+    rest: np.ndarray
+    inertia: np.ndarray
+    velocity: np.ndarray
+    damping: np.ndarray
+    shortfalls: list[DriveShortfall] = field(default_factory=list)
+    stretched: dict[int, float] = field(default_factory=dict)
+
+    def at(self, sigma: np.ndarray, rate: np.ndarray, accel: np.ndarray) -> np.ndarray | None:
+        """The feed-forward (n, nv) at nominal times ``σ`` [s] with ``σ̇`` [-] and
+        ``σ̈`` [1/s]: each term linear in ``σ`` between knots, constant outside;
+        None without knots."""
+        if not len(self.sigma):
+            return None
+        sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
+        k = np.clip(np.searchsorted(self.sigma, sigma, side="right") - 1, 0, len(self.sigma) - 1)
+        nxt = np.minimum(k + 1, len(self.sigma) - 1)
+        span = self.sigma[nxt] - self.sigma[k]
+        w = np.where(
+            span > 0, np.clip((sigma - self.sigma[k]) / np.where(span > 0, span, 1), 0, 1), 0
+        )
+        w = w[:, None]
+        rate, accel = np.asarray(rate, float)[:, None], np.asarray(accel, float)[:, None]
+
+        def lerp(a: np.ndarray) -> np.ndarray:
+            return (1 - w) * a[k] + w * a[nxt]
+
+        return (
+            lerp(self.rest)
+            + lerp(self.inertia) * accel
+            + lerp(self.velocity) * rate**2
+            + lerp(self.damping) * rate
+        )
+
+
+class _Carrier:
+    """``P``: a generalized force ``τ`` (nv,) less ``J_cᵀ f``, ``f`` the least-norm
+    contact forces at the environment contacts ``env`` that apply the wrench of
+    its free-joint rows (``τ_root = J_Bᵀ w_B``); the identity for a fixed base or
+    without contacts (kinematics of the pose current in ``data``)."""
+
+    def __init__(self, scene: Physics, data: mujoco.MjData, env: list[ContactInfo]):
+        m = scene.model
+        self.active = scene.robot.has_floating_base and bool(env)
+        if not self.active:
+            return
+        b = scene.robot.root_body_id
+        self.dofs = m.jnt_dofadr[m.body_jntadr[b]] + np.arange(6)
+        J_B = frame_jacobian(m, data, Frame(m, scene.root_body, "body", b))[:, self.dofs]
+        self.J_Bt = J_B.T
+        self.p_WB = data.xpos[b].copy()
+        A = np.zeros((6, 3 * len(env)))
+        self.J = np.zeros((3 * len(env), m.nv))
+        for i, c in enumerate(env):
+            A[:3, 3 * i : 3 * i + 3] = np.eye(3)
+            A[3:, 3 * i : 3 * i + 3] = skew(c.position)  # f -> p x f
+            body = int(m.geom_bodyid[scene.geom_ids[c.robot_geom]])
+            mujoco.mj_jac(m, data, self.J[3 * i : 3 * i + 3], None, c.position, body)
+        self.A_pinv = np.linalg.pinv(A)
+
+    def __call__(self, tau: np.ndarray) -> np.ndarray:
+        if not self.active:
+            return tau
+        w_B = np.linalg.solve(self.J_Bt, tau[self.dofs])  # (f, n about p_WB)
+        total = np.concatenate([w_B[:3], w_B[3:] + np.cross(self.p_WB, w_B[:3])])
+        return tau - self.J.T @ (self.A_pinv @ total)
+
+
+class _Knots:
+    """The reference's poses and rates at knots (the plan's workspace)."""
+
+    def __init__(self, scene: Physics, q: np.ndarray, dv: np.ndarray, timing: Timing):
+        self.scene, self.q, self.dv, self.timing = scene, q, dv, timing
+        self.rm = scene.robot.model
+        self.data = mujoco.MjData(scene.model)
+        self.actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], int)
+
+    def sigmas(self) -> np.ndarray:
+        """Knot nominal times: the waypoints' and every :data:`KNOT_SPACING` between."""
+        nominal = self.timing.nominal
+        S = float(nominal[-1])
+        grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
+        return np.unique(np.concatenate([grid, nominal]))
+
+    def pose(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+        """``q(σ)`` and ``q' = dq/dσ`` (the step after ``σ``; zero at the end)."""
+        (i,), (alpha,) = self.timing.piece(np.array([sigma]))
+        q, steps = self.q[i].copy(), self.timing.steps
+        if i < len(steps) and steps[i] > 0:
+            mujoco.mj_integratePos(self.rm, q, self.dv[i], alpha)
+            return q, self.dv[i] / steps[i]
+        return q, np.zeros(self.rm.nv)
+
+    def parts(
+        self, q: np.ndarray, dq: np.ndarray, load: Sequence[External]
+    ) -> tuple[np.ndarray, ...] | None:
+        """``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (nv of the robot) at a
+        knot, or None without an equilibrium."""
+        scene, d, nv = self.scene, self.data, self.rm.nv
+        qpos = scene.qpos_of(q)
+        contacts = scene.touching(qpos)
+        rest = holding_torques(scene, q, load, data=d, contacts=contacts)
+        if rest is None:
+            return None
+        m = scene.model
+        v = np.zeros(m.nv)
+        v[:nv] = dq
+        zero = np.zeros(m.nv)
+        g = joint_torques(m, d, qpos, zero, zero)
+        inertia = joint_torques(m, d, qpos, zero, v) - g
+        plus = joint_torques(m, d, qpos, v, zero) - g
+        minus = joint_torques(m, d, qpos, -v, zero) - g
+        carry = _Carrier(scene, d, [c for c in contacts if not c.self_contact])
+        return (
+            rest[:nv],
+            carry(inertia)[:nv],
+            carry(0.5 * (plus + minus))[:nv],
+            carry(0.5 * (plus - minus))[:nv],
+        )
+
+    def bounds(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Torque bounds (k, servos) of the servo joints at rest at the poses ``qs``."""
+        model, nq = self.scene.model, self.scene.robot_nq
+        qpos = np.tile(model.qpos0, (len(qs), 1))
+        qpos[:, :nq] = qs
+        return torque_bounds(model, self.actuators, qpos)
+
+
+def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray, rates) -> np.ndarray:
+    """Per knot: the moving torques at ``(σ̇, σ̈)`` are within ``ρ`` of the bounds
+    (or no farther out than at rest)."""
+    rate, accel = rates
+    tau = plan.at(plan.sigma, rate, accel)[:, dofs]
+    rest = plan.rest[:, dofs]
+    top = np.maximum(DRIVE_RESERVE * hi, rest)
+    bottom = np.minimum(DRIVE_RESERVE * lo, rest)
+    return np.all((tau <= top + 1e-9) & (tau >= bottom - 1e-9), axis=1)
+
+
+def _stretch(plan: TorquePlan, knots: _Knots, lo: np.ndarray, hi: np.ndarray) -> None:
+    """Slow down each segment whose knots need it (bisection on its stretch)."""
+    timing, dofs = knots.timing, knots.scene.servo_dofs
+    base = timing.stretch.copy()
+    t = timing.times_of(plan.sigma)
+    _, rate, accel = timing.progress(t)
+    segment = timing.segment_of(t)
+    ok = _fits(plan, dofs, lo, hi, (rate, accel))
+    for k in np.unique(segment[~ok]):
+        mine = segment == k
+        low, high = 1.0, MAX_STRETCH
+        for _ in range(30):
+            c = 0.5 * (low + high)
+            fits = _fits(plan, dofs, lo, hi, (rate / c, accel / c**2))
+            low, high = (low, c) if np.all(fits[mine]) else (c, high)
+        timing.stretch[k] = base[k] * high
+        plan.stretched[int(k)] = float(timing.stretch[k])
+
+
+def plan_torques(
+    scene: Physics,
+    q: np.ndarray,
+    dv: np.ndarray,
+    timing: Timing,
+    external: Sequence[External] = (),
+    ramp: bool = False,
+) -> TorquePlan:
+    """The torque plan of the path ``q`` (waypoints (n, nq), steps ``dv`` (n - 1,
+    nv)) with ``timing``, whose segments it slows down where the drives need
+    (module docstring; ``timing.stretch`` is updated). ``ramp``: the external
+    wrenches grow with the path's progress ``σ / S``."""
+    knots = _Knots(scene, q, dv, timing)
+    S = float(timing.nominal[-1])
+    kept, parts, poses = [], [], []
+    for sigma in knots.sigmas():
+        s = sigma / S if (ramp and S > 0) else 1.0
+        load = [(f, s * np.asarray(F, float), s * np.asarray(M, float)) for f, F, M in external]
+        qk, dq = knots.pose(sigma)
+        found = knots.parts(qk, dq, load)
+        if found is not None:
+            kept.append(sigma)
+            parts.append(found)
+            poses.append(qk)
+    nv = scene.robot.model.nv
+    columns = [np.array([p[i] for p in parts]).reshape(-1, nv) for i in range(4)]
+    plan = TorquePlan(np.array(kept), *columns)
+    if not kept or not len(scene.servo_joints):
+        return plan
+    lo, hi = knots.bounds(np.array(poses))
+    t = timing.times_of(plan.sigma)
+    where = [f"t = {tk:.2f} s of the path" for tk in t]
+    rest = plan.rest[:, scene.servo_dofs]
+    plan.shortfalls = shortfalls(list(scene.servo_joints), rest, lo, hi, where)
+    if not plan.shortfalls:
+        _stretch(plan, knots, lo, hi)
+    return plan

@@ -1,0 +1,144 @@
+r"""The time parameterization of a path of waypoints (a solve's iterates):
+:class:`Timing`.
+
+The waypoints ``q_i`` sit at nominal times ``σ_i = Σ_{k<i} T_k`` along a path
+linear between them in joint space (``mj_integratePos``), ``T_i`` the time of
+step ``i`` at the velocity limits (:mod:`pik_mj.sim.reference`). Each segment
+``k`` (one solve's iterates, from the pose before its first iterate to its last)
+spans the nominal times ``[σ_a, σ_b]`` (``S_k = σ_b - σ_a``) and is travelled
+with the minimum-jerk time scaling
+
+.. math::
+
+    \sigma(t) = \sigma_a + S_k\, m(τ), \quad m(τ) = 10 τ^3 - 15 τ^4 + 6 τ^5,
+    \quad τ = (t - t_k) / D_k, \qquad D_k = c_k\, \tfrac{15}{8}\, S_k
+
+which starts and ends at rest with zero acceleration. With ``c_k = 1`` its peak
+rate ``dσ/dt = 15 S_k / 8 D_k = 1`` keeps every joint within its velocity
+limit; a stretch ``c_k > 1`` (what the drives need, :mod:`pik_mj.sim.reference`)
+slows the whole segment down. Between waypoints ``i`` and ``i + 1``,
+
+.. math::
+
+    q(t) = q_i \oplus α\, Δq_i, \quad α = \frac{σ(t) - σ_i}{T_i}, \qquad
+    \dot q = \frac{Δq_i}{T_i}\, \dot σ, \qquad \ddot q = \frac{Δq_i}{T_i}\, \ddot σ
+
+(the path's kinks at interior waypoints, where ``Δq_i`` turns, are left to
+the servos).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = ["PEAK_RATE", "Timing", "min_jerk"]
+
+PEAK_RATE = 15.0 / 8.0
+"""Largest value of ``dm/dτ`` of the minimum-jerk profile."""
+
+
+def min_jerk(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``m(τ)``, ``m'(τ)``, ``m''(τ)`` of the minimum-jerk profile, ``τ`` clipped to [0, 1]."""
+    t = np.clip(tau, 0.0, 1.0)
+    return (
+        t**3 * (10.0 - 15.0 * t + 6.0 * t**2),
+        30.0 * t**2 * (1.0 - t) ** 2,
+        60.0 * t * (1.0 - t) * (1.0 - 2.0 * t),
+    )
+
+
+class Timing:
+    """The timing of a path (module docstring).
+
+    Args:
+        steps: Nominal time ``T_i`` [s] of each step between waypoints (n - 1,).
+        segments: Segment label of each waypoint (n,); a new label starts a segment.
+
+    Attributes:
+        nominal: Nominal time ``σ_i`` [s] of each waypoint (n,).
+        first, last: First and last waypoint of each segment (m,).
+        span: ``[σ_a, σ_b]`` [s] of each segment (m, 2).
+        stretch: ``c_k`` of each segment (m,) (1: at the velocity limits).
+    """
+
+    def __init__(self, steps: np.ndarray, segments: Sequence[str]):
+        self.steps = np.asarray(steps, dtype=float)
+        n = len(self.steps) + 1
+        self.nominal = np.concatenate([[0.0], np.cumsum(self.steps)])
+        firsts = [0] + [i for i in range(1, n) if segments[i] != segments[i - 1]]
+        self.first = np.array(firsts, dtype=int)
+        self.last = np.array([f - 1 for f in firsts[1:]] + [n - 1], dtype=int)
+        self.span = np.array(
+            [
+                [self.nominal[max(a - 1, 0)], self.nominal[b]]
+                for a, b in zip(self.first, self.last, strict=True)
+            ]
+        )
+        self.stretch = np.ones(len(self.first))
+
+    @property
+    def durations(self) -> np.ndarray:
+        """``D_k`` [s] of each segment."""
+        return self.stretch * PEAK_RATE * (self.span[:, 1] - self.span[:, 0])
+
+    @property
+    def starts(self) -> np.ndarray:
+        """Start time ``t_k`` [s] of each segment, and the end of the last (m + 1,)."""
+        return np.concatenate([[0.0], np.cumsum(self.durations)])
+
+    @property
+    def duration(self) -> float:
+        """Time [s] of the whole path."""
+        return float(self.starts[-1])
+
+    def segment_of(self, t: np.ndarray) -> np.ndarray:
+        """Index of the segment running at each time ``t`` [s] (the last one after the end)."""
+        k = np.searchsorted(self.starts, np.asarray(t, float), side="right") - 1
+        return np.clip(k, 0, len(self.first) - 1)
+
+    def progress(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``σ(t)`` [s], ``dσ/dt`` [-] and ``d²σ/dt²`` [1/s] at times ``t`` [s]."""
+        t = np.asarray(t, dtype=float)
+        k = self.segment_of(t)
+        D = self.durations[k]
+        (s0, s1), t0 = self.span[k].T, self.starts[k]
+        moving = D > 0
+        tau = np.where(moving, (t - t0) / np.where(moving, D, 1.0), 1.0)
+        m, dm, ddm = min_jerk(tau)
+        S = s1 - s0
+        Dsafe = np.where(moving, D, 1.0)
+        sigma = s0 + S * m
+        rate = np.where(moving & (tau < 1.0), S / Dsafe * dm, 0.0)
+        accel = np.where(moving & (tau < 1.0), S / Dsafe**2 * ddm, 0.0)
+        return sigma, rate, accel
+
+    def times_of(self, sigma: np.ndarray) -> np.ndarray:
+        """The time [s] at which the path reaches each nominal time ``σ`` [s]
+        (the minimum-jerk profile inverted; a ``σ`` on a segment boundary: the
+        boundary's time)."""
+        sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
+        table = np.linspace(0.0, 1.0, 4001)
+        m = min_jerk(table)[0]
+        k = np.searchsorted(self.span[:, 1], sigma, side="left")
+        k = np.clip(k, 0, len(self.first) - 1)
+        (s0, s1), t0, D = self.span[k].T, self.starts[k], self.durations[k]
+        moving = s1 > s0
+        frac = np.where(moving, (sigma - s0) / np.where(moving, s1 - s0, 1.0), 1.0)
+        return t0 + D * np.interp(np.clip(frac, 0.0, 1.0), m, table)
+
+    def waypoint_times(self) -> np.ndarray:
+        """Time [s] of each waypoint: ``σ(t_i) = σ_i``."""
+        return self.times_of(self.nominal)
+
+    def piece(self, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The step ``i`` each nominal time ``σ`` [s] falls in and ``α = (σ - σ_i) / T_i``
+        (``α = 0`` on the last waypoint and on steps of zero time)."""
+        sigma = np.asarray(sigma, dtype=float)
+        n = len(self.nominal)
+        i = np.clip(np.searchsorted(self.nominal, sigma, side="right") - 1, 0, n - 1)
+        inside = i < n - 1
+        T = np.where(inside, self.steps[np.minimum(i, n - 2)] if n > 1 else 0.0, 0.0)
+        alpha = np.where(T > 0, (sigma - self.nominal[i]) / np.where(T > 0, T, 1.0), 0.0)
+        return i, alpha
