@@ -43,14 +43,16 @@ def walk_scenario(
     *,
     dt: float = DEFAULT_DT,
     gait: dict[str, float] | None = None,
+    quiet: bool = True,
 ) -> tuple[ScenarioResult, Walk]:
     """A walking scenario: the gait derived from ``robot`` (``gait``: values given
-    instead; printed with ``label``), ``footsteps(gait, feet)`` from its feet,
+    instead; printed with ``label`` unless ``quiet``), ``footsteps(gait, feet)`` from its feet,
     walked (:func:`pik_mj.walking.walk.walk`) into ``recorder``'s walk logger; the
     result with the walk's figures and checks."""
     soles = robot_soles(robot)
     chosen = robot_gait(robot, soles, dt=dt, **(gait or {}))
-    print(f"{name} on {label}: {chosen}")
+    if not quiet:
+        print(f"{name} on {label}: {chosen}")
     steps = footsteps(chosen, feet_from_robot(robot, soles))
     log = recorder.walk_logger()
     done = walk(robot, steps, chosen, soles=soles, callback=log)
@@ -109,6 +111,7 @@ def run(
         lambda chosen, feet: chosen.straight_steps(n_steps, feet),
         dt=dt,
         gait=gait,
+        quiet=quiet,
     )
     return result
 

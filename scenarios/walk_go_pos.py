@@ -49,6 +49,7 @@ def run(
         lambda chosen, feet: chosen.go_pos(x, y, np.deg2rad(theta_deg), feet),
         dt=dt,
         gait=gait,
+        quiet=quiet,
     )
     yaw_error = float(np.rad2deg(done.report.final_yaw_error))
     result.figures["sim_final_yaw_error_deg"] = yaw_error
