@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 from pik_mj import Recorder, Robot
 from pik_mj.robot.ground import robot_soles
@@ -27,7 +28,7 @@ from pik_mj.walking.robot_gait import DEFAULT_DT, RobotGait, gait_value, robot_g
 from pik_mj.walking.walk import Walk, robot_label, walk
 from pik_mj.walking.wholebody import feet_from_robot
 
-__all__ = ["LEGS", "NAME", "main", "run", "walk_parser", "walk_scenario"]
+__all__ = ["LEGS", "NAME", "main", "run", "walk_command", "walk_parser", "walk_scenario"]
 
 NAME = "walk_forward"
 LEGS = ("rleg", "lleg")
@@ -42,14 +43,16 @@ def walk_scenario(
     *,
     dt: float = DEFAULT_DT,
     gait: dict[str, float] | None = None,
+    quiet: bool = True,
 ) -> tuple[ScenarioResult, Walk]:
     """A walking scenario: the gait derived from ``robot`` (``gait``: values given
-    instead; printed with ``label``), ``footsteps(gait, feet)`` from its feet,
+    instead; printed with ``label`` unless ``quiet``), ``footsteps(gait, feet)`` from its feet,
     walked (:func:`pik_mj.walking.walk.walk`) into ``recorder``'s walk logger; the
     result with the walk's figures and checks."""
     soles = robot_soles(robot)
     chosen = robot_gait(robot, soles, dt=dt, **(gait or {}))
-    print(f"{name} on {label}: {chosen}")
+    if not quiet:
+        print(f"{name} on {label}: {chosen}")
     steps = footsteps(chosen, feet_from_robot(robot, soles))
     log = recorder.walk_logger()
     done = walk(robot, steps, chosen, soles=soles, callback=log)
@@ -108,26 +111,37 @@ def run(
         lambda chosen, feet: chosen.straight_steps(n_steps, feet),
         dt=dt,
         gait=gait,
+        quiet=quiet,
     )
     return result
+
+
+def walk_command(
+    name: str, run_walk: Callable[..., ScenarioResult], args: argparse.Namespace, **options: Any
+) -> int:
+    """Run a walking scenario's ``run_walk`` from its parsed command line
+    (:func:`walk_parser`), with ``options`` (its own), into the recorder the command
+    asks for; the exit status of its report."""
+    label = robot_label(args.model, args.description)
+    with open_recorder(args, f"{name}_{label}") as recorder:
+        result = run_walk(
+            recorder,
+            model=args.model,
+            description=args.description,
+            robot=args.robot,
+            quiet=args.quiet,
+            dt=args.dt,
+            gait=dict(args.gait),
+            **options,
+        )
+    return report(result, args)
 
 
 def main(argv: list[str] | None = None) -> int:
     p = walk_parser(__doc__)
     p.add_argument("--steps", type=count, default=6, help="number of steps (default 6)")
     args = p.parse_args(argv)
-    with open_recorder(args, f"{NAME}_{robot_label(args.model, args.description)}") as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            quiet=args.quiet,
-            n_steps=args.steps,
-            dt=args.dt,
-            gait=dict(args.gait),
-        )
-    return report(result, args)
+    return walk_command(NAME, run, args, n_steps=args.steps)
 
 
 if __name__ == "__main__":

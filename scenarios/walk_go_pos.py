@@ -13,10 +13,10 @@ an MJCF path, or ``--description FILE``.
 from __future__ import annotations
 
 import numpy as np
-from pik_mj.scenarios.walk_forward import LEGS, walk_parser, walk_scenario
+from pik_mj.scenarios.walk_forward import LEGS, walk_command, walk_parser, walk_scenario
 
 from pik_mj import Recorder, Robot
-from pik_mj.scenario import ScenarioResult, finite, open_recorder, report
+from pik_mj.scenario import ScenarioResult, finite
 from pik_mj.walking.robot_gait import DEFAULT_DT
 from pik_mj.walking.walk import robot_label
 
@@ -49,6 +49,7 @@ def run(
         lambda chosen, feet: chosen.go_pos(x, y, np.deg2rad(theta_deg), feet),
         dt=dt,
         gait=gait,
+        quiet=quiet,
     )
     yaw_error = float(np.rad2deg(done.report.final_yaw_error))
     result.figures["sim_final_yaw_error_deg"] = yaw_error
@@ -66,20 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--y", type=finite, default=0.2, help="goal to the left [m]")
     p.add_argument("--theta", type=finite, default=30.0, help="goal heading change [deg]")
     args = p.parse_args(argv)
-    with open_recorder(args, f"{NAME}_{robot_label(args.model, args.description)}") as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            quiet=args.quiet,
-            x=args.x,
-            y=args.y,
-            theta_deg=args.theta,
-            dt=args.dt,
-            gait=dict(args.gait),
-        )
-    return report(result, args)
+    return walk_command(NAME, run, args, x=args.x, y=args.y, theta_deg=args.theta)
 
 
 if __name__ == "__main__":
