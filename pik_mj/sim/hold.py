@@ -161,13 +161,17 @@ class HeldPose:
         self.data.qpos[:] = d.qpos
         mujoco.mj_kinematics(m, self.data)
         self._ctrl = d.ctrl.copy()
+        self._rows = np.empty((0, len(self._ctrl)))
 
     def update(self, t: float) -> None:
         """Nothing moves."""
 
     def controls(self, t: np.ndarray) -> np.ndarray:
-        """The controls written at the start, in every step."""
-        return np.tile(self._ctrl, (len(t), 1))
+        """The controls written at the start, in every step (read-only rows)."""
+        if len(self._rows) != len(t):
+            self._rows = np.tile(self._ctrl, (len(t), 1))
+            self._rows.flags.writeable = False
+        return self._rows
 
     def loads(self, t: np.ndarray) -> np.ndarray:
         """The external wrenches as given."""
