@@ -34,7 +34,7 @@ from pik_mj.callbacks import Callback
 from pik_mj.frames import Frame
 from pik_mj.sim.criteria import HoldCriteria, slip_verdict_geoms
 from pik_mj.sim.falls import fall_measures, first_fall
-from pik_mj.sim.figures import figures
+from pik_mj.sim.figures import RunningFigures, figures
 from pik_mj.sim.measures import HoldSample, Reference, Tracked
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.sampling import Record, Sampler
@@ -113,6 +113,7 @@ class Run:
         self.wrenches = [_wrench(scene, *w) for w in external]
         self.settled: np.ndarray | None = None
         self.fell = False
+        self.so_far: RunningFigures | None = None  # the figures a callback sees
         self._checked = 0
         self._t_wall = time.perf_counter()
         reference.begin()
@@ -264,9 +265,10 @@ def track(
 def _call(callbacks: Sequence[Callback], run: Run, criteria: HoldCriteria, frames) -> None:
     """Each callback with a :class:`HoldSample` of the scene's data now."""
     scene, reference = run.scene, run.reference
-    so_far = figures(
-        scene, run.record, run.sampler.watched, run.feet, run.limits, run.steps, run.t0, 0.0
-    )
+    if run.so_far is None:
+        run.so_far = RunningFigures(scene, len(run.sampler.watch))
+    so_far = run.so_far
+    so_far.update(run.record)
     d = scene.data
     sample = HoldSample(
         time=float(d.time),
@@ -275,7 +277,7 @@ def _call(callbacks: Sequence[Callback], run: Run, criteria: HoldCriteria, frame
         data=d,
         com=scene.com(),
         drift=so_far.drift,
-        slip=max(so_far.slip_per_geom.values(), default=0.0),
+        slip=so_far.slip,
         _scene=scene,
         reference=reference.data if reference.moving else None,
         waypoint=reference.waypoint,
