@@ -121,3 +121,6 @@ def test_a_callback_sees_the_run_s_figures_so_far(humanoid):
     assert drifts == sorted(drifts) and drifts[-1] > 1e-3
     assert drifts[-1] == pytest.approx(report.drift, abs=1e-12)
     assert seen[-1][1] == pytest.approx(max(report.slip_per_geom.values()), abs=1e-12)
+    quiet = scene.hold(q, 0.4)  # no callback: the record's rows at the same steps
+    for name in ("drift", "slip", "min_margin", "tilt", "steps"):
+        assert getattr(quiet, name) == getattr(report, name), name

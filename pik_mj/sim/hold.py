@@ -214,10 +214,10 @@ def hold(
             at the frame's origin (a site or body name of the scene), written
             to ``xfrc_applied`` of the frame's body every step.
         callback: A callable or a list, each called with a :class:`HoldSample`
-            at the start and every ``every`` steps (the checks then sample
-            every ``every`` steps too: :mod:`pik_mj.sim.tracking`).
+            at the start and every ``every`` steps (the checks sample as
+            without callbacks: :mod:`pik_mj.sim.tracking`).
         every: Steps between callback calls (>= 1).
-        record_every: Steps between the checks' samples without callbacks
+        record_every: Steps between the checks' samples
             (the physics runs in C between them); 1: every step.
         margin_every: Steps between evaluations of the CoM margin (a convex hull
             of the ground contacts).
