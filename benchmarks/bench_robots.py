@@ -28,32 +28,47 @@ right-hand (``rarm`` end frame) targets, seeded:
   the hand's and legs' joints cannot change); level 2 = the hand;
 * the same stack without the avoidance task, same target, back to back (both
   see the same machine load);
+* the solve's iterates (with avoidance) played in physics from the standing pose
+  (:meth:`pik_mj.sim.Scene.play`, ``--speed`` of the joint velocity limits, default
+  0.2; the motion's default criteria: root drift from the reference < 2 cm, foot
+  slip < 2 mm, no fall, no unexpected contact);
 * the final pose (with avoidance) held 3 s in the robot's scene
   (:meth:`pik_mj.sim.Scene.hold`, default :class:`~pik_mj.sim.HoldCriteria`:
   base drift < 1 cm, foot slip < 2 mm, no fall, only the feet touching).
 
 Columns: degrees of freedom (``nv``), watched collision pairs, IK converged %,
 median over targets of the CPU ms per iteration with avoidance and without it,
-their ratio, IK converged % without avoidance, hold pass % (of all targets) and
-the largest base drift of the passing holds. ``--qp-solver daqp`` runs every
-level on DAQP instead of OSQP.
+their ratio, IK converged % without avoidance, motion pass % (of all targets),
+hold pass % (of all targets) and the largest base drift of the passing holds.
+``--qp-solver daqp`` runs every level on DAQP instead of OSQP.
+
+``--scenarios``: instead, every scenario but the walking ones on each robot, as
+``pik-mj run S --model R`` runs it (its default ``--hold`` 3 s and ``--speed`` 0.2):
+passed, failed (the checks that failed) or refused before any work (the one line
+its ``--model`` option says).
 
 Run: ``MENAGERIE_ROOT=... OPENBLAS_NUM_THREADS=1 python benchmarks/bench_robots.py [--n 50]``
+``[--scenarios]``
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+import pik_mj.scenarios
 
-from pik_mj import HoldCriteria, Robot, Scene
+from pik_mj import HoldCriteria, Recorder, Robot, Scene, Waypoints
 from pik_mj.balance import support_polygon
+from pik_mj.cli import load_scenario
 from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.robot.ground import foot_geoms, geom_heights, sole_polygons, subtree_bodies
 from pik_mj.robot.loading import menagerie_available, menagerie_models
+from pik_mj.scenario import DEFAULT_HOLD, DEFAULT_SPEED, RobotRefused
 from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs, moving_pairs
 from pik_mj.tasks.support_polygon import SupportPolygonTask
 
@@ -63,7 +78,8 @@ MARGIN = 0.02  # [m] CoM kept this far inside the support polygon
 YELLOW, ORANGE = 0.1, 0.01  # [m] collision avoidance: watched below, kept above
 SIGMA = 0.5  # [rad] spread of the random arm joints about the standing pose
 CLEARANCE = 0.01  # [m] a target pose keeps all but the feet this far above the floor
-HOLD = 3.0  # [s]
+HOLD = DEFAULT_HOLD  # [s]
+SPEED = DEFAULT_SPEED  # the motion's fraction of the joint velocity limits
 
 
 @dataclass
@@ -77,6 +93,7 @@ class Row:
     ms_per_iteration: float  # median, with avoidance [ms]
     ms_per_iteration_without: float  # median, same targets without avoidance [ms]
     converged_without: float
+    motion_pass: float  # fraction of targets whose iterates played in physics passed
     hold_pass: float  # fraction of targets whose final pose held
     max_drift: float  # [m] largest base drift of the passing holds
     failures: list[str] = field(default_factory=list)
@@ -147,8 +164,8 @@ class Setup:
         heights = geom_heights(self.robot.model, self.robot.data, self.bodies)
         return min((h for g, h in heights.items() if g not in self.feet), default=np.inf)
 
-    def solve(self, target, avoidance: bool, qp_solver: str = "osqp"):
-        """Reach ``target`` from the standing pose."""
+    def solve(self, target, avoidance: bool, qp_solver: str = "osqp", path=None):
+        """Reach ``target`` from the standing pose, its iterates into ``path``."""
         robot = self.robot
         robot.configuration.update(self.q0)
         support = SupportPolygonTask(
@@ -163,10 +180,18 @@ class Setup:
             stop=100,
             revert_if_fail=False,
             qp_solver=qp_solver,
+            callback=[] if path is None else [path],
         )
 
 
-def run_robot(name: str, n: int, seed: int, qp_solver: str = "osqp", hold: float = HOLD) -> Row:
+def run_robot(
+    name: str,
+    n: int,
+    seed: int,
+    qp_solver: str = "osqp",
+    hold: float = HOLD,
+    speed: float = SPEED,
+) -> Row:
     """Each target solved with and without avoidance, one after the other, then
     the pose with avoidance held. Time per iteration is the process's CPU time of
     a solve over its iterations (steadier than wall time on a shared machine;
@@ -174,14 +199,21 @@ def run_robot(name: str, n: int, seed: int, qp_solver: str = "osqp", hold: float
     setup = Setup(name)
     converged: dict[bool, list[bool]] = {True: [], False: []}
     per_iteration: dict[bool, list[float]] = {True: [], False: []}
-    held, drifts, failures = [], [], []
+    held, moved, drifts, failures = [], [], [], []
     for target in setup.targets(n, seed):
         for avoidance in (False, True):  # the avoidance solve last: its pose is held
+            setup.robot.configuration.update(setup.q0)
+            path = Waypoints(setup.robot, "reach") if avoidance else None
             t0 = time.process_time()
-            result = setup.solve(target, avoidance, qp_solver)
+            result = setup.solve(target, avoidance, qp_solver, path)
             cpu = time.process_time() - t0
             converged[avoidance].append(result.converged)
             per_iteration[avoidance].append(cpu / max(result.iterations, 1))
+        if speed > 0 and path is not None:
+            path.finish(result)
+            motion = setup.scene.play(path, speed=speed)
+            moved.append(motion.passed)
+            failures += [f"motion: {f}" for f in motion.failures]
         if hold > 0:
             report = setup.scene.hold(
                 setup.robot.configuration.q.copy(), hold, criteria=HoldCriteria()
@@ -199,10 +231,51 @@ def run_robot(name: str, n: int, seed: int, qp_solver: str = "osqp", hold: float
         ms_per_iteration=1e3 * float(np.median(per_iteration[True])),
         ms_per_iteration_without=1e3 * float(np.median(per_iteration[False])),
         converged_without=float(np.mean(converged[False])),
+        motion_pass=float(np.mean(moved)) if moved else float("nan"),
         hold_pass=float(np.mean(held)) if held else float("nan"),
         max_drift=max(drifts, default=float("nan")),
         failures=failures,
     )
+
+
+WALKING = ("walk_forward", "walk_go_pos")
+
+
+def scenario_names() -> list[str]:
+    """The scenarios of the matrix: every one but the walking ones."""
+    return [name for name in pik_mj.scenarios.SCENARIOS if name not in WALKING]
+
+
+def run_scenario(name: str, robot: str, hold: float, speed: float) -> tuple[str, str, float]:
+    """Scenario ``name`` on ``robot``: ``("passed" | "failed" | "refused", detail,
+    seconds)``; the detail: the failed checks, or the refusal's line."""
+    module = load_scenario(name)
+    t0 = time.perf_counter()
+    try:
+        model, built = module.ROBOT.check(robot, None)
+    except RobotRefused as exc:
+        return "refused", str(exc), time.perf_counter() - t0
+    options = {"hold": hold, "speed": speed} if "speed" in module.run.__code__.co_varnames else {}
+    with tempfile.TemporaryDirectory() as folder:
+        with Recorder.to_file(Path(folder) / f"{name}.rrd", name) as recorder:
+            result = module.run(recorder, model=model, robot=built, **options)
+    failed = [m.removeprefix("[FAILED] ")[:90] for m in result.messages if m.startswith("[FAILED]")]
+    return ("passed" if result.passed else "failed"), "; ".join(failed), time.perf_counter() - t0
+
+
+def scenario_matrix(robots: list[str], hold: float, speed: float, quiet: bool) -> dict:
+    """Every scenario of :func:`scenario_names` on each of ``robots`` (those here)."""
+    rows: dict[str, dict[str, list]] = {}
+    for name in scenario_names():
+        rows[name] = {}
+        for robot in robots:
+            if not available(robot):
+                continue
+            outcome, detail, seconds = run_scenario(name, robot, hold, speed)
+            rows[name][robot] = [outcome, detail, seconds]
+            if not quiet:
+                print(f"{name:24} {robot:16} {outcome:8} {seconds:6.1f} s  {detail}", flush=True)
+    return rows
 
 
 def available(name: str) -> bool:
@@ -216,35 +289,46 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--robots", nargs="*", default=list(ROBOTS))
     parser.add_argument("--qp-solver", default="osqp", help="osqp (default) or daqp")
     parser.add_argument("--hold", type=float, default=HOLD, help="hold duration [s]; 0: none")
+    parser.add_argument(
+        "--speed", type=float, default=SPEED, help="motion speed (of velocity limits); 0: none"
+    )
     parser.add_argument("--quiet", action="store_true")
+    parser.add_argument(
+        "--scenarios", action="store_true", help="the scenario x robot matrix instead"
+    )
     args = parser.parse_args(argv)
+    if args.scenarios:
+        return {"scenarios": scenario_matrix(args.robots, args.hold, args.speed, args.quiet)}
     rows, skipped = [], []
     t0 = time.perf_counter()
     for name in args.robots:
         if not available(name):
             skipped.append(name)
             continue
-        rows.append(run_robot(name, args.n, args.seed, args.qp_solver, args.hold))
+        rows.append(run_robot(name, args.n, args.seed, args.qp_solver, args.hold, args.speed))
     if not args.quiet:
         print(
             f"{'robot':16} {'nv':>3} {'pairs':>5} {'IK conv':>7} {'ms/it':>6} "
-            f"{'ms/it w/o':>9} {'ratio':>5} {'conv w/o':>8} {'hold pass':>9} {'drift mm':>8}"
+            f"{'ms/it w/o':>9} {'ratio':>5} {'conv w/o':>8} {'motion':>6} {'hold pass':>9} "
+            f"{'drift mm':>8}"
         )
         for r in rows:
             print(
                 f"{r.robot:16} {r.nv:3d} {r.pairs:5d} "
                 f"{100 * r.converged:6.0f}% {r.ms_per_iteration:6.2f} "
                 f"{r.ms_per_iteration_without:9.2f} {r.ratio:5.2f} "
-                f"{100 * r.converged_without:7.0f}% {100 * r.hold_pass:8.0f}% "
+                f"{100 * r.converged_without:7.0f}% {100 * r.motion_pass:5.0f}% "
+                f"{100 * r.hold_pass:8.0f}% "
                 f"{1e3 * r.max_drift:8.2f}"
             )
             for failure in sorted(set(r.failures)):
-                print(f"{'':16}   hold failure: {failure}")
+                print(f"{'':16}   failure: {failure}")
         for name in skipped:
             print(f"{name:16} skipped: not under MENAGERIE_ROOT nor in the mujoco-menagerie cache")
         print(
             f"{args.n} targets per robot, seed {args.seed}, QP solver {args.qp_solver}, "
-            f"hold {args.hold} s, {time.perf_counter() - t0:.0f} s"
+            f"motion at {args.speed} of the velocity limits, hold {args.hold} s, "
+            f"{time.perf_counter() - t0:.0f} s"
         )
     return {
         "targets": args.n,

@@ -15,13 +15,18 @@ run sweeps.
                [--robot NAME] [--stack NAME] [--workers N] [--address HOST:PORT]
                [--resume] ...
 
+``list`` shows each scenario's description and what it needs of its robot (two arms,
+legs, a floating or a fixed base; ``--model``/``--description`` choose the robot).
+
 ``run`` runs the ``main`` of scenario ``NAME`` (default ``fullbody_reach``;
 ``pik_mj.scenarios.<name>``) with the remaining options, saving its rerun
-recording to ``out/NAME.rrd`` unless a recording option (``--save``,
-``--connect``, ``--serve``, ``--stdout``, ``--headless``) says otherwise; see
-``pik-mj run NAME --help``. It prints the scenario's summary (progress on
-stderr), with ``--json`` a JSON summary whose ``robot`` entry is the final pose
-and what rebuilds its scene.
+recording to ``out/NAME-ROBOT.rrd`` (``out/fullbody_reach-unitree_g1.rrd``; the
+scenario's default robot keeps ``out/NAME.rrd``) unless a recording option
+(``--save``, ``--connect``, ``--serve``, ``--stdout``, ``--headless``) says
+otherwise; see ``pik-mj run NAME --help``. A robot the scenario cannot move is
+refused before any work, in one line (exit status 2). It prints the scenario's
+summary (progress on stderr), with ``--json`` a JSON summary whose ``robot`` entry is
+the final pose and what rebuilds its scene.
 
 ``validate`` reads a JSON summary written by ``run --json`` (its ``robot``
 entry) or a JSON ``{"model": NAME, "q": [...]}`` (optional ``environment``,
@@ -81,6 +86,7 @@ from pik_mj.record.reader import verify
 from pik_mj.robot import Robot, RobotSource
 from pik_mj.scenario import balance_summary, jsonable, positive
 from pik_mj.scenario.exit_status import EXIT_FAILED, EXIT_PASSED, EXIT_USAGE, exit_code, guarded
+from pik_mj.scenario.robot_option import RobotOption, model_label
 from pik_mj.sim import validate_pose
 from pik_mj.sweep import cli as sweep_cli
 from pik_mj.sweep.replay import parse_target, replay
@@ -113,10 +119,20 @@ def describe(name: str) -> tuple[str, list[str]]:
         module = load_scenario(name)
     except ScenarioWaiting as exc:
         return "", [*flags, f"waiting for {exc.missing}"]
-    if "model" in inspect.signature(module.run).parameters:
+    robot = scenario_robot(module)
+    if robot is not None:
+        flags.append(f"--model: {robot.needs()}")
+    elif "model" in inspect.signature(module.run).parameters:
         flags.append("--model")
     doc = (module.__doc__ or "").strip().splitlines()
     return (doc[0] if doc else ""), flags
+
+
+def scenario_robot(module: ModuleType) -> RobotOption | None:
+    """What the scenario declares it needs of its robot (its ``ROBOT``), or None for a
+    scenario that declares nothing."""
+    robot = vars(module).get("ROBOT")
+    return robot if isinstance(robot, RobotOption) else None
 
 
 def _list() -> int:
@@ -133,9 +149,10 @@ def _run(name: str | None, argv: list[str]) -> int:
     name = pik_mj.scenarios.DEFAULT if name is None else name
     module = load_scenario(name)  # usage errors: exit 2
     if not any(a == o or a.startswith(o + "=") for a in argv for o in _RECORDING_OPTIONS):
-        argv = [*argv, "--save", str(Path("out") / f"{name}.rrd")]
-    print(f"running {name}: {describe(name)[0]}", file=sys.stderr)
-    with _sigints() as received:
+        argv = [*argv, "--save", str(default_recording(name, argv))]
+    if not {"-h", "--help"} & set(argv):
+        print(f"running {name}: {describe(name)[0]}", file=sys.stderr)
+    with _sigints() as received, _program(f"pik-mj run {name}"):
         try:
             status = int(module.main(argv))
         except SystemExit as exc:  # the scenario's argparse: --help (0) or bad options (2)
@@ -166,6 +183,32 @@ def _run(name: str | None, argv: list[str]) -> int:
             print(f"pik-mj: error: {exc}", file=sys.stderr)
             return EXIT_FAILED
     return status
+
+
+def default_recording(name: str, argv: Sequence[str]) -> Path:
+    """Where ``pik-mj run NAME`` saves its recording when no recording option is
+    given: ``out/NAME.rrd`` for the scenario's default robot, ``out/NAME-ROBOT.rrd``
+    for the robot ``--model``/``--description`` name
+    (:func:`~pik_mj.scenario.robot_option.model_label`: a name, or the stem of an MJCF
+    path), so that runs on other robots do not overwrite each other."""
+    model, description = _option_value(argv, "--model"), _option_value(argv, "--description")
+    robot = scenario_robot(load_scenario(name))
+    default = None if robot is None else robot.default
+    if (model is None and description is None) or (description is None and model == default):
+        return Path("out") / f"{name}.rrd"
+    return Path("out") / f"{name}-{model_label(model, description)}.rrd"
+
+
+@contextlib.contextmanager
+def _program(prog: str) -> Iterator[None]:
+    """``sys.argv[0]`` set to ``prog`` inside the block: a scenario's argparse
+    names itself after it (``usage: pik-mj run NAME``)."""
+    saved = sys.argv[:1]
+    sys.argv[:1] = [prog]
+    try:
+        yield
+    finally:
+        sys.argv[:1] = saved
 
 
 def check_recording(path: str | Path) -> None:
@@ -205,15 +248,20 @@ def _sigints() -> Iterator[list[int]]:
         signal.signal(signal.SIGINT, previous)
 
 
+def _option_value(argv: Sequence[str], option: str) -> str | None:
+    """The value of the last ``option VALUE`` or ``option=VALUE`` in ``argv``, or None."""
+    value = None
+    for i, arg in enumerate(argv):
+        if arg == option and i + 1 < len(argv):
+            value = argv[i + 1]
+        elif arg.startswith(option + "="):
+            value = arg.removeprefix(option + "=")
+    return value
+
+
 def _saved_path(argv: list[str]) -> str | None:
     """The ``--save`` file of a scenario's options, or None."""
-    save = None
-    for i, arg in enumerate(argv):
-        if arg == "--save" and i + 1 < len(argv):
-            save = argv[i + 1]
-        elif arg.startswith("--save="):
-            save = arg.removeprefix("--save=")
-    return save
+    return _option_value(argv, "--save")
 
 
 def _recording_note(argv: list[str], when: str) -> None:
@@ -327,6 +375,37 @@ def _validate_parser() -> argparse.ArgumentParser:
     return val
 
 
+def _in_environment(
+    source: RobotSource, q: list[float], environment: str, grasps: list[tuple]
+) -> tuple[RobotSource, list[float]]:
+    """The pose's robot moved into ``environment`` (``"none"``: the floor only),
+    and its ``q`` without the old environment's joints.
+
+    Raises:
+        InvalidInput: The pose holds a body (``grasps``) that the new
+            environment does not have.
+    """
+    env = None if environment.lower() == "none" else environment
+    original = Robot.from_source(source)
+    at = source.at
+    if isinstance(at, str) and env is None:  # no site to stand at: its coordinates
+        at = original.placement
+    moved = replace(source, environment=env, at=at)
+    held = [body for _, body, _, _ in grasps]
+    if held:
+        model = Robot.from_source(moved).model
+        names = {model.body(i).name for i in range(model.nbody)}
+        lost = [body for body in held if body not in names]
+        if lost:
+            there = "the floor alone" if env is None else f"environment {env!r}"
+            raise InvalidInput(
+                f"--environment {environment}: the pose holds {', '.join(map(repr, lost))} "
+                f"of environment {source.environment!r}, which {there} does not have; "
+                "give an environment with it, or leave --environment out"
+            )
+    return moved, q[: original.own_nq]
+
+
 def _validate_rows(target: str, json_out: str | None) -> int:
     """``pik-mj validate OUT#CASE``: the sweep rows replayed (module docstring)."""
     path, cases = parse_target(target)
@@ -368,13 +447,7 @@ def _validate(argv: list[str]) -> int:
     pose = read_pose_file(args.file)
     source, q = pose["source"], pose["q"]
     if args.environment is not None:  # another world: the robot keeps its pose
-        env = None if args.environment.lower() == "none" else args.environment
-        original = Robot.from_source(source)
-        at = source.at
-        if isinstance(at, str) and env is None:  # no site to stand at: its coordinates
-            at = original.placement
-        source = replace(source, environment=env, at=at)
-        q = q[: original.own_nq]
+        source, q = _in_environment(source, q, args.environment, pose["grasps"])
     recorder = None
     if args.save:
         Path(args.save).parent.mkdir(parents=True, exist_ok=True)

@@ -1,13 +1,16 @@
 """Dual-arm cocktail shaker (irteus manual, a callable ``target-coords``).
 
-The left hand first goes to irteus's ``#f(400 0 0)`` mm (position only, arm
-joints only). Then, every step, the left hand follows
-``(400 + 100 sin t, 50 cos t, 0)`` mm from the waist with its position along
+The left hand first goes to the start, irteus's ``#f(400 0 0)`` mm from the waist
+(position only, arm joints only); here ``START`` arm lengths ``L`` from the middle of
+the shoulders, in the robot's frame (x forward, y left, z up; on the sample humanoid,
+whose arm is 0.61 m long, the manual's 400 mm ahead of a waist 0.1 m below the
+shoulders). Then, every step, the left hand follows ``(0.16 L sin t, 0.08 L cos t, 0)``
+from the start (the manual's ``(100 sin t, 50 cos t, 0)`` mm) with its position along
 the shaker axis free, orientation free; the right hand's target is a *function*
-evaluated every iteration: the left hand's current pose moved 0.1 m along the
-shaker axis, rotation about that axis free. The irteus example's shaker axis is
-the hand's z; on the sample humanoid the grasp axis (across the palm) is the
-hand's x, so x is the axis named here. Every iteration is checked statically in
+evaluated every iteration: the left hand's current pose moved ``SHAKER`` L along the
+shaker axis, rotation about that axis free. The irteus example's shaker axis is the
+hand's z; here it is the left hand's grip axis (:class:`pik_mj.scenario.Hand`: along a
+bar held in the hand). Every iteration is checked statically in
 the robot's scene. The iterates are a motion by nature (a time-varying target):
 they are played in physics (``scene.play``), the steps of the shake one
 segment (travelled without stopping between steps); the final pose is held.
@@ -31,8 +34,11 @@ from pik_mj import (
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
+    Hand,
+    RobotOption,
     ScenarioResult,
     Stage,
+    Stature,
     count,
     open_recorder,
     parser,
@@ -41,42 +47,96 @@ from pik_mj.scenario import (
 from pik_mj.tasks.collision import collision_pairs
 
 NAME = "cocktail_shaker"
-SHAKER = 0.1  # [m] between the hands along the shaker axis
+SHAKER = 0.16  # [arm lengths] between the hands along the shaker axis
+START = (0.66, 0.0, -0.16)  # [arm lengths] the left hand's start from the shoulders
+SWING = (0.16, 0.08)  # [arm lengths] the shake's half swings, forward and sideways
+ARMS = ("larm", "rarm")  # the leader, the follower
+
+
+def shaker_joints(robot: Robot) -> str | None:
+    """Why ``robot``'s right arm cannot follow the shaker, or None: the right hand's
+    target asks 5 coordinates of it (3 of position, 2 of orientation)."""
+    n = len(robot.limb("rarm").joints) if "rarm" in robot.limbs else 5
+    if n < 5:
+        return (
+            f"its right arm has {n} joints; holding the shaker to the left hand's axis "
+            "asks 5 (3 of position, 2 of orientation)"
+        )
+    return None
+
+
+ROBOT = RobotOption("sample_humanoid", ARMS, requires=shaker_joints)
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 YELLOW = 0.05  # [m] arm pairs nearer than this are constrained
 ORANGE = 0.01  # [m] the distance kept between the arms
 
 
-def right_target(robot: Robot) -> mink.SE3:
-    """The right hand's target, evaluated every iteration: the left hand's pose moved
-    ``SHAKER`` along the shaker axis (irteus: ``(send (larm end-coords copy)
-    :translate 100 :local)``)."""
-    return robot.frame_pose("larm_end") @ mink.SE3.from_translation(np.array([SHAKER, 0.0, 0.0]))
+class Shaker:
+    """The shaker held between the hands: the left hand leads, the right hand keeps
+    ``SHAKER`` arm lengths along the left hand's grip axis.
+
+    Attributes:
+        left: The left hand.
+        right: The right hand.
+        length: The hands' distance along the axis [m].
+    """
+
+    def __init__(self, stature: Stature) -> None:
+        self.left, self.right = (stature.hands[a] for a in ARMS)
+        self.length = SHAKER * stature.arm_lengths["larm"]
+
+    @property
+    def axis(self) -> str:
+        """The shaker axis' name in the hand frames (``"x"``, ``"y"``, ``"z"``)."""
+        return Hand.name(self.left.grip)
+
+    def right_target(self, robot: Robot) -> mink.SE3:
+        """The right hand's target, evaluated every iteration: the left hand's pose
+        moved ``length`` along the shaker axis (irteus: ``(send (larm end-coords copy)
+        :translate 100 :local)``)."""
+        step = self.length * Hand.vector(self.left.grip)
+        return self.left.pose(robot) @ mink.SE3.from_translation(step)
 
 
 def run(
     recorder: Recorder,
     *,
+    model: str | None = "sample_humanoid",
+    description: str | None = None,
     hold: float = DEFAULT_HOLD,
     speed: float = DEFAULT_SPEED,
     quiet: bool = True,
     steps: int = 32,
+    robot: Robot | None = None,
 ) -> ScenarioResult:
-    robot = Robot.from_model("sample_humanoid")
+    """The left hand to the start, ``steps`` steps of the shake, played and held.
+    ``robot``: the robot already built from ``model`` and ``description``, else None
+    to build it here."""
+    if robot is None:
+        robot = Robot.from_model(model, description=description, required_limbs=ROBOT.limbs)
     stage = Stage(NAME, robot, recorder, scene=Scene.from_robot(robot), quiet=quiet)
-    waist = robot.root_pose()[0] + np.array([0.0, 0.0, 0.3])  # [m] shaker height: chest
+    stature = Stature.of(robot)
+    shaker = Shaker(stature)
+    shoulders = np.mean([stature.shoulders[a] for a in ARMS], axis=0)
+    L = stature.arm_lengths["larm"]
+    start = shoulders + L * stature.direction(START)
     path = Waypoints(robot, "left hand to start")
     stage.solve(
         inverse_kinematics,
         "left hand to start",
-        (waist + np.array([0.4, 0.0, 0.0]), IDENTITY),
+        (start, IDENTITY),
         path=path,
         total=50,
         limbs="larm",
+        move_targets=shaker.left.frame,
         rotation_axis=None,
     )
-    avoid = arms_apart(robot)
-    errors = [shake(stage, path, avoid, waist, k) for k in range(steps)]
+    avoid = arms_apart(robot, shaker)
+    swing = [
+        L * stature.direction([SWING[0], 0.0, 0.0]),
+        L * stature.direction([0.0, SWING[1], 0.0]),
+    ]
+    errors = [shake(stage, path, avoid, shaker, start, swing, k) for k in range(steps)]
     if speed:
         stage.play("left hand to start, shake", path, speed=speed)
     # The final pose in physics; the contacts the solves made are intended.
@@ -88,47 +148,59 @@ def run(
     return result
 
 
-def arms_apart(robot: Robot) -> CollisionAvoidanceTask:
-    """The arms keep ``ORANGE`` apart (the hands, holding the shaker together,
+def arms_apart(robot: Robot, shaker: Shaker) -> CollisionAvoidanceTask:
+    """The arms keep ``ORANGE`` apart (the hands' bodies, holding the shaker together,
     excepted): the right hand's first move to the shaker passes the left hand."""
-    arms = [f"{side}arm_{link}" for side in "rl" for link in ("upper", "lower", "hand")]
+    arms = [b for a in ARMS for b in robot.bodies(a)]
+    m = robot.model
+    hands = {shaker.left.body, shaker.right.body}
     pairs = [
         p
-        for p in collision_pairs(robot.model, robot.data, arms)
-        if {p.name1, p.name2} != {"rarm_hand", "larm_hand"}
+        for p in collision_pairs(m, robot.data, arms)
+        if {m.body(m.geom_bodyid[p.geom1]).name, m.body(m.geom_bodyid[p.geom2]).name} != hands
     ]
     return CollisionAvoidanceTask(robot.configuration, pairs, yellow=YELLOW, orange=ORANGE)
 
 
 def shake(
-    stage: Stage, path: Waypoints, avoid: CollisionAvoidanceTask, waist: np.ndarray, k: int
+    stage: Stage,
+    path: Waypoints,
+    avoid: CollisionAvoidanceTask,
+    shaker: Shaker,
+    start: np.ndarray,
+    swing: list[np.ndarray],
+    k: int,
 ) -> tuple[float, float, float]:
-    """Shaking step ``k``: the left hand along its path, its position along the shaker
-    axis free, the right hand on :func:`right_target`. Returns the right hand's
-    distance to its target [m], the angle [rad] between the hands' shaker axes, and
-    the left hand's distance [m] to its path across the free axis."""
+    """Shaking step ``k``: the left hand along its path ``start + sin t swing_0 +
+    cos t swing_1``, its position along the shaker axis free, the right hand on
+    :meth:`Shaker.right_target`. Returns the right hand's distance to its target [m],
+    the angle [rad] between the hands' shaker axes, and the left hand's distance [m]
+    to its path across the free axis."""
     robot = stage.robot
     t = 0.1 * (k + 1)
-    p_left = waist + np.array([0.4 + 0.1 * np.sin(t), 0.05 * np.cos(t), 0.0])
+    p_left = start + np.sin(t) * swing[0] + np.cos(t) * swing[1]
     stage.solve(
         inverse_kinematics,
         f"shake {k:02d}",
-        [(p_left, IDENTITY), right_target],
+        [(p_left, IDENTITY), shaker.right_target],
         path=path,
         segment="shake",  # one segment: the shake does not stop between steps
         total=50,
-        limbs=["larm", "rarm"],
-        translation_axis=["x", True],
-        rotation_axis=[None, "x"],
+        limbs=list(ARMS),
+        move_targets=[shaker.left.frame, shaker.right.frame],
+        translation_axis=[shaker.axis, True],
+        rotation_axis=[None, shaker.axis],
         collision_avoidance=avoid,
     )
-    X_RL = right_target(robot).inverse() @ robot.frame_pose("rarm_end")
-    X_WL = robot.frame_pose("larm_end")
+    X_RL = shaker.right_target(robot).inverse() @ shaker.right.pose(robot)
+    X_WL = shaker.left.pose(robot)
     R_WL = X_WL.rotation().as_matrix()
+    a = Hand.vector(shaker.left.grip)
+    across = np.eye(3) - np.outer(a, a)  # the left hand frame's components off the axis
     return (
         float(np.linalg.norm(X_RL.translation())),
-        float(np.arccos(np.clip(X_RL.rotation().as_matrix()[0, 0], -1, 1))),
-        float(np.linalg.norm((R_WL.T @ (X_WL.translation() - p_left))[1:])),
+        float(np.arccos(np.clip(a @ X_RL.rotation().as_matrix() @ a, -1, 1))),
+        float(np.linalg.norm(across @ (R_WL.T @ (X_WL.translation() - p_left)))),
     )
 
 
@@ -156,7 +228,7 @@ def check(result: ScenarioResult, steps: int) -> None:
     result.check("start pose reached", result.solves["left hand to start"].converged)
     result.check("every step converged", f["converged_steps"] == steps)
     result.check(
-        "right hand 0.1 m along the left hand's axis (1 mm)",
+        "right hand on the shaker, along the left hand's axis (1 mm)",
         f["right_hand_position_error_max_m"] <= 1e-3,
     )
     result.check(
@@ -168,11 +240,20 @@ def check(result: ScenarioResult, steps: int) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(__doc__)
+    p = parser(__doc__, robot=ROBOT, description=True)
     p.add_argument("--steps", type=count, default=32, help="shaking steps")
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, hold=args.hold, speed=args.speed, quiet=args.quiet, steps=args.steps)
+        result = run(
+            recorder,
+            model=args.model,
+            description=args.description,
+            robot=args.robot,
+            hold=args.hold,
+            speed=args.speed,
+            quiet=args.quiet,
+            steps=args.steps,
+        )
     return report(result, args)
 
 

@@ -32,8 +32,10 @@ from pik_mj.ik import static_balance_point
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
+    RobotOption,
     ScenarioResult,
     Stage,
+    Stature,
     com_margin,
     end_pose,
     largest_move,
@@ -45,27 +47,37 @@ from pik_mj.solve import TrustRegion
 from pik_mj.tasks.collision import collision_pairs
 
 NAME = "fullbody_external_force"
-FORCE = np.array([-20.0, 0.0, 0.0])  # [N] on each hand
-MOMENT = np.array([10.0, 0.0, 0.0])  # [N·m] on each hand
+FORCE = np.array([-20.0, 0.0, 0.0])  # [N] on each hand (sample_humanoid, 58.5 kg)
+MOMENT = np.array([10.0, 0.0, 0.0])  # [N·m] on each hand (sample_humanoid, arm 0.61 m)
+LEAN = 0.1  # other robots: the pulls ask the CoM this many sole lengths forward
+TWIST = 0.8  # other robots: the moment is the pull times this many arm lengths
 HANDS = ("rarm", "larm")
 FEET = ("rleg", "lleg")
+ROBOT = RobotOption("sample_humanoid", (*HANDS, *FEET), floating_base=True)
+IRTEUS_TARGETS = ((0.4, -0.3, 0.0), (0.4, 0.3, 0.0))  # [m] from the root (sample_humanoid)
+OTHER_MODELS = (0.6, 0.0, 0.4)  # [hand-to-shoulder distances] from each hand's start, robot's frame
 Wrench = tuple[str, np.ndarray, np.ndarray]  # (frame, force [N], moment [N·m])
 
 
 def run(
     recorder: Recorder,
     *,
+    model: str | None = "sample_humanoid",
+    description: str | None = None,
     hold: float = DEFAULT_HOLD,
     speed: float = DEFAULT_SPEED,
     quiet: bool = True,
+    robot: Robot | None = None,
 ) -> ScenarioResult:
-    robot = Robot.from_model("sample_humanoid")
+    """Solve, validate and record the reach under the hand wrenches. ``robot``: the
+    robot already built from ``model`` and ``description``, else None to build it."""
+    if robot is None:
+        robot = Robot.from_model(model, description=description, required_limbs=ROBOT.limbs)
     stage = Stage(NAME, robot, recorder, scene=Scene.from_robot(robot), quiet=quiet)
     feet0 = [end_pose(robot, x) for x in FEET]
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
-    p_root, _ = robot.root_pose()
-    targets = [p_root + np.array([0.4, -0.3, 0.0]), p_root + np.array([0.4, 0.3, 0.0])]
-    forces = [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
+    targets = hand_targets(robot, model)
+    forces = hand_wrenches(robot, model, targets)
     path = Waypoints(robot)
     res = reach(stage, targets, forces, p_mid, path)
     if speed:
@@ -82,6 +94,55 @@ def run(
     return result
 
 
+def hand_targets(robot: Robot, model: str | None) -> list[np.ndarray]:
+    """The hands' targets [m]: the irteus example's ``#f(400 ∓300 0)`` mm from the
+    root on ``sample_humanoid``, else :data:`OTHER_MODELS` from each hand's start, in
+    the robot's frame, in units of the hand's distance to its shoulder."""
+    if str(model) == "sample_humanoid":
+        p_root = robot.root_pose()[0]
+        return [p_root + np.array(offset) for offset in IRTEUS_TARGETS]
+    stature = Stature.of(robot)
+    targets = []
+    for h in HANDS:
+        p_hand = end_pose(robot, h).translation()
+        reach = float(np.linalg.norm(p_hand - stature.shoulders[h]))
+        targets.append(p_hand + reach * stature.direction(OTHER_MODELS))
+    return targets
+
+
+def hand_wrenches(robot: Robot, model: str | None, targets: list[np.ndarray]) -> list[Wrench]:
+    """Each hand's wrench: the irteus example's on ``sample_humanoid``; else a pull
+    ``F`` back, the same on both hands, that asks the CoM to lean ``LEAN`` sole lengths
+    ``l`` forward, ``F = LEAN l M g / sum_h z_h`` [N] (``z_h`` a target's height above
+    the soles), and a moment about the robot's x of ``TWIST`` arm lengths times it
+    [N·m]."""
+    if str(model) == "sample_humanoid":
+        return [(robot.limb(h).end_frame, FORCE, MOMENT) for h in HANDS]
+    stature = Stature.of(robot)
+    assert stature.sole is not None  # the robot has both legs (ROBOT)
+    weight = robot.mass * float(np.linalg.norm(robot.model.opt.gravity))  # [N]
+    heights = sum(float(p[2] - stature.p_WR[2]) for p in targets)
+    pull = LEAN * stature.sole[0] * weight / heights
+    return [
+        (
+            robot.limb(h).end_frame,
+            stature.direction([-pull, 0.0, 0.0]),
+            stature.direction([TWIST * stature.arm_lengths[h] * pull, 0.0, 0.0]),
+        )
+        for h in HANDS
+    ]
+
+
+def avoided_links(robot: Robot) -> list[str]:
+    """The arms' bodies, the root body, the torso's and each leg's first link: the
+    links the arms keep off."""
+    links = [b for h in HANDS for b in robot.bodies(h)] + [robot.root_body]
+    if "torso" in robot.limbs:
+        links += robot.bodies("torso")
+    links += [robot.limb(leg).root_body for leg in FEET]
+    return list(dict.fromkeys(links))
+
+
 def reach(
     stage: Stage,
     targets: list[np.ndarray],
@@ -94,10 +155,7 @@ def reach(
     the body (irteus: the arms' ``:collision-avoidance-link-pair``), which the
     plain solution's first step swings the right forearm into."""
     robot = stage.robot
-    arms = [f"{arm}_{link}" for arm in HANDS for link in ("upper", "lower", "hand")]
-    pairs = collision_pairs(
-        robot.model, robot.data, [*arms, "pelvis", "torso_chest", "rleg_thigh", "lleg_thigh"]
-    )
+    pairs = collision_pairs(robot.model, robot.data, avoided_links(robot), touching=0.01)
     avoid = CollisionAvoidanceTask(robot.configuration, pairs, yellow=0.1, orange=0.01)
     return stage.solve(
         fullbody_inverse_kinematics,
@@ -131,15 +189,25 @@ def figures(
     p_mid = 0.5 * (feet0[0].translation() + feet0[1].translation())
     p = static_balance_point(robot, forces, height=p_mid[2])
     moment = np.cross(robot.com() - p_mid, robot.mass * robot.model.opt.gravity)
-    for h in HANDS:
-        moment += np.cross(end_pose(robot, h).translation() - p_mid, FORCE) + MOMENT
+    hands = [end_pose(robot, h).translation() for h in HANDS]
+    for p_hand, (_, force, torque) in zip(hands, forces, strict=True):
+        moment += np.cross(p_hand - p_mid, force) + torque
     com = robot.com()
+    R_WR = Stature.of(robot).R_WR
+    weight = robot.mass * float(np.linalg.norm(robot.model.opt.gravity))  # [N]
+    # the forward lean the pulls alone ask for: sum_h -(F_h · x) (z_h - z_mid) / (M g)
+    lean = sum(
+        -(f @ R_WR[:, 0]) * (p_hand[2] - p_mid[2])
+        for p_hand, (_, f, _) in zip(hands, forces, strict=True)
+    )
     return {
         "balance_point_m": p,
         "balance_point_xy_error_m": float(np.linalg.norm(p[:2] - p_mid[:2])),
         "horizontal_moment_about_feet_midpoint_Nm": moment[:2],
         "com_m": com,
         "com_shift_from_feet_midpoint_m": com[:2] - p_mid[:2],
+        "com_forward_of_feet_midpoint_m": float((com - p_mid) @ R_WR[:, 0]),
+        "lean_of_the_pulls_m": float(lean / weight),
         "balance_point_margin_m": com_margin(robot, p),
         "hand_errors_m": [
             float(np.linalg.norm(end_pose(robot, h).translation() - t))
@@ -168,15 +236,26 @@ def check(result: ScenarioResult, robot: Robot, res: SolveResult) -> None:
     )
     result.check("balance point inside the support polygon", f["balance_point_margin_m"] > 0)
     result.check(
-        "CoM leans into the pull (x forward of the feet midpoint by > 2 cm)",
-        f["com_shift_from_feet_midpoint_m"][0] > 0.02,
+        "CoM leans into the pull (forward of the feet midpoint by more than half of "
+        "sum_h |F_h| z_h / (M g), the lean the pulls alone ask for)",
+        f["com_forward_of_feet_midpoint_m"] > 0.5 * f["lean_of_the_pulls_m"] > 0,
+        f"{f['com_forward_of_feet_midpoint_m'] * 1e3:.1f} mm, pulls "
+        f"{f['lean_of_the_pulls_m'] * 1e3:.1f} mm",
     )
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser(__doc__).parse_args(argv)
+    args = parser(__doc__, robot=ROBOT, description=True).parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, hold=args.hold, speed=args.speed, quiet=args.quiet)
+        result = run(
+            recorder,
+            model=args.model,
+            description=args.description,
+            robot=args.robot,
+            hold=args.hold,
+            speed=args.speed,
+            quiet=args.quiet,
+        )
     return report(result, args)
 
 

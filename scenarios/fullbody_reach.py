@@ -33,6 +33,7 @@ from pik_mj import (
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
+    RobotOption,
     ScenarioResult,
     Stage,
     com_margin,
@@ -53,6 +54,7 @@ HAND_OFFSETS = {  # [m] left-hand target from the root body, per model
 OTHER_MODELS = (0.6, 0.2, 0.4)  # [arm lengths] from the hand's start, other robots
 FEET = ("rleg", "lleg")
 HAND = "larm"
+ROBOT = RobotOption("sample_humanoid", (*FEET, HAND), floating_base=True)
 
 
 def run(
@@ -156,13 +158,7 @@ def check(result: ScenarioResult) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(
-        __doc__,
-        model="sample_humanoid",
-        limbs=(*FEET, HAND),
-        floating_base=True,
-        description=True,
-    )
+    p = parser(__doc__, robot=ROBOT, description=True)
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
         result = run(

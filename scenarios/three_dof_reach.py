@@ -17,17 +17,37 @@ from typing import Any
 import numpy as np
 
 from pik_mj import Recorder, Robot, SolveResult, inverse_kinematics
-from pik_mj.scenario import ScenarioResult, Stage, open_recorder, parser, report
+from pik_mj.scenario import (
+    RobotOption,
+    ScenarioResult,
+    Stage,
+    end_pose,
+    open_recorder,
+    parser,
+    report,
+)
 
 NAME = "three_dof_reach"
 LINK = 0.1  # [m] l2 and l3
 TIP_DOWN = np.array([0.0, 0.0, 1.0, 0.0])  # (w, x, y, z): rotation by pi about y
 START = np.deg2rad([30.0, 30.0, 30.0])  # [rad]
 FAR = np.array([0.3, 0.0, 0.0])  # [m] the out-of-reach target
+ROBOT = RobotOption("three_dof_arm", ("arm",), fixed_base=True)
 
 
-def run(recorder: Recorder, *, quiet: bool = True, samples: int = 16) -> ScenarioResult:
-    robot = Robot.from_model("three_dof_arm")
+def run(
+    recorder: Recorder,
+    *,
+    model: str | None = "three_dof_arm",
+    description: str | None = None,
+    quiet: bool = True,
+    samples: int = 16,
+    robot: Robot | None = None,
+) -> ScenarioResult:
+    """The sweep, the manual's failing case and the out-of-reach target. ``robot``:
+    the arm already built from ``model`` and ``description``, else None: built here."""
+    if robot is None:
+        robot = Robot.from_model(model, description=description, required_limbs=ROBOT.limbs)
     stage = Stage(NAME, robot, recorder, quiet=quiet)
     robot.set_angle_vector(START)
     reached, failed, reverted_exactly = sweep(stage, samples)
@@ -73,7 +93,7 @@ def figures(
     """The sweep's outcome against the elbow's limit, the failing case's angles
     (``before``), and how near the stretched arm came to the far target, against the
     straight arm's reach (0.22 m from joint0 at z = 0.02)."""
-    gap = float(np.linalg.norm(robot.frame_pose("end").translation() - FAR))
+    gap = float(np.linalg.norm(end_pose(robot, "arm").translation() - FAR))
     return {
         "x_min_analytic_m": 2 * LINK * np.cos(np.deg2rad(50.0)),  # elbow at its 100° limit
         "reached_x_m": reached,
@@ -117,9 +137,15 @@ def check(
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser(__doc__, hold=False).parse_args(argv)
+    args = parser(__doc__, hold=False, robot=ROBOT, description=True).parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, quiet=args.quiet)
+        result = run(
+            recorder,
+            model=args.model,
+            description=args.description,
+            robot=args.robot,
+            quiet=args.quiet,
+        )
     return report(result, args)
 
 

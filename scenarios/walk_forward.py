@@ -1,59 +1,147 @@
-"""Walk forward: 4 steps of 0.12 m by preview control + whole-body IK, played in physics.
+"""Walk forward: 6 steps by preview control + whole-body IK, played in physics, on any humanoid.
 
 The irteus manual's ``:calc-walk-pattern-from-footstep-list``, its first walking
-example on the sample humanoid: footsteps straight ahead (left first), preview control of
-the cart-table model for the CoM, one whole-body IK per tick (feet, CoM and
-upright pelvis, posture), then two checks of the pattern: the ZMP of its
-inverse dynamics stays inside the support polygon at every tick, and played
-with joint servos on a floor in MuJoCo it walks without falling and ends where
-planned.
+example: footsteps straight ahead (left first) with a gait derived from the
+robot (stride, step height and time, CoM height from its legs, soles and mass;
+printed; ``--gait NAME=VALUE`` gives a value instead), preview control of the
+cart-table model for the CoM, one whole-body IK per tick (soles and CoM, then
+the rest), then two checks of the pattern: the ZMP of its inverse dynamics stays
+inside the support polygon of the soles at every tick, and played with the
+robot's joint servos (its own where they can carry it, within its torque limits)
+on a floor in MuJoCo it walks without falling and ends where planned. Any robot
+with two legs: ``--model unitree_g1``, an MJCF path, or ``--description FILE``.
 """
 
 from __future__ import annotations
 
-from pik_mj import Recorder, Robot, Scene
+import argparse
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+from pik_mj import Recorder, Robot
+from pik_mj.robot.ground import robot_soles
 from pik_mj.scenario import ScenarioResult, count, open_recorder, parser, positive, report
-from pik_mj.walking import GaitParameters, straight_steps
-from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern, walk_motion
-from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
+from pik_mj.scenario.arguments import argument_type
+from pik_mj.walking.gait import Footstep
+from pik_mj.walking.playback import walk_motion
+from pik_mj.walking.robot_gait import DEFAULT_DT, RobotGait, gait_value, robot_gait
+from pik_mj.walking.walk import Walk, robot_label, walk
+from pik_mj.walking.wholebody import feet_from_robot
+
+__all__ = ["LEGS", "NAME", "main", "run", "walk_command", "walk_parser", "walk_scenario"]
 
 NAME = "walk_forward"
+LEGS = ("rleg", "lleg")
+
+
+def walk_scenario(
+    name: str,
+    recorder: Recorder,
+    robot: Robot,
+    label: str,
+    footsteps: Callable[[RobotGait, Mapping[str, Footstep]], Sequence[Footstep]],
+    *,
+    dt: float = DEFAULT_DT,
+    gait: dict[str, float] | None = None,
+    quiet: bool = True,
+) -> tuple[ScenarioResult, Walk]:
+    """A walking scenario: the gait derived from ``robot`` (``gait``: values given
+    instead; printed with ``label`` unless ``quiet``), ``footsteps(gait, feet)`` from its feet,
+    walked (:func:`pik_mj.walking.walk.walk`) into ``recorder``'s walk logger; the
+    result with the walk's figures and checks."""
+    soles = robot_soles(robot)
+    chosen = robot_gait(robot, soles, dt=dt, **(gait or {}))
+    if not quiet:
+        print(f"{name} on {label}: {chosen}")
+    steps = footsteps(chosen, feet_from_robot(robot, soles))
+    log = recorder.walk_logger()
+    done = walk(robot, steps, chosen, soles=soles, callback=log)
+    log.finish(done.report)
+    result = ScenarioResult(name)
+    result.robot = robot
+    result.figures = done.figures
+    result.walk = walk_motion(done.pattern, done.report)
+    for check, ok, detail in done.checks:
+        result.check(check, ok, detail)
+    return result, done
+
+
+def walk_parser(doc: str) -> argparse.ArgumentParser:
+    """The command line of a walking scenario: the scenario's options for a robot
+    with two legs, ``--dt`` and ``--gait NAME=VALUE`` (repeatable)."""
+    p = parser(
+        doc,
+        hold=False,
+        model="sample_humanoid",
+        limbs=LEGS,
+        floating_base=True,
+        description=True,
+    )
+    p.add_argument("--dt", type=positive, default=DEFAULT_DT, help="pattern tick [s]")
+    p.add_argument(
+        "--gait",
+        type=argument_type(gait_value),
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a gait value instead of the derived one, e.g. stride=0.1 (repeatable)",
+    )
+    return p
 
 
 def run(
     recorder: Recorder,
     *,
+    model: str | None = "sample_humanoid",
+    description: str | None = None,
+    robot: Robot | None = None,
     quiet: bool = True,
-    n_steps: int = 4,
-    stride: float = 0.12,  # [m]
-    dt: float = 0.01,  # [s]
+    n_steps: int = 6,
+    dt: float = DEFAULT_DT,  # [s]
+    gait: dict[str, float] | None = None,
 ) -> ScenarioResult:
-    result = ScenarioResult(NAME)
-    robot = Robot.from_model("sample_humanoid")
-    params = GaitParameters(dt=dt, step_time=1.0, step_height=0.05, double_support_ratio=0.2)
-    steps = straight_steps(n_steps, stride, feet_from_robot(robot), first_limb="lleg")
-    pattern = calc_walk_pattern(robot, steps, params)
-    if not quiet:
-        print(pattern)
-    scene = Scene.from_robot(robot, contact=WALK_CONTACT)
-    log = recorder.walk_logger()
-    walk = log.finish(play_walk_pattern(pattern, scene, callback=log))
-    result.robot = robot
-    result.figures, checks = evaluate_walk(pattern, walk)
-    result.walk = walk_motion(pattern, walk)
-    for label, ok, detail in checks:
-        result.check(label, ok, detail)
+    """Walk ``n_steps`` forward; ``gait``: values given instead of derived."""
+    if robot is None:
+        robot = Robot.from_model(model, description=description, required_limbs=LEGS)
+    result, _ = walk_scenario(
+        NAME,
+        recorder,
+        robot,
+        robot_label(model, description),
+        lambda chosen, feet: chosen.straight_steps(n_steps, feet),
+        dt=dt,
+        gait=gait,
+        quiet=quiet,
+    )
     return result
 
 
-def main(argv: list[str] | None = None) -> int:
-    p = parser(__doc__, hold=False)
-    p.add_argument("--steps", type=count, default=4, help="number of steps")
-    p.add_argument("--dt", type=positive, default=0.01, help="pattern tick [s]")
-    args = p.parse_args(argv)
-    with open_recorder(args, NAME) as recorder:
-        result = run(recorder, quiet=args.quiet, n_steps=args.steps, dt=args.dt)
+def walk_command(
+    name: str, run_walk: Callable[..., ScenarioResult], args: argparse.Namespace, **options: Any
+) -> int:
+    """Run a walking scenario's ``run_walk`` from its parsed command line
+    (:func:`walk_parser`), with ``options`` (its own), into the recorder the command
+    asks for; the exit status of its report."""
+    label = robot_label(args.model, args.description)
+    with open_recorder(args, f"{name}_{label}") as recorder:
+        result = run_walk(
+            recorder,
+            model=args.model,
+            description=args.description,
+            robot=args.robot,
+            quiet=args.quiet,
+            dt=args.dt,
+            gait=dict(args.gait),
+            **options,
+        )
     return report(result, args)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = walk_parser(__doc__)
+    p.add_argument("--steps", type=count, default=6, help="number of steps (default 6)")
+    args = p.parse_args(argv)
+    return walk_command(NAME, run, args, n_steps=args.steps)
 
 
 if __name__ == "__main__":

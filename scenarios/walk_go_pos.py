@@ -1,71 +1,73 @@
-"""Walk to a pose: go_pos(0.5 m, 0.15 m, 45°) footsteps, the pattern played in physics.
+"""Walk to a pose: go_pos(0.5 m, 0.2 m, 30°) footsteps played in physics, on any humanoid.
 
-The irteus manual's ``:go-pos-params->footstep-list``: footsteps from the sample humanoid's
-feet to a goal 0.5 m ahead, 0.15 m left and turned 45° left (the left leg
-leads, at most 0.15 m / 30° per step), the walking pattern by preview control
-and whole-body IK per tick, then the same checks as ``walk_forward``: ZMP of the
-inverse dynamics inside the support polygon at every tick; in physics no fall
-and the feet end where planned.
+The irteus manual's ``:go-pos-params->footstep-list``: footsteps from the robot's
+feet to a goal 0.5 m ahead, 0.2 m left and turned 30° left, each step within the
+reach of the gait derived from the robot (printed; ``--gait NAME=VALUE`` gives a
+value instead), the walking pattern by preview control and whole-body IK per
+tick, then the same checks as ``walk_forward``: ZMP of the inverse dynamics
+inside the support polygon at every tick; in physics no fall, the feet end where
+planned and turned as planned. Any robot with two legs: ``--model unitree_g1``,
+an MJCF path, or ``--description FILE``.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from pik_mj.scenarios.walk_forward import LEGS, walk_command, walk_parser, walk_scenario
 
-from pik_mj import Recorder, Robot, Scene
-from pik_mj.scenario import ScenarioResult, finite, open_recorder, parser, positive, report
-from pik_mj.walking import GaitParameters, go_pos
-from pik_mj.walking.playback import WALK_CONTACT, evaluate_walk, play_walk_pattern, walk_motion
-from pik_mj.walking.wholebody import calc_walk_pattern, feet_from_robot
+from pik_mj import Recorder, Robot
+from pik_mj.scenario import ScenarioResult, finite
+from pik_mj.walking.robot_gait import DEFAULT_DT
+from pik_mj.walking.walk import robot_label
 
 NAME = "walk_go_pos"
+HEADING_TOLERANCE = 5.0
+"""[deg] Largest final heading error to the plan."""
 
 
 def run(
     recorder: Recorder,
     *,
+    model: str | None = "sample_humanoid",
+    description: str | None = None,
+    robot: Robot | None = None,
     quiet: bool = True,
     x: float = 0.5,  # [m]
-    y: float = 0.15,  # [m]
-    theta_deg: float = 45.0,  # [deg]
-    dt: float = 0.01,  # [s]
+    y: float = 0.2,  # [m]
+    theta_deg: float = 30.0,  # [deg]
+    dt: float = DEFAULT_DT,  # [s]
+    gait: dict[str, float] | None = None,
 ) -> ScenarioResult:
-    result = ScenarioResult(NAME)
-    robot = Robot.from_model("sample_humanoid")
-    params = GaitParameters(dt=dt, step_time=1.0, step_height=0.05, double_support_ratio=0.2)
-    steps = go_pos(x, y, np.deg2rad(theta_deg), feet_from_robot(robot))
-    pattern = calc_walk_pattern(robot, steps, params)
-    if not quiet:
-        print(pattern)
-    scene = Scene.from_robot(robot, contact=WALK_CONTACT)
-    log = recorder.walk_logger()
-    walk = log.finish(play_walk_pattern(pattern, scene, callback=log))
-    result.robot = robot
-    result.figures, checks = evaluate_walk(pattern, walk)
-    result.walk = walk_motion(pattern, walk)
-    result.figures["sim_final_yaw_error_deg"] = float(np.rad2deg(walk.final_yaw_error))
-    for label, ok, detail in checks:
-        result.check(label, ok, detail)
+    """Walk to ``(x, y, theta)`` from the start; ``gait``: values given instead of derived."""
+    if robot is None:
+        robot = Robot.from_model(model, description=description, required_limbs=LEGS)
+    result, done = walk_scenario(
+        NAME,
+        recorder,
+        robot,
+        robot_label(model, description),
+        lambda chosen, feet: chosen.go_pos(x, y, np.deg2rad(theta_deg), feet),
+        dt=dt,
+        gait=gait,
+        quiet=quiet,
+    )
+    yaw_error = float(np.rad2deg(done.report.final_yaw_error))
+    result.figures["sim_final_yaw_error_deg"] = yaw_error
     result.check(
-        "physics playback: final heading within 5 deg of the plan",
-        walk.final_yaw_error <= np.deg2rad(5.0),
-        f"{np.rad2deg(walk.final_yaw_error):.2f} deg",
+        f"physics playback: final heading within {HEADING_TOLERANCE:.0f} deg of the plan",
+        yaw_error <= HEADING_TOLERANCE,
+        f"{yaw_error:.2f} deg",
     )
     return result
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = parser(__doc__, hold=False)
+    p = walk_parser(__doc__)
     p.add_argument("--x", type=finite, default=0.5, help="goal ahead [m]")
-    p.add_argument("--y", type=finite, default=0.15, help="goal to the left [m]")
-    p.add_argument("--theta", type=finite, default=45.0, help="goal heading change [deg]")
-    p.add_argument("--dt", type=positive, default=0.01, help="pattern tick [s]")
+    p.add_argument("--y", type=finite, default=0.2, help="goal to the left [m]")
+    p.add_argument("--theta", type=finite, default=30.0, help="goal heading change [deg]")
     args = p.parse_args(argv)
-    with open_recorder(args, NAME) as recorder:
-        result = run(
-            recorder, quiet=args.quiet, x=args.x, y=args.y, theta_deg=args.theta, dt=args.dt
-        )
-    return report(result, args)
+    return walk_command(NAME, run, args, x=args.x, y=args.y, theta_deg=args.theta)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from pik_mj import (
@@ -38,13 +37,17 @@ from pik_mj.robot.sensors import SensorTrace
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
+    RobotOption,
     ScenarioResult,
     Stage,
+    Stature,
     com_margin,
+    end_pose,
     open_recorder,
     parser,
     report,
 )
+from pik_mj.sim.motion import min_distance
 from pik_mj.solve import TrustRegion
 from pik_mj.spatial import yaw_of
 from pik_mj.tasks.collision import collision_pairs
@@ -53,12 +56,23 @@ NAME = "wall_contact"
 PALM = (0.045, 0.06)  # [m] half sizes of the palm (hand box x, z)
 PALM_OFFSET = 0.02  # [m] from the hand site to the palm face (hand box half thickness)
 LEAN = 0.1  # [m] CoM target past the toes
-BUMPER = "rarm_bumper"  # touch sensor site around the right hand
+ARM = "rarm"
 TOUCHING = 1e-3  # [m] hand-wall distance at which the palm is on the wall
 # The first trust radius of 1: the palm's solve then ends with the forearm clear of
 # the wall by the lean's clearance, so that the lean's avoidance holds from its start.
 STEPS = TrustRegion(radius=1.0)
-FEET = ("rleg_end", "lleg_end")
+FEET = ("rleg", "lleg")
+
+
+def hand_bumper(robot: Robot) -> str | None:
+    """Why ``robot`` cannot tell its palm on the wall, or None: the scenario reads a
+    touch sensor on the right hand."""
+    if not robot.sensors(ARM).bumpers:
+        return "its right hand has no touch sensor, which tells the palm on the wall"
+    return None
+
+
+ROBOT = RobotOption("sample_humanoid", (ARM, *FEET), floating_base=True, requires=hand_bumper)
 # The wall is a planned contact (the palm on it); the lean keeps the arm and head off it.
 PALM_ON_WALL = WorldAvoidance(allowed=["wall"])
 
@@ -92,12 +106,12 @@ class WallSupport:
         wall = robot.frame_pose("wall", "geom")
         y_wall = wall.translation()[1] - robot.model.geom("wall").size[1]  # wall face [m]
         n_wall = np.array([0.0, -1.0, 0.0])  # the wall pushes the robot back
-        shoulder = robot.frame_pose("rarm_upper", "body").translation()
+        shoulder = robot.frame_pose(robot.limb(ARM).root_body, "body").translation()
         p_palm = np.array([shoulder[0], y_wall, shoulder[2] - 0.05])
         R_hand = np.column_stack(
             [np.cross([0.0, 1.0, 0.0], [0.0, 0.0, -1.0]), [0, 1, 0], [0, 0, -1]]
         )
-        feet = [robot.frame_pose(f) for f in FEET]
+        feet = [end_pose(robot, f) for f in FEET]
         yaw = yaw_of(feet[0].rotation().as_matrix())
         sole = 0.5 * np.array(sole_size(robot))  # [m] half length and width
         contacts = [foot_contact(f.translation(), yaw, *sole, mu=0.8) for f in feet]
@@ -111,11 +125,24 @@ class WallSupport:
 def run(
     recorder: Recorder,
     *,
+    model: str | None = "sample_humanoid",
+    description: str | None = None,
     hold: float = DEFAULT_HOLD,
     speed: float = DEFAULT_SPEED,
     quiet: bool = True,
+    robot: Robot | None = None,
 ) -> ScenarioResult:
-    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_wall")
+    """Put the palm on the wall, lean, play and hold. ``robot``: the robot already
+    built from ``model`` and ``description`` (alone), else None: built here."""
+    if robot is not None:
+        model, description = robot.source.model, robot.source.description
+    robot = Robot.from_model(
+        model,
+        description=description,
+        environment="room",
+        at="spot_wall",
+        required_limbs=ROBOT.limbs,
+    )
     stage = Stage(NAME, robot, recorder, scene=Scene.from_robot(robot), quiet=quiet)
     support = WallSupport.facing(robot)
     path = Waypoints(robot, "hand to the wall")
@@ -143,7 +170,7 @@ def palm_to_wall(stage: Stage, support: WallSupport, path: Waypoints) -> SolveRe
         [(support.p_site, support.R_hand)],
         path=path,
         total=100,
-        limbs=["rarm"],
+        limbs=[ARM],
         rotation_axis=["y"],
         avoid_world=PALM_ON_WALL,
         stop=100,
@@ -165,9 +192,10 @@ def lean_on_wall(
     lean_task = CentroidTask(
         robot.configuration, support.lean, root_body=robot.root_body, check=False
     )
-    arm = collision_pairs(
-        robot.model, robot.data, ["rarm_lower", "rarm_upper", "head_link"], ["wall"]
-    )
+    hand = Stature.of(robot).hands[ARM]
+    links = [b for b in robot.bodies(ARM) if b != hand.body]
+    links += robot.bodies("head") if "head" in robot.limbs else []
+    arm = collision_pairs(robot.model, robot.data, links, ["wall"])
     avoid = CollisionAvoidanceTask(robot.configuration, arm, yellow=0.06, orange=0.02)
     res = stage.solve(
         fullbody_inverse_kinematics,
@@ -176,7 +204,7 @@ def lean_on_wall(
         path=path,
         total=100,
         start=False,
-        limbs=["rarm"],
+        limbs=[ARM],
         rotation_axis=["y"],
         balance=[scfr_task],
         collision_avoidance=avoid,
@@ -194,11 +222,13 @@ def play(stage: Stage, path: Waypoints, speed: float) -> tuple[SensorTrace, list
     to the wall [m] at every sample."""
     bumpers = SensorTrace(stage.robot.sensors())
     model = stage.scene.model
-    hand, wall = model.geom("rarm_hand").id, model.geom("wall").id
+    hand = Stature.of(stage.robot).hands[ARM]
+    geoms = hand.geoms(model)
+    wall = model.geom("wall").id
     gap: list[float] = []
 
     def hand_to_wall(sample: Any) -> None:
-        gap.append(mujoco.mj_geomDistance(sample.model, sample.data, hand, wall, 0.1, None))
+        gap.append(min_distance(sample.model, sample.data, geoms, [wall], 0.1))
 
     stage.play("hand on the wall, lean", path, speed=speed, callback=[bumpers, hand_to_wall])
     return bumpers, gap
@@ -214,7 +244,7 @@ def figures(
     g = robot.model.opt.gravity
     eq = static_equilibrium(support.contacts, robot.mass, com, gravity=g)
     eq_feet = static_equilibrium(support.contacts[:2], robot.mass, com, gravity=g)
-    hand = robot.frame_pose("rarm_end")
+    hand = end_pose(robot, ARM)
     n_wall = support.n_wall
     return {
         "palm_target_m": support.p_palm,
@@ -256,30 +286,39 @@ def check_bumper(result: ScenarioResult, bumpers: SensorTrace, gap: list[float])
     """The bumper's figures and checks: off while the hand is away from the wall, on
     with the palm on it at the end."""
     f = result.figures
-    on, t = np.array(bumpers.on[BUMPER]), np.array(bumpers.time)
+    bumper = result.robot.sensors(ARM).bumpers[0].name
+    on, t = np.array(bumpers.on[bumper]), np.array(bumpers.time)
     away = np.array(gap) > TOUCHING
     reached = np.flatnonzero(~away)
-    f["bumper_first_on_s"] = bumpers.first_on(BUMPER)
+    f["bumper_first_on_s"] = bumpers.first_on(bumper)
     f["hand_reaches_wall_s"] = float(t[reached[0]]) if reached.size else None
     f["bumper_on_while_away_from_wall"] = int(np.count_nonzero(on & away))
     f["bumper_samples_away_from_wall"] = int(np.count_nonzero(away))
-    f["bumper_force_end_N"] = bumpers.force[BUMPER][-1]
+    f["bumper_force_end_N"] = bumpers.force[bumper][-1]
     result.check(
-        f"bumper {BUMPER} off while the hand is away from the wall (> {TOUCHING * 1e3:g} mm)",
+        f"bumper {bumper} off while the hand is away from the wall (> {TOUCHING * 1e3:g} mm)",
         away.any() and not (on & away).any(),
         f"{f['bumper_on_while_away_from_wall']} of {f['bumper_samples_away_from_wall']} samples on",
     )
     result.check(
-        f"bumper {BUMPER} on with the palm on the wall at the end",
+        f"bumper {bumper} on with the palm on the wall at the end",
         bool(on[-1]) and not away[-1],
         f"{f['bumper_force_end_N']:.1f} N, first on at {f['bumper_first_on_s']} s",
     )
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser(__doc__).parse_args(argv)
+    args = parser(__doc__, robot=ROBOT, description=True).parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(recorder, hold=args.hold, speed=args.speed, quiet=args.quiet)
+        result = run(
+            recorder,
+            model=args.model,
+            description=args.description,
+            robot=args.robot,
+            hold=args.hold,
+            speed=args.speed,
+            quiet=args.quiet,
+        )
     return report(result, args)
 
 

@@ -20,11 +20,12 @@ def test_list_names_every_scenario(capsys):
     names = pik_mj.scenarios.SCENARIOS
     assert [line.split()[0] for line in lines] == names
     reach = lines[names.index("fullbody_reach")]
-    assert "[default; --model]" in reach and "Fullbody IK" in reach
+    assert "[default; --model: a left arm, two legs, a floating base]" in reach
+    assert "Fullbody IK" in reach
     # the description is the first line of the scenario's docstring
     kettle = lines[names.index("kettle")]
     doc = cli.load_scenario("kettle").__doc__.strip().splitlines()[0]
-    assert kettle.split(None, 1)[1] == doc
+    assert kettle.split(None, 1)[1].startswith(doc + "  [--model: a right arm, two legs")
 
 
 def test_run_writes_json_and_recording(tmp_path, capsys):
@@ -149,8 +150,8 @@ def test_exit_codes_for_failing_and_bad_runs(tmp_path, monkeypatch, capsys):
     assert cli.main(["run", "no_such_scenario"]) == 2
     assert "Valid scenario names" in capsys.readouterr().err
     # options the scenario's main does not take, and bad values: argparse's usage error
-    assert cli.main(["run", "kettle", "--model", "dm_humanoid", "--headless"]) == 2
-    assert "--model" in capsys.readouterr().err
+    assert cli.main(["run", "three_dof_reach", "--hold", "1", "--headless"]) == 2
+    assert "--hold" in capsys.readouterr().err
     assert cli.main(["run", "kettle", "--hold", "-1", "--headless"]) == 2
     assert "--hold" in capsys.readouterr().err
     assert cli.main(["validate", str(tmp_path / "missing.json")]) == 2

@@ -18,11 +18,13 @@ from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.robot import Robot
 from pik_mj.robot.loading import load_spec
 from pik_mj.tasks.collision import (
+    RECALL,
     CollisionAvoidanceTask,
     collision_pairs,
     moving_pairs,
     pair_distance,
 )
+from pik_mj.tasks.task import TaskRows
 
 YELLOW, ORANGE = 0.05, 0.01
 Q_START = np.array([0.2, 0.1, 0.1])
@@ -93,6 +95,9 @@ def test_avoidance_below_target_gives_way():
 
 def _fd_check(conf: mink.Configuration, task: CollisionAvoidanceTask, rng) -> None:
     rows = task.compute_rows(conf)
+    n = len(task.row_pairs)
+    assert rows.C.shape[0] == n * (1 + 2 * RECALL)  # then the remembered points' rows
+    rows = TaskRows.inequality(rows.C[:n], rows.d_lower[:n], np.inf, 1.0)
     d0 = task.distances(conf)[task.row_pairs]  # row r is pair row_pairs[r]
     q0 = conf.q.copy()
     eps = 1e-6
@@ -143,11 +148,14 @@ def test_yellow_zone_rows():
     conf2.update(Q_START)
     near = CollisionAvoidanceTask(conf2, [("l3_box", "obstacle")], yellow=0.05)
     rows = near.compute_rows(conf2)
-    assert rows.C.shape == (1, 3) and np.any(rows.C != 0) and rows.d_lower[0] < 0.0
+    assert rows.C.shape == (1 + 2 * RECALL, 3) and np.any(rows.C[0] != 0)
+    assert rows.d_lower[0] < 0.0
+    assert np.all(rows.C[1:] == 0.0) and np.all(rows.d_lower[1:] == -0.05)  # nothing recalled yet
     conf2.update(np.array([-1.5, 0.0, 0.0]))  # the arm swung away from the obstacle
     assert near.distances(conf2, 0.05)[0] == 0.05
     rows = near.compute_rows(conf2)
-    assert rows.C.shape == (1, 3) and np.all(rows.C == 0.0) and rows.d_lower[0] == -0.05
+    assert rows.C.shape == (1 + 2 * RECALL, 3) and np.all(rows.C == 0.0)
+    assert np.all(rows.d_lower == -0.05)
 
 
 def test_pair_inside_the_orange_zone_keeps_its_start_distance():

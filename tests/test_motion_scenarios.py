@@ -60,7 +60,7 @@ def test_obstacle_distances_with_and_without_avoidance(tmp_path):
     """With avoidance: the iterates, the reference between them and the physical
     arm at least the orange distance (2 cm; 1 mm of linearization slack in
     physics) from the box; without: the iterates 5 cm inside it, the physical
-    hand against it (an unexpected contact, distance < 0)."""
+    hand against it (distance < 0)."""
     out = run(obstacle_reach, tmp_path)
     check_motion(out)
     f = out["figures"]
@@ -70,7 +70,9 @@ def test_obstacle_distances_with_and_without_avoidance(tmp_path):
     assert f["min_distance_physics_with_m"] >= orange - 1e-3
     assert f["min_distance_iterates_without_m"] < -0.05
     assert f["min_distance_physics_without_m"] < 0
-    assert [c[:2] for c in f["unexpected_contacts_without"]] == [["rarm_hand", "obstacle"]]
+    # a contact the path plans (the hand touching the box at a waypoint) is not
+    # unexpected; any other is the hand's against the box
+    assert all(c[:2] == ["rarm_hand", "obstacle"] for c in f["unexpected_contacts_without"])
     assert f["hand_error_with_m"] < 1e-3 and f["hand_error_without_m"] < 1e-3
 
 
@@ -120,11 +122,14 @@ def test_kettle_reach_grasp_lift_played_in_physics(kettle_out):
     assert motion["max_tracking_error"]["frames_m"] < 0.03
     assert motion["max_drift"] < 0.02 and motion["min_com_margin"] > 0.03
     f = kettle_out["figures"]
-    assert f["min_distance_hand_forearm_counter_reference_m"] >= kettle.ORANGE - 1e-3
-    assert f["min_distance_hand_forearm_counter_physics_m"] > 0.01
+    assert f["min_distance_arm_counter_reference_m"] >= kettle.ORANGE - 1e-3
+    assert f["min_distance_arm_counter_physics_m"] > 0.01
     assert f["kettle_moved_before_the_grasp_physics_m"] < 1e-3
     lifted = np.array(f["kettle_lift_physics_m"])
-    assert abs(lifted[2] - kettle.LIFT) < 0.01 and np.linalg.norm(lifted[:2]) < 0.01
+    assert (
+        abs(lifted[2] - kettle.LIFT * f["kettle_scale"]) < 0.01
+        and np.linalg.norm(lifted[:2]) < 0.01
+    )
 
 
 def test_cocktail_shaker_played_without_the_arms_meeting(tmp_path):

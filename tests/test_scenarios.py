@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import inspect
 import json
+from pathlib import Path
 
 import numpy as np
 import pik_mj.scenarios
@@ -121,7 +122,9 @@ def test_kettle_is_held_in_the_hand_during_the_hold(tmp_path):
     hold = result.balance["hold"]
     assert hold["drift"] < 0.01 and hold["slip"] < 0.002 and hold["unexpected_contacts"] == []
     lift = result.figures["kettle_lift_m"]
-    assert abs(lift[2] - 0.1) < 2e-3 and np.linalg.norm(lift[:2]) < 2e-3
+    # lifted 0.1 m; the hand turns about the vertical bar (the lift leaves the rotation
+    # about the grip free), which swings the kettle's origin, off the bar, by a few mm
+    assert abs(lift[2] - 0.1) < 2e-3 and np.linalg.norm(lift[:2]) < 5e-3
     # The static check's system is the robot and the 1 kg kettle: the LP's
     # contact forces carry both weights.
     forces = np.array(result.balance["static"]["forces"])
@@ -140,7 +143,9 @@ def test_kettle_is_held_in_the_hand_during_the_hold(tmp_path):
     path = tmp_path / "kettle.json"
     path.write_text(json.dumps(jsonable(result.to_dict())))
     pose = read_pose_file(path)
-    assert pose["source"].environment == "room" and pose["source"].at == "spot_counter_front"
+    # the scene made for the robot, written as MJCF (scenario.scenes.scene_file)
+    assert Path(pose["source"].environment).name.startswith("kettle-sample_humanoid-")
+    assert pose["source"].at is None
     [(frame, body, p_FO, R_FO)] = pose["grasps"]
     assert (frame, body) == ("rarm_end", "kettle") and np.linalg.norm(p_FO) < 0.2
     np.testing.assert_allclose(np.array(R_FO) @ np.array(R_FO).T, np.eye(3), atol=1e-9)

@@ -18,9 +18,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from local_menagerie import requires_menagerie
 
 import pik_mj
 from pik_mj.exceptions import InvalidInput, UnknownName
+from pik_mj.ik.arguments import root_dofs
 from pik_mj.ik.world import WorldAvoidance
 from pik_mj.robot.collisions import robot_geoms, self_collision_pairs, world_collision_pairs
 from pik_mj.robot.loading import MODELS_DIR
@@ -28,6 +30,7 @@ from pik_mj.robot.stack import moving_dofs
 from pik_mj.tasks.collision import CollisionAvoidanceTask
 from pik_mj.tasks.collision_pairs import collidable_pairs, geoms_named
 
+GEAR_HUMANOID = Path(__file__).parent / "mjcf" / "gear_humanoid.xml"
 CLEARANCE = WorldAvoidance().clearance
 TOLERANCE = 1.5e-4  # [m] the avoidance's stop-test margin, and the solver's
 
@@ -162,10 +165,120 @@ def test_the_readme_reach_keeps_the_arm_off_the_counter(in_room):
     assert found[False] < 0.0
 
 
+def test_a_hand_turning_at_the_counter_edge_keeps_every_corner_off(in_room):
+    """A target under the counter's top edge, 13 cm short of the handle: the hand's
+    box faces the counter's front and turns about its nearest corner; one witness
+    row per pair lets the other corner in (14.5 mm after 30 iterations, against a
+    20 mm clearance); the remembered witness points keep both out."""
+    robot = in_room
+    m = robot.model
+    target = robot.frame_pose("kettle_handle").translation() + np.array([-0.128, -0.037, -0.073])
+    hand, counter = [m.geom("rarm_hand").id], [m.geom("counter").id]
+    result, found = _solve_watching(
+        robot, pik_mj.fullbody_inverse_kinematics, [(target, [1.0, 0.0, 0.0, 0.0])], hand,
+        counter, limbs=["rarm"], rotation_axis=[None], stop=30, revert_if_fail=False,
+    )  # fmt: skip
+    assert not result.converged  # the target is given up, not the clearance
+    assert found >= CLEARANCE - TOLERANCE
+
+
+@pytest.mark.parametrize("name", ["unitree_g1", "unitree_h1", "booster_t1"])
+def test_every_robot_reaches_for_the_kettle_clear_of_the_room(name):
+    """The README's reach on each robot as shipped and on the synthetic gear
+    humanoid, in the room: with the default stack no robot-world pair the solve
+    watches comes nearer than the clearance on any iterate (``mj_geomDistance``)
+    and the feet stay within 1e-4 m of where they stand; without, the robot
+    goes into its world."""
+    if name == "gear_humanoid":
+        name = str(GEAR_HUMANOID)
+    else:
+        requires_menagerie(name)
+    robot = pik_mj.Robot.from_model(name, environment="room", at="spot_counter_front")
+    m = robot.model
+    dofs = moving_dofs(m, robot.limb("rarm").joints, root_dofs(robot))
+    pairs = world_collision_pairs(robot, dofs, touching=WorldAvoidance().touching)
+    feet = [(robot.limb(leg).end_frame, robot.limb(leg).end_frame_type) for leg in ("rleg", "lleg")]
+    start = np.array([robot.frame_pose(*f).translation() for f in feet])
+    target = robot.frame_pose("kettle_handle").translation() - np.array([0.15, 0.0, 0.0])
+    q0 = robot.configuration.q.copy()
+    found, drift = {}, []
+    for avoid in (True, False):
+        seen = []
+
+        def watch(_info, seen=seen, avoid=avoid):
+            seen.append(
+                min(
+                    mujoco.mj_geomDistance(m, robot.data, p.geom1, p.geom2, 1.0, None)
+                    for p in pairs
+                )
+            )
+            if avoid:
+                now = np.array([robot.frame_pose(*f).translation() for f in feet])
+                drift.append(np.abs(now - start).max())
+
+        pik_mj.fullbody_inverse_kinematics(
+            robot, [(target, [1.0, 0.0, 0.0, 0.0])], limbs=[robot.limb("rarm").name],
+            rotation_axis=[None], avoid_world=avoid, revert_if_fail=False, callback=watch,
+        )  # fmt: skip
+        robot.configuration.update(q0)
+        found[avoid] = min(seen)
+    print(f"{name}: min robot-world distance {found[True]:.4f} m with, {found[False]:.4f} without")
+    assert found[True] >= CLEARANCE - TOLERANCE
+    assert max(drift) <= 1e-4
+    assert found[False] < CLEARANCE - TOLERANCE
+
+
+def test_a_pair_only_robot_meets_its_world_only_where_mujoco_does():
+    """The synthetic gear humanoid's geoms collide only through its ``<pair>``s,
+    but its soles (contype 0, conaffinity 1). A bar sized from its arm, across
+    the hand's way: the solve watches the soles' pairs with the bar alone, the
+    hand goes through the bar with avoidance on as with it off, and MuJoCo's own
+    collision (``mj_collision``) finds no arm-bar contact there either."""
+    alone = pik_mj.Robot.from_model(str(GEAR_HUMANOID))
+    arm = alone.limb("rarm")
+    hand = alone.frame_pose(arm.end_frame, arm.end_frame_type).translation()
+    shoulder = alone.data.xpos[alone.model.body(arm.root_body).id]
+    length = np.linalg.norm(hand - shoulder)
+    target = shoulder + np.array([0.9 * length, 0.0, 0.0])
+    env = pik_mj.floor_environment()
+    pik_mj.add_box(env, "bar", (hand + target) / 2, 0.1 * length * np.array([1.0, 5.0, 1.0]))
+    robot = pik_mj.Robot.from_model(str(GEAR_HUMANOID), environment=env)
+    m = robot.model
+    watched = {(p.name1, p.name2) for p in world_collision_pairs(robot, touching=1e-3)}
+    assert watched == {("rleg_sole", "bar"), ("lleg_sole", "bar")}
+    own, bar = robot_geoms(robot), m.geom("bar").id
+    q0, deepest = robot.configuration.q.copy(), []
+
+    def keep_deepest(_info):
+        d = _min_distance(robot, own, [bar])
+        if not deepest or d < deepest[0]:
+            deepest[:] = [d, robot.configuration.q.copy()]
+
+    options = dict(limbs=[arm.name], rotation_axis=[None], revert_if_fail=False)
+    pik_mj.fullbody_inverse_kinematics(
+        robot, [(target, [1.0, 0.0, 0.0, 0.0])], avoid_world=False, callback=keep_deepest, **options
+    )
+    robot.configuration.update(q0)
+    _, with_avoidance = _solve_watching(
+        robot,
+        pik_mj.fullbody_inverse_kinematics,
+        [(target, [1.0, 0.0, 0.0, 0.0])],
+        own,
+        [bar],
+        **options,
+    )
+    assert deepest[0] < 0.0 and with_avoidance == pytest.approx(deepest[0], abs=1e-9)
+    data = mujoco.MjData(m)
+    data.qpos[:] = deepest[1]
+    mujoco.mj_forward(m, data)
+    contacts = data.contact.geom[: data.ncon]
+    assert not np.any((contacts == bar).any(axis=1) & np.isin(contacts, own).any(axis=1))
+
+
 def test_a_robot_alone_has_no_world_and_a_pair_only_robot_watches_its_pairs():
     robot = pik_mj.Robot.from_model("sample_humanoid")
     assert world_collision_pairs(robot) == []
-    shipped = pik_mj.Robot.from_model(str(Path(__file__).parent / "mjcf" / "gear_humanoid.xml"))
+    shipped = pik_mj.Robot.from_model(str(GEAR_HUMANOID))
     m = shipped.model
     pairs = self_collision_pairs(shipped)
     explicit = {

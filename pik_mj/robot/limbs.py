@@ -236,7 +236,7 @@ def end_frame(model: mujoco.MjModel, body: int) -> tuple[str, str]:
         return name, "site"
     touch = model.sensor_type == mujoco.mjtSensor.mjSENS_TOUCH
     zones = set(model.sensor_objid[touch].tolist())
-    point = model.site_type == mujoco.mjtGeom.mjGEOM_SPHERE
+    point = model.site_type == int(mujoco.mjtGeom.mjGEOM_SPHERE)
     free = [s for s in sites if point[s] and s not in zones and model.site(s).name]
     if len(free) == 1:
         return model.site(free[0]).name, "site"

@@ -87,7 +87,7 @@ def floor_environment(name: str = "floor") -> mujoco.MjSpec:
 
 def has_plane(model: mujoco.MjModel) -> bool:
     """Whether ``model`` has a plane geom (a floor)."""
-    return bool(np.any(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE))
+    return bool(np.any(model.geom_type == int(mujoco.mjtGeom.mjGEOM_PLANE)))
 
 
 def add_floor(spec: mujoco.MjSpec) -> None:

@@ -34,18 +34,23 @@ from pik_mj.scenario.command_line import DEFAULT_HOLD, DEFAULT_SPEED, ScenarioPa
 from pik_mj.scenario.figures import com_margin, end_pose, largest_move, largest_turn
 from pik_mj.scenario.output import open_recorder, report
 from pik_mj.scenario.result import ScenarioResult, balance_summary, jsonable
-from pik_mj.scenario.robot_option import RobotOption
+from pik_mj.scenario.robot_option import RobotOption, RobotRefused
+from pik_mj.scenario.scenes import robot_in
 from pik_mj.scenario.stage import SolveWatch, Stage
+from pik_mj.scenario.stature import Hand, Stature
 
 __all__ = [
     "DEFAULT_HOLD",
     "DEFAULT_SPEED",
+    "Hand",
     "OptionError",
     "RobotOption",
+    "RobotRefused",
     "ScenarioParser",
     "ScenarioResult",
     "SolveWatch",
     "Stage",
+    "Stature",
     "balance_summary",
     "com_margin",
     "count",
@@ -60,4 +65,5 @@ __all__ = [
     "parser",
     "positive",
     "report",
+    "robot_in",
 ]

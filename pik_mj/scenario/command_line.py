@@ -16,7 +16,7 @@ from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput
 from pik_mj.record.sinks import LOOPBACK, check_bind
 from pik_mj.scenario.arguments import duration, fraction
-from pik_mj.scenario.robot_option import RobotOption
+from pik_mj.scenario.robot_option import RobotOption, RobotRefused
 from pik_mj.sim.motion import DEFAULT_SPEED
 
 DEFAULT_HOLD = 3.0
@@ -27,7 +27,9 @@ class ScenarioParser(argparse.ArgumentParser):
     """The argument parser of a scenario's ``main`` (:func:`parser`): after parsing,
     it checks that the output files (``--save``, ``--json``) can be written and
     that ``--model``/``--description`` give a robot the scenario can move, before
-    any work starts (a usage error otherwise). The robot it built for that check
+    any work starts (a usage error otherwise; a robot the scenario cannot move is
+    refused in one line, ``<prog>: error: <why>``, exit status 2). The robot it built
+    for that check
     is kept on the namespace as ``robot`` (None for a scenario without
     ``--model``), so that the scenario need not build it again."""
 
@@ -57,6 +59,8 @@ class ScenarioParser(argparse.ArgumentParser):
                 ns.model, ns.robot = self.robot_option.check(
                     ns.model, getattr(ns, "description", None)
                 )
+            except RobotRefused as exc:
+                self.exit(2, f"{self.prog}: error: {exc}\n")
             except InvalidInput as exc:
                 self.error(str(exc))
         return ns
@@ -96,6 +100,7 @@ def parser(
     limbs: Sequence[str] = (),
     floating_base: bool = False,
     description: bool = False,
+    robot: RobotOption | None = None,
 ) -> ScenarioParser:
     """The options of a scenario's ``main``: rerun's (``--save FILE.rrd``,
     ``--connect``, ``--serve``, ``--stdout``, ``--headless``:
@@ -113,9 +118,11 @@ def parser(
             and a floating base with ``floating_base``).
         limbs: Limbs the scenario moves (checked on ``--model``).
         floating_base: The scenario needs a floating base (checked on ``--model``).
-        description: With ``model``, add ``--description FILE`` (a robot description,
-            :mod:`pik_mj.robot.description`), checked with ``--model``; ``--model``'s
-            default then applies when neither is given.
+        description: With ``model`` (or ``robot``), add ``--description FILE`` (a
+            robot description, :mod:`pik_mj.robot.description`), checked with
+            ``--model``; ``--model``'s default then applies when neither is given.
+        robot: What ``--model`` must give, declared by the scenario (its ``ROBOT``):
+            instead of ``model``, ``limbs`` and ``floating_base``.
     """
     p = ScenarioParser(description=(doc or "").strip().splitlines()[0])
     rr.script_add_args(p)
@@ -141,12 +148,15 @@ def parser(
             help="the iterates played in physics at this fraction of the joint velocity "
             f"limits (default {DEFAULT_SPEED:g}; 0: not played)",
         )
-    if model is not None:
-        p.robot_option = RobotOption(model, tuple(limbs), floating_base)
+    if robot is None and model is not None:
+        robot = RobotOption(model, tuple(limbs), floating_base)
+    if robot is not None:
+        model = robot.default
+        p.robot_option = robot
         p.add_argument(
             "--model",
-            help=f"robot: a model name ({model}, dm_humanoid, a MuJoCo Menagerie robot "
-            "such as unitree_g1) or an MJCF path (default: "
+            help=f"robot ({robot.needs()}): a model name ({model}, a MuJoCo Menagerie "
+            "robot such as unitree_g1) or an MJCF path (default: "
             + ("the description's model, else " if description else "")
             + f"{model})",
         )

@@ -1,35 +1,85 @@
 """The robot options of a scenario's command line: ``--model`` (and ``--description``)
-must name a robot that loads and has what the scenario moves."""
+must name a robot that loads and has what the scenario moves; what a robot truly lacks
+is said in one line before any work (:class:`RobotRefused`)."""
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from pik_mj.exceptions import InvalidInput, PikError
 from pik_mj.robot import Robot
 
+LIMB_WORDS = {
+    "rarm": "a right arm",
+    "larm": "a left arm",
+    "rleg": "a right leg",
+    "lleg": "a left leg",
+    "head": "a head",
+    "torso": "a torso",
+    "arm": "an arm",
+}
+"""How ``pik-mj list`` names a limb a scenario needs."""
+
+
+class RobotRefused(InvalidInput):
+    """A robot the scenario cannot move: one line naming the option, the robot and what
+    it lacks (raised before any work)."""
+
 
 @dataclass(frozen=True)
 class RobotOption:
     """What ``--model`` (and ``--description``) must give a scenario: a robot that
-    loads and has ``limbs`` (and a floating base with ``floating_base``).
+    loads and has ``limbs`` (and a floating base with ``floating_base``, a fixed one
+    with ``fixed_base``).
 
     Attributes:
         default: The model run when neither option names one.
         limbs: Limbs the scenario moves.
-        floating_base: The scenario needs a floating base.
+        floating_base: The scenario needs a floating base (a humanoid standing on
+            its feet).
+        fixed_base: The scenario needs a fixed base (an arm bolted to the world).
+        uses: What the scenario uses where the robot has it (shown by ``pik-mj
+            list``), e.g. ``"a head camera"``; empty: nothing more.
+        requires: What else the robot must have, asked of the built robot: a
+            function that returns why the robot cannot play the scenario (a clause
+            about the robot, e.g. ``"its right arm has 4 joints; ... asks 5"``), or
+            None when it can.
     """
 
     default: str
     limbs: tuple[str, ...]
-    floating_base: bool
+    floating_base: bool = False
+    fixed_base: bool = False
+    uses: str = ""
+    requires: Callable[[Robot], str | None] | None = None
+
+    def needs(self) -> str:
+        """What the scenario needs of its robot, in words (``pik-mj list``): e.g.
+        ``"two arms, two legs, a floating base"``."""
+        limbs = list(self.limbs)
+        words = []
+        for pair, word in ((("rarm", "larm"), "two arms"), (("rleg", "lleg"), "two legs")):
+            if all(x in limbs for x in pair):
+                words.append(word)
+                limbs = [x for x in limbs if x not in pair]
+        words = [LIMB_WORDS.get(x, f"a limb {x!r}") for x in limbs] + words
+        if self.floating_base:
+            words.append("a floating base")
+        if self.fixed_base:
+            words.append("a fixed base")
+        text = ", ".join(words) or "any robot"
+        return text + (f"; uses {self.uses} where it has one" if self.uses else "")
 
     def check(self, model: str | None, description: str | None) -> tuple[str | None, Robot]:
         """The model to run (the default when neither option names one) and the
         robot built from it and its description.
 
         Raises:
-            InvalidInput: Why not, one line starting with the option to blame.
+            InvalidInput: The robot does not load, one line starting with the option
+                to blame.
+            RobotRefused: The robot lacks what the scenario needs, in one line.
         """
         if model is None and description is None:
             model = self.default
@@ -39,16 +89,38 @@ class RobotOption:
             robot = Robot.from_model(model, description=description)
         except PikError as exc:
             raise InvalidInput(f"argument {option}: {exc}") from None
+        if self.fixed_base and robot.has_floating_base:
+            raise RobotRefused(
+                f"argument {option}: {named} has a floating base (a free joint at its root "
+                f"{robot.root_body!r}); this scenario moves an arm with a fixed base"
+            )
         missing = [x for x in self.limbs if x not in robot.limbs]
         if missing:
             hint = "" if description else "; name them in a robot description: --description PATH"
-            raise InvalidInput(
+            raise RobotRefused(
                 f"argument {option}: {named} has no limb {', '.join(missing)}, which this "
                 f"scenario moves (its limbs: {', '.join(robot.limbs) or 'none'}){hint}"
             )
         if self.floating_base and not robot.has_floating_base:
-            raise InvalidInput(
+            raise RobotRefused(
                 f"argument {option}: {named} has no floating base (a free joint at its "
                 f"root {robot.root_body!r}), which this scenario needs"
             )
+        why = None if self.requires is None else self.requires(robot)
+        if why:
+            raise RobotRefused(f"argument {option}: {named} cannot play this scenario: {why}")
         return model, robot
+
+
+def model_label(model: str | os.PathLike[str] | None, description: str | None = None) -> str:
+    """A short name of the robot ``--model``/``--description`` give, for file names:
+    a model name as it is (``unitree_g1``; an entry point ``unitree_g1:g1_with_hands``
+    becomes ``unitree_g1-g1_with_hands``), an MJCF path or a description file by its
+    stem (``/x/robot.xml``: ``robot``)."""
+    given = model if model is not None else description
+    if given is None:
+        return "robot"
+    text = os.fspath(given)
+    if text.endswith((".xml", ".toml", ".json")) or "/" in text or os.sep in text:
+        text = os.path.splitext(os.path.basename(text))[0]
+    return text.replace(":", "-")

@@ -67,7 +67,7 @@ def solve(
         regular_max: ``w_max`` (default 0.1).
         relaxation: ``τ`` by which a lower level may move a higher level's rows
             (default :data:`~pik_mj.cascade.DEFAULT_RELAXATION`).
-        dt: Time step given to ``mink.Limit``s [s].
+        dt: Time step given to ``mink.Limit`` objects [s].
         qp_solver: ``"osqp"`` (default), ``"daqp"``, ``"daqp-hqp"`` (the whole
             hierarchy in one DAQP call, every level exact: ``regular*`` and
             ``relaxation`` do not apply and are refused), another ``qpsolvers``

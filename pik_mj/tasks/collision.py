@@ -40,6 +40,23 @@ links 9.5 mm) keeps that start distance ``d_0`` as its own bound,
 ``d_o,i = min(d_o, d_0)``: it may not come closer, and the task can be satisfied
 (pushing it out to ``d_o`` could fight the feet and never converge).
 
+One witness point per pair is not enough where two flat faces meet (a hand's
+box over a counter's edge): a step that turns the hand about the witness
+point brings another corner nearer, and the next step's witness is that
+corner, the step after the first one again. So the task remembers, per pair and
+geom, the last :data:`RECALL` witness points (fixed to the geom's body) and,
+while the pair is apart, keeps each of them off the separating plane through
+the other witness point:
+
+.. math::
+
+    n^T \\big(J_p(x) - J_p(p_b)\\big)\\, \\dot q \\;\\ge\\; -\\gamma\\, (n^T (x - p_b) - d_o)
+
+for a remembered ``x`` on ``a`` (and the same with the roles swapped for a
+point on ``b``). For convex geoms ``p_a`` is ``a``'s support point along
+``-n``, so ``n^T (x - p_b) ≥ d``: a remembered point never asks more than the
+witness row does now.
+
 Each iteration measures only the pairs that can be in the yellow zone: a pair
 whose geoms' bounding spheres (``geom_rbound`` about ``geom_xpos``) or
 world-aligned boxes (MuJoCo's ``geom_aabb`` carried by ``geom_xmat``) are
@@ -69,6 +86,7 @@ from pik_mj.tasks.task import Task, TaskRows, TaskState
 __all__ = [
     "DEFAULT_CHECK_MARGIN",
     "DEFAULT_YELLOW",
+    "RECALL",
     "CollisionAvoidanceTask",
     "GeomPair",
     "PairDistance",
@@ -79,6 +97,12 @@ __all__ = [
 
 DEFAULT_YELLOW = 0.2
 """``avoid-collision-distance`` [m] (irteus manual; 200 mm)."""
+
+RECALL = 2
+"""Witness points remembered per pair and geom (module docstring)."""
+
+SAME_POINT = 1e-3
+"""Remembered points nearer than this [m] to the current witness point give no row."""
 
 DEFAULT_CHECK_MARGIN = 1e-4
 """How far [m] a pair may be inside its bound and the task still hold (the stop
@@ -208,6 +232,11 @@ class CollisionAvoidanceTask(Task):
         self._g1 = np.array([p.geom1 for p in self.pairs], dtype=int)
         self._g2 = np.array([p.geom2 for p in self.pairs], dtype=int)
         self._g1_list, self._g2_list = self._g1.tolist(), self._g2.tolist()
+        types = model.geom_type
+        self._plane1 = types[self._g1] == int(mujoco.mjtGeom.mjGEOM_PLANE)
+        self._plane2 = types[self._g2] == int(mujoco.mjtGeom.mjGEOM_PLANE)
+        hfield = int(mujoco.mjtGeom.mjGEOM_HFIELD)
+        self._unbounded = (types[self._g1] == hfield) | (types[self._g2] == hfield)
         self.keep_start_distances(configuration)
 
     def keep_start_distances(self, configuration: mink.Configuration) -> None:
@@ -219,6 +248,8 @@ class CollisionAvoidanceTask(Task):
         """
         self.bounds = np.minimum(self.orange, self.distances(configuration, self.yellow))
         self.row_pairs = np.zeros(0, dtype=int)
+        self._recalled = np.full((len(self.pairs), 2, RECALL, 3), np.nan)
+        self._pending: tuple[np.ndarray, tuple] | None = None
 
     @classmethod
     def from_links(
@@ -272,16 +303,15 @@ class CollisionAvoidanceTask(Task):
         h2 = np.einsum("nij,nj->ni", np.abs(R2), m.geom_aabb[g2, 3:])
         box_gap = np.linalg.norm(np.maximum(np.abs(a1 - a2) - h1 - h2, 0.0), axis=1)
         bound = np.maximum(lower, box_gap)
-        for plane, other, R_plane in ((g1, g2, R1), (g2, g1, R2)):
-            on = m.geom_type[plane] == mujoco.mjtGeom.mjGEOM_PLANE
-            height = np.einsum(
-                "ni,ni->n", R_plane[:, :, 2], data.geom_xpos[other] - data.geom_xpos[plane]
-            )
-            bound = np.where(on, height - m.geom_rbound[other], bound)
-        unbounded = (m.geom_type[g1] == mujoco.mjtGeom.mjGEOM_HFIELD) | (
-            m.geom_type[g2] == mujoco.mjtGeom.mjGEOM_HFIELD
-        )
-        return np.flatnonzero(unbounded | (bound < distmax))
+        for on, plane, other, R_plane in ((self._plane1, g1, g2, R1), (self._plane2, g2, g1, R2)):
+            if on.any():
+                height = np.einsum(
+                    "ni,ni->n",
+                    R_plane[on, :, 2],
+                    data.geom_xpos[other[on]] - data.geom_xpos[plane[on]],
+                )
+                bound[on] = height - m.geom_rbound[other[on]]
+        return np.flatnonzero(self._unbounded | (bound < distmax))
 
     def _measure(
         self, configuration: mink.Configuration, distmax: float
@@ -305,7 +335,9 @@ class CollisionAvoidanceTask(Task):
     def _rows(self, configuration: mink.Configuration, measured: _Measured) -> TaskRows:
         """One row per pair that has been inside the yellow zone since the start
         (:attr:`row_pairs`, in pair order); a row is inactive (``0 x >= -d_y``)
-        while its pair is outside the zone.
+        while its pair is outside the zone. Then ``2 RECALL`` rows per such pair
+        for its remembered witness points (:meth:`_recalled_rows`), inactive
+        where there is none.
 
         Pairs never in the zone give no row: a row per pair would put hundreds
         of inactive rows and slacks into every level's QP (579 pairs on G1). A
@@ -329,7 +361,99 @@ class CollisionAvoidanceTask(Task):
             rows = np.searchsorted(self.row_pairs, index)
             C[rows] = np.einsum("ki,kiv->kv", normal, J[:, 0] - J[:, 1])
             lower[rows] = -self.gain * (measured.distance - self.bounds[index])
-        return TaskRows.inequality(C, lower, np.inf, self.weight)
+            self._remember(configuration, measured, b1, b2)
+            recalled = self._recalled_rows(configuration, measured, rows, normal, J)
+        else:
+            recalled = (np.zeros((0, m.nv)), np.zeros(0))
+        C_r, lower_r = recalled
+        size = 2 * RECALL * len(self.row_pairs)
+        C_all, lower_all = np.zeros((size, m.nv)), np.full(size, -self.yellow)
+        C_all[: len(C_r)], lower_all[: len(lower_r)] = C_r, lower_r
+        return TaskRows.inequality(
+            np.vstack([C, C_all]), np.concatenate([lower, lower_all]), np.inf, self.weight
+        )
+
+    def _recalled_rows(
+        self,
+        configuration: mink.Configuration,
+        measured: _Measured,
+        rows: np.ndarray,
+        normal: np.ndarray,
+        J: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The rows of the remembered witness points of the measured pairs that are
+        apart (module docstring): ``C`` and lower bounds, row ``(2 r + s) RECALL + j``
+        for point ``j`` on side ``s`` of the pair whose witness row is ``r``; rows
+        of pairs not measured, of missing points and of points at the current
+        witness are inactive (``0 x >= -d_y``)."""
+        m, data = configuration.model, configuration.data
+        size = 2 * RECALL * (int(rows.max()) + 1) if len(rows) else 0
+        C, lower = np.zeros((size, m.nv)), np.full(size, -self.yellow)
+        apart = np.flatnonzero(measured.distance >= 0.0)  # penetrating: the witness row pushes
+        pairs = measured.index[apart]
+        for side, geoms in enumerate((self._g1, self._g2)):
+            bodies = m.geom_bodyid[geoms[pairs]]
+            points = self._recalled[pairs, side]  # (k, RECALL, 3) in the bodies' frames
+            R = data.xmat[bodies].reshape(-1, 3, 3)
+            world = data.xpos[bodies][:, None, :] + np.einsum("kij,krj->kri", R, points)
+            own = measured.fromto[apart, 3 * side : 3 * side + 3]
+            other = measured.fromto[apart, 3 - 3 * side : 6 - 3 * side]
+            far = np.linalg.norm(world - own[:, None, :], axis=2) >= SAME_POINT  # nan: False
+            k, j = np.nonzero(far)
+            if not len(k):
+                continue
+            sign = 1.0 if side == 0 else -1.0  # n points from b to a
+            n = sign * normal[apart[k]]
+            x = world[k, j]
+            # J_p(x) = J_p(x_B) - [x - x_B]_x J_r(B), so
+            # n^T J_p(x) = n^T J_p(x_B) + ((x - x_B) x n)^T J_r(B)  (mj_jacBody at x_B)
+            unique, body_of = np.unique(bodies[k], return_inverse=True)
+            jacp, jacr = np.empty((2, len(unique), 3, m.nv))
+            for u, body in enumerate(unique.tolist()):
+                mujoco.mj_jacBody(m, data, jacp[u], jacr[u], body)
+            arm = np.cross(x - data.xpos[bodies[k]], n)
+            row = (2 * rows[apart[k]] + side) * RECALL + j
+            C[row] = np.einsum("pi,piv->pv", n, jacp[body_of] - J[apart[k], 1 - side]) + np.einsum(
+                "pi,piv->pv", arm, jacr[body_of]
+            )
+            gap = np.einsum("pi,pi->p", n, x - other[k])
+            lower[row] = -self.gain * (gap - self.bounds[pairs[k]])
+        return C, lower
+
+    def _remember(
+        self,
+        configuration: mink.Configuration,
+        measured: _Measured,
+        b1: np.ndarray,
+        b2: np.ndarray,
+    ) -> None:
+        """Keep the witness points of apart pairs, in their bodies' frames, the
+        newest first, :data:`RECALL` distinct ones per geom. A configuration's
+        points are kept once another configuration is measured, so that rows
+        asked twice at one configuration are the same."""
+        data = configuration.data
+        pending, self._pending = self._pending, None
+        if pending is not None and not np.array_equal(pending[0], configuration.q):
+            pairs, sides, local = pending[1]
+            kept = self._recalled[pairs, sides]  # (k, RECALL, 3)
+            seen = np.linalg.norm(kept - local[:, None, :], axis=2) < SAME_POINT  # nan: False
+            new = ~seen.any(axis=1)
+            pairs, sides = pairs[new], sides[new]
+            self._recalled[pairs, sides, 1:] = kept[new, :-1]
+            self._recalled[pairs, sides, 0] = local[new]
+        elif pending is not None:
+            self._pending = pending
+            return
+        apart = measured.distance >= 0.0
+        pairs = measured.index[apart]
+        local = []
+        for side, bodies in enumerate((b1[apart], b2[apart])):
+            R = data.xmat[bodies].reshape(-1, 3, 3)
+            p = measured.fromto[apart, 3 * side : 3 * side + 3] - data.xpos[bodies]
+            local.append(np.einsum("kji,kj->ki", R, p))  # Rᵀ (p − x_body)
+        sides = np.repeat([0, 1], len(pairs))
+        points = (np.concatenate([pairs, pairs]), sides, np.concatenate(local))
+        self._pending = (configuration.q.copy(), points)
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         return self._rows(configuration, self._measure(configuration, self.yellow)[1])

@@ -293,6 +293,7 @@ def straight_steps(
     initial_feet: Mapping[str, Footstep | tuple[Sequence[float], float]],
     *,
     first_limb: str = "lleg",
+    foot_separation: float | None = None,
 ) -> list[Footstep]:
     """Walk straight ahead: n advancing steps and one closing step.
 
@@ -308,6 +309,8 @@ def straight_steps(
             (negative walks backwards).
         initial_feet: Stance of ``"rleg"`` and ``"lleg"``.
         first_limb: Limb of the first step.
+        foot_separation: Lateral distance between the feet while walking [m]
+            (the steps take them there); defaults to the initial one.
 
     Returns:
         ``n_steps + 1`` footsteps (or none).
@@ -319,7 +322,7 @@ def straight_steps(
         raise InvalidInput(f"stride must be finite [m], got {stride}")
     if first_limb not in LEGS:
         raise UnknownName("limb", first_limb, LEGS)
-    _, sides, p_M, yaw_M, sep = _prepare(initial_feet, None)
+    _, sides, p_M, yaw_M, sep = _prepare(initial_feet, foot_separation)
     if n_steps == 0:
         return []
     e_x = np.array([np.cos(yaw_M), np.sin(yaw_M), 0.0])

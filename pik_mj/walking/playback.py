@@ -1,30 +1,25 @@
 """Play a :class:`~pik_mj.walking.wholebody.WalkPattern` in MuJoCo physics.
 
 The robot stands in its :class:`pik_mj.sim.Scene` (made with
-:meth:`~pik_mj.sim.Scene.from_robot`: a floor, a position servo on every hinge
-joint; the walks use :data:`WALK_CONTACT`); the physics starts at rest in the
-pattern's first configuration and the servo targets follow the pattern, linearly
-interpolated at the physics rate. With MuJoCo's position actuator
-:math:`\\tau = k_p (u - q) - k_v \\dot q`, the control
-
-.. math::
-
-    u(t) = q_{ref}(t) + \\frac{k_v}{k_p} \\dot q_{ref}(t)
-    \\;\\Rightarrow\\;
-    \\tau = k_p (q_{ref} - q) + k_v (\\dot q_{ref} - \\dot q)
-
-(``velocity_feedforward``) makes the damping act on the velocity error. The
-pattern's own joint torques (inverse dynamics with the ground reaction on the
-support soles, :func:`feedforward_torques`) are added as ``qfrc_applied``
-(``torque_feedforward``), so the servos only correct deviations. There is no
-balance feedback: the pattern must carry the robot on its own. After the
+:meth:`~pik_mj.sim.Scene.from_robot`: a floor, a servo on every hinge joint; the
+walks use :data:`WALK_CONTACT`); the physics starts at rest in the pattern's
+first configuration. At every physics step each joint's servo exerts the torque
+of :class:`~pik_mj.walking.drive.JointDrive`: position and velocity feedback
+towards the pattern (linear between its ticks) plus the pattern's own joint
+torques (inverse dynamics with the ground reaction on the support soles,
+:func:`feedforward_torques`), within the robot's torque limits, with the robot's
+own servo gains where they can carry it. The only balance feedback is the
+stabilizer's (:mod:`pik_mj.walking.stabilizer`: the stance ankles' targets turned
+against the body's inclination error); the pattern carries the rest. After the
 pattern the last targets (and torques) are held for ``settle_time``.
 
 Measured at each pattern tick: root height, sole positions, CoM, the ZMP of
 the floor contact forces (all contact points lie on the floor plane, so it is
-their force-weighted centre, :math:`p = \\sum_i f_{z,i} p_i / \\sum_i f_{z,i}`),
-and the ZMP from the feet's force sensors (the robot's MJCF ``force``/``torque``
-sensors on the sole sites, irteus manual: ``:calc-zmp-from-forces-moments``;
+their force-weighted centre, :math:`p = \\sum_i f_{z,i} p_i / \\sum_i f_{z,i}`)
+and its margin in the support polygon of the soles touching the floor at their
+actual poses (:mod:`pik_mj.walking.support`), and the ZMP from the feet's force
+sensors where the robot has them (its MJCF ``force``/``torque`` sensors on the
+feet, irteus manual: ``:calc-zmp-from-forces-moments``;
 :func:`pik_mj.robot.sensors.zmp_from_force_sensors`), what a robot measures.
 
 The playback reports through callbacks: each gets a :class:`WalkSample` at every
@@ -35,20 +30,22 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_distance
 from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.dynamics import joint_torques, root_wrench
 from pik_mj.exceptions import InvalidInput
-from pik_mj.robot.sensors import ForceSensor, RobotSensors, zmp_from_force_sensors
-from pik_mj.sim import ContactParams, Scene
-from pik_mj.spatial import yaw_of
+from pik_mj.robot.ground import subtree_bodies
+from pik_mj.robot.sensors import RobotSensors, zmp_from_force_sensors
+from pik_mj.sim import ContactParams, Fall, Scene
+from pik_mj.sim.falls import fall_limits, fall_measures, first_fall
+from pik_mj.spatial import quat_to_matrix, yaw_of
+from pik_mj.walking.drive import JointDrive, joint_drive
 from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle
 from pik_mj.walking.report import (
     SENSOR_VS_CONTACTS_RMS,
@@ -57,7 +54,9 @@ from pik_mj.walking.report import (
     evaluate_walk,
     walk_motion,
 )
-from pik_mj.walking.wholebody import DEFAULT_FEET, WalkPattern, sole_corners
+from pik_mj.walking.stabilizer import TiltStabilizer, tilt_stabilizer
+from pik_mj.walking.support import zmp_margin
+from pik_mj.walking.wholebody import WalkPattern
 
 __all__ = [
     "SENSOR_VS_CONTACTS_RMS",
@@ -110,11 +109,7 @@ def _stance_intervals(support: np.ndarray, limb: str) -> list[tuple[int, int]]:
     return list(zip(edges[::2].tolist(), edges[1::2].tolist(), strict=True))
 
 
-def feedforward_torques(
-    model: mujoco.MjModel,
-    pattern: WalkPattern,
-    feet_frames: Mapping[str, str] = DEFAULT_FEET,
-) -> np.ndarray:
+def feedforward_torques(model: mujoco.MjModel, pattern: WalkPattern) -> np.ndarray:
     """Joint torques of the pattern with the ground reaction on the soles.
 
     Per tick, with velocities and accelerations by central differences, the
@@ -130,13 +125,13 @@ def feedforward_torques(
         n_i = \\alpha_i \\Big(n_O - \\sum_j p_{S_j} \\times f_j\\Big)
 
     (so :math:`\\sum_i f_i = f`, :math:`\\sum_i n_i + p_{S_i} \\times f_i = n_O`),
-    and :func:`pik_mj.dynamics.joint_torques` with these contact wrenches gives
-    the joint torques; the free-joint rows then vanish.
+    each acting on its foot body B (moment :math:`n_i + (p_{S_i} - p_B) \\times f_i`
+    about B's origin), and :func:`pik_mj.dynamics.joint_torques` with these contact
+    wrenches gives the joint torques; the free-joint rows then vanish.
 
     Args:
         model: The robot model of the pattern.
         pattern: The walking pattern.
-        feet_frames: Sole site of each limb.
 
     Returns:
         Generalized forces (K, nv) [N m]; free-joint rows ~0.
@@ -164,105 +159,105 @@ def feedforward_torques(
         else:
             alpha = {lb: float(lb == plan.support[k]) for lb in limbs}
         residual = n_O - sum(np.cross(p[lb], alpha[lb] * f) for lb in limbs)
-        external = [(feet_frames[lb], alpha[lb] * f, alpha[lb] * residual) for lb in limbs]
+        external = []
+        for lb in limbs:
+            sole = pattern.soles[lb]
+            p_S, R_WS = pattern.feet_p[lb][k], pattern.feet_R[lb][k]
+            p_B = p_S - R_WS @ sole.R_BS.T @ sole.p_BS
+            f_i = alpha[lb] * f
+            external.append((sole.body, f_i, alpha[lb] * residual + np.cross(p_S - p_B, f_i)))
         tau[k] = joint_torques(model, data, pattern.q[k], qvel[k], qacc[k], external)
     return tau
 
 
 @dataclass(frozen=True)
-class _Servos:
-    """The servo targets of a pattern: the joints' positions and velocities, and
-    the feedforward torques, per tick, over the scene's servo joints."""
+class _Reference:
+    """The pattern over the drive's joints, per tick: positions, velocities and
+    feed-forward torques, read between ticks linearly."""
 
-    q_adr: np.ndarray  # qpos address of each servo joint
-    dofs: np.ndarray  # dof of each servo joint
-    act_ids: np.ndarray  # its actuator
-    gains: np.ndarray  # its (kp, kv)
-    q_ref: np.ndarray  # (K, joints) [rad]
-    qd_ref: np.ndarray  # (K, joints) [rad/s]
-    gain_v: np.ndarray  # kv / kp with velocity feedforward, else 0
-    tau_ff: np.ndarray  # (K, joints) [N m]
+    q: np.ndarray  # (K, joints) [rad]
+    qd: np.ndarray  # (K, joints) [rad/s]
+    tau: np.ndarray  # (K, joints) [N m]
 
     @classmethod
-    def of(
-        cls,
-        pattern: WalkPattern,
-        scene: Scene,
-        feet_frames: Mapping[str, str],
-        *,
-        velocity_feedforward: bool,
-        torque_feedforward: bool,
-    ) -> _Servos:
-        joints = scene.servo_joints
-        rm = scene.robot.model  # its joints are the scene's first ones
-        q_adr = np.array([rm.jnt_qposadr[rm.joint(j).id] for j in joints])
-        dofs = np.array([rm.jnt_dofadr[rm.joint(j).id] for j in joints])
-        gains = np.array([scene.servo_gains[j] for j in joints])
-        q_ref = pattern.q[:, q_adr]
-        if torque_feedforward:
-            tau_ff = feedforward_torques(rm, pattern, feet_frames)[:, dofs]
-        else:
-            tau_ff = np.zeros_like(q_ref)
-        return cls(
-            q_adr=q_adr,
-            dofs=dofs,
-            act_ids=np.array([scene.servo_actuators[j] for j in joints]),
-            gains=gains,
-            q_ref=q_ref,
-            qd_ref=np.gradient(q_ref, pattern.dt, axis=0),
-            gain_v=gains[:, 1] / gains[:, 0] if velocity_feedforward else np.zeros(len(joints)),
-            tau_ff=tau_ff,
+    def of(cls, pattern: WalkPattern, drive: JointDrive, model: mujoco.MjModel, feedforward: bool):
+        q = pattern.q[:, drive.q_adr]
+        tau = feedforward_torques(model, pattern)[:, drive.dofs] if feedforward else 0.0 * q
+        return cls(q, np.gradient(q, pattern.dt, axis=0), tau)
+
+    def at(self, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(q, qd, tau)`` at ``s`` ticks into the pattern (the last tick held
+        after it, at rest)."""
+        K = len(self.q)
+        j = min(int(s), K - 1)
+        if j >= K - 1:
+            return self.q[-1], 0.0 * self.qd[-1], self.tau[-1]
+        a = s - j
+        return (
+            (1.0 - a) * self.q[j] + a * self.q[j + 1],
+            (1.0 - a) * self.qd[j] + a * self.qd[j + 1],
+            (1.0 - a) * self.tau[j] + a * self.tau[j + 1],
         )
 
-    def apply(self, data: mujoco.MjData, s: float) -> None:
-        """Set the controls and applied forces at ``s`` ticks into the pattern
-        (linear between ticks, the last tick's held after the pattern)."""
-        K = len(self.q_ref)
-        j = min(int(s), K - 1)
-        a = min(s - j, 1.0) if j < K - 1 else 0.0
-        j1 = min(j + 1, K - 1)
-        target = (1.0 - a) * self.q_ref[j] + a * self.q_ref[j1]
-        if j < K - 1:
-            target = target + self.gain_v * ((1.0 - a) * self.qd_ref[j] + a * self.qd_ref[j1])
-        data.ctrl[self.act_ids] = target
-        data.qfrc_applied[self.dofs] = (1.0 - a) * self.tau_ff[j] + a * self.tau_ff[j1]
+
+class _Saturation:
+    """How often and how far the wanted torques exceeded the limits."""
+
+    def __init__(self, drive: JointDrive) -> None:
+        self.drive = drive
+        self.steps = 0
+        self.saturated = 0
+        self.ratio = np.zeros(len(drive.joints))  # max |wanted| / |limit|
+        self._hi, self._lo = drive.limits[:, 1], drive.limits[:, 0]  # (lo < 0 < hi)
+
+    def add(self, wanted: np.ndarray, applied: np.ndarray) -> None:
+        self.steps += 1
+        if not np.array_equal(wanted, applied):
+            self.saturated += 1
+        np.maximum(self.ratio, np.maximum(wanted / self._hi, wanted / self._lo), out=self.ratio)
+
+    def to_dict(self) -> dict[str, Any]:
+        worst = int(np.argmax(self.ratio))
+        return {
+            "torque_saturated_fraction": self.saturated / max(self.steps, 1),
+            "torque_demand_max_ratio": float(self.ratio[worst]),
+            "torque_demand_max_joint": self.drive.joints[worst],
+        }
 
 
 class _Measurements:
     """What a playback measures at each sample (NaN where not taken).
 
     Attributes:
-        root_p, com, feet_p, zmp, zmp_sensors, zmp_sensors_margin: As in
+        root_p, com, feet_p, zmp, zmp_margin, zmp_sensors, zmp_sensors_margin: As in
             :class:`PlaybackReport`.
         bad: Robot geoms other than the soles that touched the floor.
     """
 
-    def __init__(
-        self, pattern: WalkPattern, scene: Scene, feet_frames: Mapping[str, str], n: int
-    ) -> None:
+    def __init__(self, pattern: WalkPattern, scene: Scene, n: int) -> None:
         model = scene.model
         self.scene = scene
-        self.sole_size = pattern.sole_size
+        self.soles = pattern.soles
         self.ground = float(pattern.plan.ground_z)
         self.root_id = model.body(scene.root_body).id
         self.robot_geom = np.asarray(model.body_rootid)[model.geom_bodyid] == self.root_id
         self.allowed = {model.geom(name).id for name in scene.allowed_contacts}
-        self.site_ids = {lb: model.site(s).id for lb, s in feet_frames.items()}
-        self.site_of = {s: lb for lb, s in feet_frames.items()}
-        robot_bodies = [
-            model.body(b).name
-            for b in range(1, model.nbody)
-            if model.body_rootid[b] == self.root_id
-        ]
-        self.foot_sensors: list[ForceSensor] = [
-            f
-            for f in RobotSensors.from_model(model, bodies=robot_bodies).force_sensors
-            if f.name in feet_frames.values() and f.force is not None and f.torque is not None
-        ]
+        self.leg_of_geom = {
+            int(g): leg
+            for leg, sole in self.soles.items()
+            for g in np.flatnonzero(
+                np.isin(model.geom_bodyid, subtree_bodies(model, model.body(sole.body).id))
+            )
+        }
+        sensors = {f.name: f for f in RobotSensors.from_model(model).force_sensors}
+        self.foot_sensors = [sensors[name] for name in pattern.force_sensors.values()]
+        self.leg_of_sensor = {name: leg for leg, name in pattern.force_sensors.items()}
         self.root_p = np.full((n, 3), np.nan)
+        self.root_R = np.full((n, 3, 3), np.nan)
         self.com = np.full((n, 3), np.nan)
-        self.feet_p = {lb: np.full((n, 3), np.nan) for lb in self.site_ids}
+        self.feet_p = {lb: np.full((n, 3), np.nan) for lb in self.soles}
         self.zmp = np.full((n, 2), np.nan)
+        self.zmp_margin = np.full(n, np.nan)
         self.zmp_sensors = np.full((n if self.foot_sensors else 0, 2), np.nan)
         self.zmp_sensors_margin = np.full(n if self.foot_sensors else 0, np.nan)
         self.bad: set[str] = set()
@@ -272,17 +267,23 @@ class _Measurements:
         """Measure sample ``k`` in the scene's state now."""
         model, data = self.scene.model, self.scene.data
         self.root_p[k] = data.xpos[self.root_id]
+        self.root_R[k] = data.xmat[self.root_id].reshape(3, 3)
         self.com[k] = self.scene.com()
-        for lb, s in self.site_ids.items():
-            self.feet_p[lb][k] = data.site_xpos[s]
+        for lb, sole in self.soles.items():
+            self.feet_p[lb][k] = sole.pose(model, data)[0]
         self._contact_zmp(k, model, data)
         if self.foot_sensors:
             self._sensor_zmp(k, model, data)
 
+    def _polygons(self, legs: set[str]) -> list[np.ndarray]:
+        model, data = self.scene.model, self.scene.data
+        return [self.soles[lb].polygon(model, data)[:, :2] for lb in sorted(legs)]
+
     def _contact_zmp(self, k: int, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """The ZMP of the floor contact forces, and the robot geoms other than
-        the soles on the floor."""
+        """The ZMP of the floor contact forces and its margin in the hull of the
+        soles touching the floor; the robot geoms other than the soles on it."""
         fz_sum, p_sum = 0.0, np.zeros(2)
+        touching: set[str] = set()
         for i in range(data.ncon):
             c = data.contact[i]
             g1, g2 = int(c.geom1), int(c.geom2)
@@ -296,8 +297,12 @@ class _Measurements:
             fz = abs(f_W[2])
             fz_sum += fz
             p_sum += fz * np.asarray(c.pos[:2])
+            if g_robot in self.leg_of_geom and fz > 1e-6:
+                touching.add(self.leg_of_geom[g_robot])
         if fz_sum > 1e-6:
             self.zmp[k] = p_sum / fz_sum
+            if touching:
+                self.zmp_margin[k] = zmp_margin(self.zmp[k], self._polygons(touching))
 
     def _sensor_zmp(self, k: int, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """The ZMP from the feet's force sensors and its margin to the hull of
@@ -306,13 +311,43 @@ class _Measurements:
         if measured is None:
             return
         self.zmp_sensors[k] = measured.point[:2]
-        sites = [self.site_ids[self.site_of[f]] for f in measured.cops]
-        soles = [
-            sole_corners(data.site_xpos[s], yaw_of(data.site_xmat[s].reshape(3, 3)), self.sole_size)
-            for s in sites
-        ]
-        hull = halfplanes_from_polygon(convex_hull_2d(np.vstack(soles)))
-        self.zmp_sensors_margin[k] = signed_distance(hull, self.zmp_sensors[k])
+        legs = {self.leg_of_sensor[f] for f in measured.cops}
+        self.zmp_sensors_margin[k] = zmp_margin(self.zmp_sensors[k], self._polygons(legs))
+
+
+class _Falls:
+    """The fall verdict of a playback (:mod:`pik_mj.sim.falls`): the root's tilt,
+    drift and height at each sample against the pattern's root pose at that tick
+    (its last one after it; ``p_ref``, ``R_ref`` per tick), thresholds from the
+    robot's feet."""
+
+    def __init__(
+        self, pattern: WalkPattern, scene: Scene, ratio: float, standing: float, n: int
+    ) -> None:
+        adr = scene.robot.free_qposadr
+        assert adr is not None  # calc_walk_pattern refuses robots without a free joint
+        self.p_ref = pattern.q[:, adr : adr + 3]
+        self.R_ref = np.array([quat_to_matrix(quat) for quat in pattern.q[:, adr + 3 : adr + 7]])
+        self.up = scene.up()
+        self.standing = standing
+        self.limits = fall_limits(
+            None,
+            None,
+            ratio,
+            foot=scene.foot_length,
+            com_height=pattern.plan.com_height,
+            root_height=standing,
+        )
+        self.tilt, self.drift = np.full(n, np.nan), np.full(n, np.nan)
+        self.fall: Fall | None = None
+
+    def fallen(self, k: int, t: float, p_WB: np.ndarray, R_WB: np.ndarray) -> bool:
+        """Measure sample ``k`` at time ``t`` [s]; whether the robot has fallen."""
+        j = min(k, len(self.p_ref) - 1)
+        tilt, drift, h, h_ref = fall_measures(p_WB, R_WB, self.p_ref[j], self.R_ref[j], self.up)
+        self.tilt[k], self.drift[k] = tilt[0], drift[0]
+        self.fall = first_fall(np.array([t]), tilt, drift, h, h_ref, self.limits)
+        return self.fall is not None
 
 
 def _check_playback(
@@ -340,26 +375,30 @@ def play_walk_pattern(
     scene: Scene,
     *,
     settle_time: float = 1.0,
-    velocity_feedforward: bool = True,
     torque_feedforward: bool = True,
-    feet_frames: Mapping[str, str] = DEFAULT_FEET,
+    gains: str | None = None,
+    stabilize: bool = True,
     fall_ratio: float = 0.8,
     callback: Callback | Sequence[Callback] | None = None,
 ) -> PlaybackReport:
-    """Play ``pattern`` with the scene's joint servos and measure the outcome.
+    """Play ``pattern`` with the robot's joint servos and measure the outcome.
 
     Args:
         pattern: The walking pattern (configurations of the scene's robot).
         scene: The robot's scene (:meth:`pik_mj.sim.Scene.from_robot`; its servo
-            gains, time step and contacts are the playback's).
+            actuators, time step and contacts are the playback's).
         settle_time: Time the last targets are held after the pattern [s].
-        velocity_feedforward: Damp the velocity error instead of the velocity
-            (module docstring).
         torque_feedforward: Add the pattern's joint torques
-            (:func:`feedforward_torques`) to the servo torques (``qfrc_applied``).
-        feet_frames: Sole site of each limb.
-        fall_ratio: Root height ratio below which the robot counts as fallen;
-            the simulation stops there.
+            (:func:`feedforward_torques`) to the servo law
+            (:class:`~pik_mj.walking.drive.JointDrive`).
+        gains: The servo gains, ``"robot"`` or ``"derived"``; None: the robot's
+            own where they can carry it (:func:`~pik_mj.walking.drive.joint_drive`).
+        stabilize: Turn the stance ankles' targets against the body's
+            inclination error (:mod:`pik_mj.walking.stabilizer`).
+        fall_ratio: Root height ratio below which the robot counts as fallen
+            (:mod:`pik_mj.sim.falls`: so does a trunk tilted beyond
+            ``atan(L / z_c)`` or a root drifted more than ``L`` from the pattern's,
+            ``L`` the foot's length); the simulation stops there.
         callback: A callable or a list, each called with a :class:`WalkSample`
             at every sample, in order (e.g. a recorder's
             :meth:`~pik_mj.record.Recorder.walk_logger`).
@@ -375,28 +414,32 @@ def play_walk_pattern(
     callbacks = as_callbacks(callback)
     model, data = scene.model, scene.data
     timestep = float(model.opt.timestep)
-    servos = _Servos.of(
-        pattern,
-        scene,
-        feet_frames,
-        velocity_feedforward=velocity_feedforward,
-        torque_feedforward=torque_feedforward,
-    )
+    legs = pattern.plan.params.all_limbs
+    drive = joint_drive(scene, pattern.q[0], pattern.plan.com_height, legs, gains)
+    ref = _Reference.of(pattern, drive, scene.robot.model, torque_feedforward)
+    stabilizer = None
+    if stabilize:
+        leg_joints = {leg: scene.robot.limb(leg).joints for leg in legs}
+        stabilizer = tilt_stabilizer(
+            scene.model, pattern.q[0], scene.root_body, drive.joints, leg_joints
+        )
+    saturation = _Saturation(drive)
     K = len(pattern.t)
     N = K + round(settle_time / pattern.dt)
     t_samples = np.arange(N) * pattern.dt
-    run = _Measurements(pattern, scene, feet_frames, N)
+    run = _Measurements(pattern, scene, N)
 
     scene.set_pose(pattern.q[0])
     t0 = data.time
     wall0 = time.perf_counter()
     standing = float(data.xpos[run.root_id, 2])
+    falls = _Falls(pattern, scene, fall_ratio, standing, N)
     n_done = N
     joint_err = 0.0
     for k in range(N):
         run.take(k)
         if k < K:
-            q_err = np.abs(data.qpos[servos.q_adr] - servos.q_ref[k])
+            q_err = np.abs(data.qpos[drive.q_adr] - ref.q[k])
             joint_err = max(joint_err, float(np.max(q_err)))
         if callbacks:
             sample = WalkSample(
@@ -411,14 +454,21 @@ def play_walk_pattern(
             )
             for call in callbacks:
                 call(sample)
-        if run.root_p[k, 2] < fall_ratio * standing:
+        if falls.fallen(k, float(t_samples[k]), run.root_p[k], run.root_R[k]):
             n_done = k + 1
             break
         if k == N - 1:
             break
         t_next = t0 + t_samples[k + 1]
         while data.time < t_next - 0.5 * timestep:
-            servos.apply(data, (data.time - t0) / pattern.dt)
+            s = (data.time - t0) / pattern.dt
+            q_ref, qd_ref, tau_ff = ref.at(s)
+            if stabilizer is not None:
+                offsets = _stabilize(stabilizer, falls.R_ref, pattern, data, s, len(drive.joints))
+                q_ref = q_ref + offsets
+            tau, wanted = drive.torques(data, q_ref, qd_ref, tau_ff)
+            saturation.add(wanted, tau)
+            drive.apply(data, tau)
             scene.step(1)
     wall = time.perf_counter() - wall0
     return _report(
@@ -426,19 +476,34 @@ def play_walk_pattern(
         scene,
         run,
         t_samples[:n_done],
-        standing=standing,
-        fall_ratio=fall_ratio,
+        falls=falls,
         joint_err=joint_err,
         wall=wall,
         params={
-            "kp": float(servos.gains[:, 0].max()),
-            "kv": float(servos.gains[:, 1].max()),
+            **drive.to_dict(),
+            **saturation.to_dict(),
             "timestep": timestep,
             "settle_time": settle_time,
-            "velocity_feedforward": velocity_feedforward,
             "torque_feedforward": torque_feedforward,
+            "stabilize": stabilize,
         },
     )
+
+
+def _stabilize(
+    stabilizer: TiltStabilizer,
+    R_ref: np.ndarray,
+    pattern: WalkPattern,
+    data: mujoco.MjData,
+    s: float,
+    n: int,
+) -> np.ndarray:
+    """The stabilizer's target offsets (n,) [rad] at ``s`` ticks into the pattern:
+    its nearest tick's root rotation (of ``R_ref`` (K, 3, 3)) and stance legs."""
+    k = min(round(s), len(pattern.t) - 1)
+    label = pattern.support[k]
+    stance = pattern.plan.params.all_limbs if label == DOUBLE_SUPPORT else (label,)
+    return stabilizer.correction(data, R_ref[k], stance, n)
 
 
 def _report(
@@ -447,8 +512,7 @@ def _report(
     run: _Measurements,
     t: np.ndarray,
     *,
-    standing: float,
-    fall_ratio: float,
+    falls: _Falls,
     joint_err: float,
     wall: float,
     params: dict[str, Any],
@@ -458,14 +522,14 @@ def _report(
     plan, data = pattern.plan, scene.data
     n_done, K = len(t), len(pattern.t)
     yaw_error = 0.0
-    for lb, site in run.site_ids.items():
-        e = wrap_angle(yaw_of(data.site_xmat[site].reshape(3, 3)) - plan.final_feet[lb].yaw)
+    for lb, sole in pattern.soles.items():
+        e = wrap_angle(yaw_of(sole.pose(scene.model, data)[1]) - plan.final_feet[lb].yaw)
         yaw_error = max(yaw_error, abs(float(e)))
     sl = slice(0, n_done)
     heights = run.root_p[sl, 2]
-    mid_final = np.mean([run.feet_p[lb][n_done - 1] for lb in run.site_ids], axis=0)
+    mid_final = np.mean([run.feet_p[lb][n_done - 1] for lb in run.soles], axis=0)
     slip, ferr = 0.0, 0.0
-    for lb in run.site_ids:
+    for lb in run.soles:
         for a, b in _stance_intervals(plan.support[: min(n_done, K)], lb):
             xy = run.feet_p[lb][a:b, :2]
             slip = max(slip, float(np.max(np.linalg.norm(xy - xy[0], axis=1))))
@@ -477,11 +541,15 @@ def _report(
         com=run.com[sl],
         feet_p={lb: v[sl] for lb, v in run.feet_p.items()},
         zmp=run.zmp[sl],
+        zmp_margin=run.zmp_margin[sl],
         zmp_force_sensors=run.zmp_sensors[sl],
         zmp_force_sensors_margin=run.zmp_sensors_margin[sl],
-        standing_height=standing,
+        standing_height=falls.standing,
         root_height_min=float(heights.min()),
-        fell=bool(heights.min() < fall_ratio * standing or run.bad),
+        fell=falls.fall is not None or bool(run.bad),
+        fall=falls.fall,
+        tilt_max=float(np.max(falls.tilt[sl])),
+        drift_max=float(np.max(falls.drift[sl])),
         bad_contacts=sorted(run.bad),
         final_midfeet_error=float(np.linalg.norm(mid_final[:2] - plan.final_midpoint[:2])),
         final_root_error=float(np.linalg.norm(run.root_p[n_done - 1, :2] - pattern.q[-1, :2])),

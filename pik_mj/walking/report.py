@@ -9,7 +9,9 @@ from typing import Any
 
 import numpy as np
 
-from pik_mj.walking.wholebody import WalkPattern, support_margin
+from pik_mj.sim import Fall
+from pik_mj.walking.support import support_margin
+from pik_mj.walking.wholebody import WalkPattern
 
 __all__ = [
     "SENSOR_VS_CONTACTS_RMS",
@@ -41,6 +43,8 @@ class PlaybackReport:
         com: Robot CoM (N, 3) [m].
         feet_p: Sole frame position per limb (N, 3) [m].
         zmp: ZMP of the floor contact forces (N, 2) [m] (NaN without contact).
+        zmp_margin: Its signed distance [m] to the support polygon of the soles
+            touching the floor, at their actual poses, positive inside (N,).
         zmp_force_sensors: ZMP from the feet's force sensors (N, 2) [m] (NaN
             when no foot sensor carries 1 N; empty when the feet have none).
         zmp_force_sensors_margin: Its signed distance [m] to the support polygon
@@ -48,8 +52,12 @@ class PlaybackReport:
             poses, positive inside) (N,).
         standing_height: Root height at t = 0 [m].
         root_height_min: Lowest root height [m].
-        fell: The root went below ``fall_ratio * standing_height``, or a robot geom
-            other than the soles touched the floor.
+        fell: The robot fell (``fall``), or a robot geom other than the soles
+            touched the floor.
+        fall: The first sign of the fall (:class:`pik_mj.sim.Fall`: trunk tilt,
+            root drift or root height against the pattern's root pose), or None.
+        tilt_max: The trunk's largest tilt from the pattern's [rad].
+        drift_max: The root's largest horizontal distance to the pattern's [m].
         bad_contacts: Robot geoms other than the soles that touched the floor.
         final_midfeet_error: Horizontal distance of the final mid-feet point to
             the planned one [m].
@@ -82,6 +90,10 @@ class PlaybackReport:
     joint_error_max: float
     wall_time: float
     params: dict[str, Any] = field(default_factory=dict)
+    fall: Fall | None = None
+    tilt_max: float = 0.0
+    drift_max: float = 0.0
+    zmp_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
     zmp_force_sensors: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     zmp_force_sensors_margin: np.ndarray = field(default_factory=lambda: np.zeros(0))
     planned_contacts: list[str] = field(default_factory=list)
@@ -106,6 +118,9 @@ class PlaybackReport:
             "root_height_min": self.root_height_min,
             "height_ratio_min": self.height_ratio_min,
             "fell": self.fell,
+            "fall": None if self.fall is None else self.fall.describe(),
+            "tilt_max": self.tilt_max,
+            "drift_max": self.drift_max,
             "bad_contacts": self.bad_contacts,
             "final_midfeet_error": self.final_midfeet_error,
             "final_root_error": self.final_root_error,
@@ -148,13 +163,16 @@ def walk_motion(
     ``min_com_margin``: None (a walk's CoM leaves the single-support polygon by
     design) and ``min_zmp_margin`` [m] instead, that of the ZMP from the feet's
     force sensors to the support polygon of the feet carrying it over the
-    pattern's ticks (:func:`evaluate_walk`'s ``sim_zmp_force_sensors_margin_min_m``;
-    None without force sensors); ``contacts``: the soles planned, robot geoms on the floor
+    pattern's ticks (:func:`evaluate_walk`'s ``sim_zmp_force_sensors_margin_min_m``),
+    or without force sensors that of the ZMP of MuJoCo's contact forces
+    (``sim_zmp_contacts_margin_min_m``); ``contacts``: the soles planned, robot geoms on the floor
     unexpected; ``fell``; the playback's own summary under ``parts["walk"]``.
     """
     K, _, sensed = _played_ticks(pattern, report)
     drift = np.linalg.norm(report.root_p[:K] - pattern.q[:K, :3], axis=1)
     margins = report.zmp_force_sensors_margin[:K][sensed]
+    if not margins.size:
+        margins = report.zmp_margin[:K][np.isfinite(report.zmp_margin[:K])]
     return {
         "passed": report.passed(height_ratio, final_tolerance),
         "duration": float(report.t[-1] - report.t[0]) if len(report.t) else 0.0,
@@ -211,6 +229,7 @@ def evaluate_walk(
         "zmp_margin_computed_min_at_s": float(pattern.t[k_min]),
         "zmp_margin_cart_min_m": float(pattern.support_margin("cart").min()),
         **{f"zmp_{k}_m": v for k, v in pattern.zmp_tracking().items()},
+        "sim_zmp_contacts_margin_min_m": _nanmin(report.zmp_margin[:K]),
         "sim_zmp_vs_ref_max_m": float(sim_err.max()) if sim_err.size else float("nan"),
         "sim_zmp_vs_ref_rms_m": float(np.sqrt(np.mean(sim_err**2)))
         if sim_err.size
@@ -222,11 +241,9 @@ def evaluate_walk(
     if has_sensors:
         e_ref = np.linalg.norm(sensed[ok] - pattern.zmp_ref[:K][ok], axis=1)
         e_contacts = np.linalg.norm(sensed[ok] - measured[ok], axis=1)
-        planned = support_margin(
-            pattern.plan,
-            np.where(ok[:, None], sensed, pattern.zmp_ref[:K]),
-            pattern.sole_size,
-        )[ok]
+        sensed_or_ref = pattern.zmp_ref.copy()  # the ticks played, the rest planned
+        sensed_or_ref[:K][ok] = sensed[ok]
+        planned = support_margin(pattern.plan, sensed_or_ref, pattern.outlines)[:K][ok]
         figures |= {
             "sim_zmp_force_sensors_ticks": int(ok.sum()),
             "sim_zmp_force_sensors_vs_ref_rms_m": float(np.sqrt(np.mean(e_ref**2))),
@@ -244,9 +261,9 @@ def evaluate_walk(
             f"min margin {margin.min() * 1e3:.1f} mm at t = {pattern.t[k_min]:.2f} s",
         ),
         (
-            "physics playback: no fall",
+            "physics playback: no fall (trunk tilt, root drift, root height)",
             not report.fell,
-            f"bad contacts {report.bad_contacts}" if report.bad_contacts else "",
+            _fall_detail(report),
         ),
         (
             f"physics playback: root height >= {height_ratio:.0%} of standing",
@@ -283,3 +300,21 @@ def evaluate_walk(
             ),
         ]
     return figures, checks
+
+
+def _nanmin(values: np.ndarray) -> float:
+    """The smallest finite value, NaN when there is none."""
+    finite = values[np.isfinite(values)]
+    return float(finite.min()) if finite.size else float("nan")
+
+
+def _fall_detail(report: PlaybackReport) -> str:
+    """How the robot fell (the first sign, robot geoms on the floor), or how far
+    it came from falling."""
+    signs = [] if report.fall is None else [report.fall.describe()]
+    if report.bad_contacts:
+        signs.append(f"robot geoms on the floor: {report.bad_contacts}")
+    return "; ".join(signs) or (
+        f"tilt at most {np.degrees(report.tilt_max):.1f}°, root at most "
+        f"{report.drift_max * 1e3:.0f} mm from the pattern's"
+    )

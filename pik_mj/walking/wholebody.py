@@ -6,16 +6,32 @@ reference and the preview-control CoM. Here every tick is turned into a whole-bo
 configuration by the prioritized IK (:func:`pik_mj.solve.solve`), warm-started
 from the previous tick:
 
-* level 0: joint limits;
-* level 1: both soles on their planned poses (position, heading, sole flat);
-* level 2: CoM on the preview trajectory (xy) at constant height (z), and the
-  root body upright with the mid-feet heading;
-* level 3: posture towards the initial pose.
+* level 0 (hard): joint limits and the MJCF couplings
+  (:func:`pik_mj.robot.stack.guard_level`), and self-collision: every pair of the
+  robot's geoms MuJoCo collides (:func:`pik_mj.tasks.collision_pairs`, as the
+  robot ships: ``<contact><pair>``, ``<exclude>``, ``contype``/``conaffinity``)
+  kept apart (:class:`~pik_mj.tasks.CollisionAvoidanceTask`);
+* level 1: both soles on their planned poses (position, heading, sole flat) and
+  the CoM on the preview trajectory (xy) at the cart-table height (z);
+* level 2: the root body upright with the mid-feet heading, the joints other
+  than the legs' at the walk's pose (the legs carry the CoM, not the waist);
+* level 3: posture towards the first tick's pose (:data:`POSTURE_WEIGHT`).
 
-The result is checked with the ZMP of the *generated motion* (irteus manual: ``calc-zmp``):
-joint velocities and accelerations by finite differences, MuJoCo's inverse
-dynamics for the wrench the ground must apply to the floating base, and the ZMP
-of that wrench (:func:`pik_mj.dynamics.zmp_of_motion`).
+Each sole is the robot's :class:`~pik_mj.robot.ground.Sole` (its frame S fixed
+to the foot body B, from MuJoCo's floor contacts), so no site is needed: a sole
+target :math:`X_{WS}^*` is the foot body's target :math:`X_{WS}^* X_{BS}^{-1}`.
+
+The result is checked with the ZMP of the *generated motion* (irteus manual:
+``calc-zmp``): joint velocities and accelerations by finite differences, MuJoCo's
+inverse dynamics for the wrench the ground must apply to the floating base, and
+the ZMP of that wrench (:func:`pik_mj.dynamics.zmp_of_motion`), against the
+support polygon of the soles' polygons (:mod:`pik_mj.walking.support`). Where it
+leaves the polygon (the cart-table model leaves out the limbs' own momentum), the
+CoM is corrected once and every tick solved again (Kajita's two-stage preview
+control): the preview controller run on the ZMP error
+:math:`e = p^{ref} - p^{ID}` from rest gives :math:`\\Delta c`, and the CoM
+reference becomes :math:`c + \\Delta c`, whose cart-table ZMP moves by what the
+motion missed.
 """
 
 from __future__ import annotations
@@ -28,77 +44,38 @@ from typing import Any
 import mink
 import numpy as np
 
-from pik_mj.balance import convex_hull_2d, halfplanes_from_polygon, signed_distance
 from pik_mj.dynamics import zmp_of_motion
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.robot import Robot
-from pik_mj.robot.ground import sole_size
+from pik_mj.robot.ground import Sole, robot_soles
+from pik_mj.robot.stack import guard_level, posture_task
 from pik_mj.solve import solve
 from pik_mj.spatial import rot_z, yaw_of
+from pik_mj.tasks.collision import CollisionAvoidanceTask
+from pik_mj.tasks.collision_pairs import collision_pairs
 from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
-from pik_mj.tasks.mink_adapter import MinkLimit, MinkTask
-from pik_mj.walking.gait import DOUBLE_SUPPORT, Footstep, GaitParameters, GaitPlan, plan_gait
+from pik_mj.tasks.mink_adapter import MinkTask
+from pik_mj.walking.gait import Footstep, GaitParameters, GaitPlan, plan_gait
+from pik_mj.walking.preview import PreviewController
+from pik_mj.walking.support import support_margin
 
 __all__ = [
-    "DEFAULT_FEET",
+    "SELF_COLLISION_ORANGE",
+    "SELF_COLLISION_YELLOW",
     "WalkPattern",
+    "bent_knees",
     "calc_walk_pattern",
+    "corrected_plan",
     "feet_from_robot",
-    "sole_corners",
-    "support_margin",
+    "foot_force_sensors",
 ]
 
-DEFAULT_FEET: dict[str, str] = {"rleg": "rleg_end", "lleg": "lleg_end"}
-"""Sole frame (site, z up, x forward) of each leg of the sample humanoid."""
-
-# ---------------------------------------------------------------------------
-# Support polygon
-
-
-def sole_corners(p_W: np.ndarray, yaw: float, size: Sequence[float]) -> np.ndarray:
-    """Corners (4, 2) [m] of a sole rectangle ``size`` (length, width) [m] centred
-    on the sole frame (:func:`pik_mj.robot.ground.sole_size` measures a robot's)."""
-    hx, hy = 0.5 * float(size[0]), 0.5 * float(size[1])
-    local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
-    return np.asarray(p_W, dtype=float)[:2] + local @ rot_z(yaw)[:2, :2].T
-
-
-def support_margin(
-    plan: GaitPlan,
-    zmp: np.ndarray,
-    sole_size: Sequence[float],
-) -> np.ndarray:
-    """Signed distance of the ZMP to the support polygon at every tick [m].
-
-    The support polygon of tick k is the convex hull of the soles in contact per
-    the plan's support label (both in double support), at their planned poses;
-    positive inside.
-
-    Args:
-        plan: The gait plan.
-        zmp: ZMP per tick (K, 2) [m].
-        sole_size: Sole length and width [m].
-
-    Returns:
-        (K,) signed distances [m].
-    """
-    zmp = np.asarray(zmp, dtype=float)
-    if zmp.shape != (len(plan.t), 2):
-        raise InvalidInput(f"zmp must have shape ({len(plan.t)}, 2), got {zmp.shape}")
-    limbs = plan.params.all_limbs
-    out = np.empty(len(plan.t))
-    for k, label in enumerate(plan.support):
-        feet = limbs if label == DOUBLE_SUPPORT else (label,)
-        corners = np.vstack(
-            [sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k], sole_size) for lb in feet]
-        )
-        out[k] = signed_distance(halfplanes_from_polygon(convex_hull_2d(corners)), zmp[k])
-    return out
-
-
-# ---------------------------------------------------------------------------
-# Walk pattern
+SELF_COLLISION_YELLOW = 0.05
+"""[m] Robot geoms nearer than this get a self-collision row (irteus' yellow zone)."""
+SELF_COLLISION_ORANGE = 0.005
+"""[m] The distance robot geoms keep (irteus' orange zone; a pair nearer at the start
+keeps its start distance)."""
 
 
 @dataclass(frozen=True)
@@ -124,7 +101,12 @@ class WalkPattern:
         ik_feet_error: Largest sole position error per tick (K,) [m].
         ik_com_error: CoM position error per tick (K,) [m].
         solve_time: Wall time of the IK over all ticks [s].
-        sole_size: Length and width of the robot's soles [m] (its support polygons).
+        soles: Each leg's :class:`~pik_mj.robot.ground.Sole` (frame and polygon).
+        force_sensors: Each leg's foot force/torque sensor (site name), for the
+            legs that have one (:func:`foot_force_sensors`).
+        self_collision_pairs: Geom pairs kept apart at level 0.
+        zmp_corrected: The CoM was corrected by the ZMP error of a first pass
+            (module docstring); ``com_ref`` and ``plan`` are the corrected ones.
     """
 
     t: np.ndarray
@@ -145,20 +127,28 @@ class WalkPattern:
     ik_feet_error: np.ndarray
     ik_com_error: np.ndarray
     solve_time: float
-    sole_size: tuple[float, float]
+    soles: dict[str, Sole]
+    force_sensors: dict[str, str]
+    self_collision_pairs: int = 0
+    zmp_corrected: bool = False
 
     @property
     def duration(self) -> float:
         """Total duration [s]."""
         return float(self.t[-1])
 
+    @property
+    def outlines(self) -> dict[str, np.ndarray]:
+        """Each leg's sole polygon in its sole frame (k, 2) [m]."""
+        return {leg: sole.outline for leg, sole in self.soles.items()}
+
     def support_margin(self, which: str = "computed") -> np.ndarray:
-        """:func:`support_margin` of ``zmp_computed``, ``zmp_cart`` or ``zmp_ref`` [m]
-        with the robot's soles."""
+        """:func:`pik_mj.walking.support.support_margin` of ``zmp_computed``,
+        ``zmp_cart`` or ``zmp_ref`` [m] with the robot's soles."""
         zmp = {"computed": self.zmp_computed, "cart": self.zmp_cart, "ref": self.zmp_ref}
         if which not in zmp:
             raise UnknownName("zmp", which, zmp)
-        return support_margin(self.plan, zmp[which], self.sole_size)
+        return support_margin(self.plan, zmp[which], self.outlines)
 
     def zmp_tracking(self) -> dict[str, float]:
         """Max and RMS distance [m] of the cart-table and computed ZMPs to the reference."""
@@ -179,19 +169,91 @@ class WalkPattern:
         )
 
 
-def feet_from_robot(
-    robot: Robot, feet_frames: Mapping[str, str] = DEFAULT_FEET
-) -> dict[str, Footstep]:
+def feet_from_robot(robot: Robot, soles: Mapping[str, Sole] | None = None) -> dict[str, Footstep]:
     """Current sole poses (position, heading) of the robot's legs.
 
     The heading is that of the sole frame's x axis projected on the ground,
     :math:`\\psi = \\mathrm{atan2}(R_{10}, R_{00})`.
+
+    Args:
+        robot: The robot, in its current configuration.
+        soles: Its soles (default: :func:`pik_mj.robot.ground.robot_soles`).
     """
+    soles = robot_soles(robot) if soles is None else soles
     out = {}
-    for limb, site in feet_frames.items():
-        X = robot.frame_pose(site, "site")
-        out[limb] = Footstep(limb, X.translation(), yaw_of(X.rotation().as_matrix()))
+    for leg, sole in soles.items():
+        p_WS, R_WS = sole.pose(robot.model, robot.data)
+        out[leg] = Footstep(leg, p_WS, yaw_of(R_WS))
     return out
+
+
+def foot_force_sensors(robot: Robot, soles: Mapping[str, Sole]) -> dict[str, str]:
+    """Each leg's foot force/torque sensor (its site's name): of the robot's sensors
+    with a force and a torque channel on the leg, the one on the sole's body or
+    nearest above it (what measures the sole's contact wrench); legs without one
+    are left out."""
+    model = robot.model
+    out = {}
+    for leg, sole in soles.items():
+        chain = [model.body(sole.body).id]
+        while chain[-1] != 0:
+            chain.append(int(model.body_parentid[chain[-1]]))
+        found = [
+            (chain.index(f.body_id), f.name)
+            for f in robot.sensors(leg).force_sensors
+            if f.force is not None and f.torque is not None and f.body_id in chain
+        ]
+        if found:
+            out[leg] = min(found)[1]
+    return out
+
+
+POSTURE_WEIGHT = 1e-2
+"""[cost/rad²] Cost of moving away from the first tick's pose (the last level)."""
+KNEE_BEND = 0.4
+"""[rad] How far :func:`bent_knees` bends a straight knee before the first tick."""
+STRAIGHT_KNEE = float(np.sin(np.deg2rad(10.0)))
+"""A knee bent by less than 10° is straight (:func:`bent_knees`)."""
+
+
+def bent_knees(robot: Robot, legs: Sequence[str], bend: float = KNEE_BEND) -> np.ndarray:
+    """The robot's configuration with each straight knee bent by ``bend`` [rad]: the
+    first tick's start (the irteus manual's ``init-pose-function``). A straight leg
+    is singular: lowering its hip to the walk's CoM height has no first-order
+    knee motion, and the IK would crouch with the waist instead.
+
+    A leg's knee is a pitch joint between its first and last (hip and ankle
+    pitch; axes within 25° of lateral), of axis :math:`a` at anchor :math:`k`. Turning
+    it moves the ankle :math:`p_A` along :math:`a \\times (p_A - k)`, which changes
+    the hip–ankle distance :math:`\\|p_A - p_H\\|` at the rate
+
+    .. math::
+
+        \\sigma = \\frac{|u^T (a \\times (p_A - k))|}{\\|p_A - k\\|}, \\qquad
+        u = \\frac{p_A - p_H}{\\|p_A - p_H\\|}
+
+    (the sine of the knee's bend, 0 straight); a knee with :math:`\\sigma <`
+    :data:`STRAIGHT_KNEE` turns towards the far end of its range.
+    """
+    model, data = robot.model, robot.data
+    q = robot.configuration.q.copy()
+    for leg in legs:
+        joints = [model.joint(j).id for j in robot.limb(leg).joints]
+        pitch = [j for j in joints if abs(data.xaxis[j][1]) > 0.9]
+        if len(pitch) < 3:
+            continue
+        hip, ankle = data.xanchor[pitch[0]], data.xanchor[pitch[-1]]
+        u = (ankle - hip) / max(float(np.linalg.norm(ankle - hip)), 1e-12)
+        for knee in pitch[1:-1]:
+            lever = ankle - data.xanchor[knee]
+            rate = abs(u @ np.cross(data.xaxis[knee], lever)) / max(np.linalg.norm(lever), 1e-12)
+            if rate >= STRAIGHT_KNEE:
+                continue
+            adr = model.jnt_qposadr[knee]
+            lo, hi = model.jnt_range[knee] if model.jnt_limited[knee] else (-np.pi, np.pi)
+            toward = hi if hi - q[adr] >= q[adr] - lo else lo
+            q[adr] += np.clip(toward - q[adr], -bend, bend)
+    return q
 
 
 @dataclass(frozen=True)
@@ -199,34 +261,40 @@ class _WalkTasks:
     """The IK stack of a walk's ticks (module docstring) and its tasks."""
 
     feet: dict[str, FrameTask]
+    soles: dict[str, Sole]
     com: CentroidTask
     upright: FrameTask
     levels: list[list[Any]]
+    pairs: int
+
+    @property
+    def postures(self) -> list[mink.PostureTask]:
+        """The posture tasks (upper body, whole body), their targets the walk's pose."""
+        return [self.levels[2][1].task, self.levels[3][0].task]
 
     @classmethod
     def of(
         cls,
         robot: Robot,
-        initial_feet: Mapping[str, Footstep],
-        feet_frames: Mapping[str, str],
+        soles: Mapping[str, Sole],
         upright_body: str,
         thre: float,
         rthre: float,
+        self_collision: bool,
     ) -> _WalkTasks:
-        configuration, model = robot.configuration, robot.model
+        configuration = robot.configuration
         feet = {
-            lb: FrameTask(
+            leg: FrameTask(
                 configuration,
-                site,
-                (initial_feet[lb].p_W, np.eye(3)),
-                move_target_type="site",
+                sole.body,
+                (robot.data.xpos[robot.model.body(sole.body).id].copy(), np.eye(3)),
+                move_target_type="body",
                 thre=thre,
                 rthre=rthre,
-                name=f"foot:{lb}",
+                name=f"foot:{leg}",
             )
-            for lb, site in feet_frames.items()
+            for leg, sole in soles.items()
         }
-        # all three axes of the CoM matched: xy on the plan, z constant
         com = CentroidTask(
             configuration, np.zeros(3), translation_axis=True, centroid_thre=thre, name="com"
         )
@@ -239,26 +307,66 @@ class _WalkTasks:
             rthre=rthre,
             name=f"upright:{upright_body}",
         )
-        posture = mink.PostureTask(model, cost=1e-2)
-        posture.set_target(configuration.q.copy())
+        adr = robot.model.jnt_dofadr[robot.model.body_jntadr[robot.root_body_id]]
+        guard = guard_level(configuration, robot.joint_names, range(adr, adr + 6))
+        pairs = _self_collision(robot) if self_collision else None
+        if pairs is not None:
+            guard.append(pairs)
+        upper = _upper_body_posture(robot, soles)
         levels: list[list[Any]] = [
-            [MinkLimit(mink.ConfigurationLimit(model))],
-            list(feet.values()),
-            [com, upright],
-            [MinkTask(posture, name="posture", check=False)],
+            guard,
+            [*feet.values(), com],
+            [upright, upper],
+            [posture_task(configuration, POSTURE_WEIGHT)],
         ]
-        return cls(feet, com, upright, levels)
+        n_pairs = 0 if pairs is None else len(pairs.pairs)
+        return cls(feet, dict(soles), com, upright, levels, n_pairs)
 
     def aim(self, plan: GaitPlan, k: int, com_ref: np.ndarray) -> None:
-        """Set the targets to the plan's tick ``k``: the soles' poses, the CoM
-        ``com_ref`` [m], the root upright with the mid-feet heading."""
+        """Set the targets to the plan's tick ``k``: each foot body where its sole
+        lands on the plan (:math:`X_{WS}^* X_{BS}^{-1}`), the CoM ``com_ref`` [m],
+        the root upright with the mid-feet heading."""
         yaw_mid = 0.0
-        for lb, task in self.feet.items():
-            yaw = float(plan.feet_yaw[lb][k])
-            task.set_target((plan.feet_p[lb][k], rot_z(yaw)))
+        for leg, task in self.feet.items():
+            sole = self.soles[leg]
+            yaw = float(plan.feet_yaw[leg][k])
+            R_WB = rot_z(yaw) @ sole.R_BS.T
+            task.set_target((plan.feet_p[leg][k] - R_WB @ sole.p_BS, R_WB))
             yaw_mid += yaw / len(self.feet)
         self.com.set_target(com_ref)
         self.upright.set_target((np.zeros(3), rot_z(yaw_mid)))
+
+
+def _upper_body_posture(robot: Robot, soles: Mapping[str, Sole]) -> MinkTask:
+    """Cost 1 [cost/rad²] on moving the joints of the robot that are not the legs'
+    (``soles``) away from the walk's pose: the legs and the floating base carry the
+    CoM, the waist and the arms stay."""
+    model = robot.model
+    legs = {j for leg in soles for j in robot.limb(leg).joints}
+    cost = np.zeros(model.nv)
+    for name in robot.joint_names:
+        if name not in legs:
+            cost[model.jnt_dofadr[model.joint(name).id]] = 1.0
+    task = mink.PostureTask(model, cost=cost)
+    task.set_target_from_configuration(robot.configuration)
+    return MinkTask(task, name="upper_body_posture", check=False)
+
+
+def _self_collision(robot: Robot) -> CollisionAvoidanceTask | None:
+    """The self-collision rows of the walk (module docstring), or None when the
+    robot's geoms never collide with each other."""
+    model = robot.model
+    bodies = [model.body(b).name for b in robot.bodies() if model.body_geomnum[model.body(b).id]]
+    pairs = collision_pairs(model, robot.data, bodies)
+    if not pairs:
+        return None
+    return CollisionAvoidanceTask(
+        robot.configuration,
+        pairs,
+        yellow=SELF_COLLISION_YELLOW,
+        orange=SELF_COLLISION_ORANGE,
+        name="self_collision",
+    )
 
 
 def calc_walk_pattern(
@@ -267,8 +375,9 @@ def calc_walk_pattern(
     params: GaitParameters | None = None,
     *,
     com_height: float | None = None,
-    feet_frames: Mapping[str, str] = DEFAULT_FEET,
+    soles: Mapping[str, Sole] | None = None,
     upright_body: str | None = None,
+    self_collision: bool = True,
     stop: int = 3,
     min_loop: int = 3,
     init_stop: int = 50,
@@ -281,11 +390,13 @@ def calc_walk_pattern(
     ``:calc-walk-pattern-from-footstep-list``).
 
     The initial feet are the robot's current sole poses; the CoM height is that
-    of the current pose above the mean sole height unless given. Each tick k
-    sets the targets of the levels (module docstring) to the plan's row k and
-    runs :func:`pik_mj.solve.solve` from the previous tick's solution; tick 0
-    gets ``init_stop`` iterations (the irteus manual's ``init-pose-function``: CoM over
-    the feet). The robot is left in the last tick's configuration.
+    of the current pose above the mean sole height unless given (a
+    :class:`~pik_mj.walking.robot_gait.RobotGait` chooses one with the knees
+    bent). Each tick k sets the targets of the levels (module docstring) to the
+    plan's row k and runs :func:`pik_mj.solve.solve` from the previous tick's
+    solution; tick 0 gets ``init_stop`` iterations (the irteus manual's
+    ``init-pose-function``: CoM over the feet at its height). The robot is left
+    in the last tick's configuration.
 
     The second differences taken by :func:`pik_mj.dynamics.zmp_of_motion` amplify
     tick-to-tick jitter of the IK by :math:`1/\\Delta t^2`, so the default runs a
@@ -298,9 +409,11 @@ def calc_walk_pattern(
         footsteps: Executed footsteps (see :func:`plan_gait`).
         params: Gait parameters; defaults to ``GaitParameters()``.
         com_height: CoM height above the ground plane [m]; default: current.
-        feet_frames: Sole site of each limb of ``params.all_limbs``.
+        soles: The soles of ``params.all_limbs`` (default:
+            :func:`pik_mj.robot.ground.robot_soles`).
         upright_body: Body kept upright with the mid-feet heading; default the
             robot's root body.
+        self_collision: Keep the robot's geoms apart (level 0).
         stop: Most IK iterations per tick.
         min_loop: Fewest IK iterations per tick.
         init_stop: IK iterations at tick 0 (all run, so that the posture
@@ -314,34 +427,130 @@ def calc_walk_pattern(
 
     Returns:
         The :class:`WalkPattern`.
+
+    Raises:
+        InvalidInput: A robot without a floating base, or soles missing a leg.
     """
     params = GaitParameters() if params is None else params
     if params.gravity is None:  # the robot's world
         params = replace(params, gravity=float(np.linalg.norm(robot.model.opt.gravity)))
     if not robot.has_floating_base:
         raise InvalidInput("calc_walk_pattern needs a robot with a free joint on its root body")
-    missing = [lb for lb in params.all_limbs if lb not in feet_frames]
+    soles = robot_soles(robot, params.all_limbs) if soles is None else soles
+    missing = [lb for lb in params.all_limbs if lb not in soles]
     if missing:
-        raise InvalidInput(
-            f"feet_frames has no sole frame for limbs {missing}; got {dict(feet_frames)}"
-        )
-    feet_frames = {lb: feet_frames[lb] for lb in params.all_limbs}
-    configuration = robot.configuration
-    model = robot.model
-    initial_feet = feet_from_robot(robot, feet_frames)
-    soles = sole_size(robot, params.all_limbs)
+        raise InvalidInput(f"soles has no sole for limbs {missing}; got {list(soles)}")
+    soles = {lb: soles[lb] for lb in params.all_limbs}
+    initial_feet = feet_from_robot(robot, soles)
     ground_z = float(np.mean([f.p_W[2] for f in initial_feet.values()]))
     if com_height is None:
         com_height = float(robot.com()[2]) - ground_z
     plan = plan_gait(initial_feet, footsteps, params, com_height=com_height)
+    start = robot.configuration.q.copy()
+    robot.configuration.update(bent_knees(robot, params.all_limbs))
     upright_body = robot.root_body if upright_body is None else upright_body
+    tasks = _WalkTasks.of(robot, soles, upright_body, ik_thre, ik_rthre, self_collision)
+    loops = (stop, min_loop, init_stop)
+    ticks = _track(robot, plan, tasks, loops, qp_solver, callback)
+    zmp_computed = zmp_of_motion(
+        robot.model, ticks.q, plan.dt, plan.ground_z, root_body=robot.root_body
+    )
+    outlines = {lb: sole.outline for lb, sole in soles.items()}
+    corrected = bool(support_margin(plan, zmp_computed, outlines).min() <= 0.0)
+    if corrected:
+        plan = corrected_plan(plan, zmp_computed)
+        robot.configuration.update(start)
+        robot.configuration.update(bent_knees(robot, params.all_limbs))
+        ticks = _track(robot, plan, tasks, loops, qp_solver, callback)
+        zmp_computed = zmp_of_motion(
+            robot.model, ticks.q, plan.dt, plan.ground_z, root_body=robot.root_body
+        )
+    return WalkPattern(
+        t=plan.t,
+        dt=plan.dt,
+        q=ticks.q,
+        joint_names=tuple(robot.joint_names),
+        root_body=robot.root_body,
+        com=ticks.com,
+        com_ref=plan.com_W,
+        zmp_ref=plan.zmp_ref,
+        zmp_cart=plan.zmp,
+        zmp_computed=zmp_computed,
+        feet_p=ticks.feet_p,
+        feet_R=ticks.feet_R,
+        support=plan.support,
+        plan=plan,
+        ik_iterations=ticks.iterations,
+        ik_feet_error=ticks.feet_error,
+        ik_com_error=np.linalg.norm(ticks.com - plan.com_W, axis=1),
+        solve_time=ticks.wall,
+        soles=soles,
+        force_sensors=foot_force_sensors(robot, soles),
+        self_collision_pairs=tasks.pairs,
+        zmp_corrected=corrected,
+    )
 
-    tasks = _WalkTasks.of(robot, initial_feet, feet_frames, upright_body, ik_thre, ik_rthre)
+
+def corrected_plan(plan: GaitPlan, zmp_computed: np.ndarray) -> GaitPlan:
+    """``plan`` with its CoM corrected by the ZMP error of a motion that followed it
+    (Kajita's two-stage preview control): the plan's preview controller run on
+    :math:`e_k = p^{ref}_k - p^{ID}_k` from rest at the origin gives
+    :math:`\\Delta c_k`; the CoM, its velocity, acceleration and cart-table ZMP are
+    the plan's plus those of :math:`\\Delta c`.
+
+    Args:
+        plan: The gait plan the motion followed.
+        zmp_computed: The motion's ZMP from inverse dynamics (K, 2) [m].
+    """
+    params = plan.params
+    controller = PreviewController(
+        plan.dt,
+        plan.com_height,
+        q=params.q,
+        r=params.r,
+        preview_time=params.preview_time,
+        gravity=params.gravity,
+    )
+    delta = controller.run(plan.zmp_ref - zmp_computed, com0=np.zeros(2))
+    return replace(
+        plan,
+        com=plan.com + delta.com,
+        com_vel=plan.com_vel + delta.com_vel,
+        com_acc=plan.com_acc + delta.com_acc,
+        zmp=plan.zmp + delta.zmp,
+    )
+
+
+@dataclass(frozen=True)
+class _Ticks:
+    """The IK's results per tick (:class:`WalkPattern`'s fields of the same names)."""
+
+    q: np.ndarray
+    com: np.ndarray
+    feet_p: dict[str, np.ndarray]
+    feet_R: dict[str, np.ndarray]
+    iterations: np.ndarray
+    feet_error: np.ndarray
+    wall: float
+
+
+def _track(
+    robot: Robot,
+    plan: GaitPlan,
+    tasks: _WalkTasks,
+    loops: tuple[int, int, int],
+    qp_solver: object,
+    callback: Callable[[int, Robot], None] | None,
+) -> _Ticks:
+    """Solve every tick of ``plan`` from the previous one (``loops``: ``stop``,
+    ``min_loop``, ``init_stop``)."""
+    stop, min_loop, init_stop = loops
+    model, data, configuration = robot.model, robot.data, robot.configuration
     K = len(plan.t)
     q = np.empty((K, model.nq))
-    com_achieved = np.empty((K, 3))
-    feet_p = {lb: np.empty((K, 3)) for lb in feet_frames}
-    feet_R = {lb: np.empty((K, 3, 3)) for lb in feet_frames}
+    com = np.empty((K, 3))
+    feet_p = {lb: np.empty((K, 3)) for lb in tasks.soles}
+    feet_R = {lb: np.empty((K, 3, 3)) for lb in tasks.soles}
     iterations = np.empty(K, dtype=int)
     feet_err = np.empty(K)
     com_ref = plan.com_W
@@ -357,38 +566,17 @@ def calc_walk_pattern(
             qp_solver=qp_solver,
         )
         iterations[k] = result.iterations
+        if k == 0:  # the posture of the walk: the first tick's
+            for task in tasks.postures:
+                task.set_target_from_configuration(configuration)
         q[k] = configuration.q
-        com_achieved[k] = robot.com()
+        com[k] = robot.com()
         errs = []
-        for lb, site in feet_frames.items():
-            X = robot.frame_pose(site, "site")
-            feet_p[lb][k] = X.translation()
-            feet_R[lb][k] = X.rotation().as_matrix()
+        for lb, sole in tasks.soles.items():
+            feet_p[lb][k], feet_R[lb][k] = sole.pose(model, data)
             errs.append(np.linalg.norm(feet_p[lb][k] - plan.feet_p[lb][k]))
         feet_err[k] = max(errs)
         if callback is not None:
             callback(k, robot)
-    solve_time = time.perf_counter() - t0
-
-    zmp_computed = zmp_of_motion(model, q, plan.dt, plan.ground_z, root_body=robot.root_body)
-    return WalkPattern(
-        t=plan.t,
-        dt=plan.dt,
-        q=q,
-        joint_names=tuple(robot.joint_names),
-        root_body=robot.root_body,
-        com=com_achieved,
-        com_ref=com_ref,
-        zmp_ref=plan.zmp_ref,
-        zmp_cart=plan.zmp,
-        zmp_computed=zmp_computed,
-        feet_p=feet_p,
-        feet_R=feet_R,
-        support=plan.support,
-        plan=plan,
-        ik_iterations=iterations,
-        ik_feet_error=feet_err,
-        ik_com_error=np.linalg.norm(com_achieved - com_ref, axis=1),
-        solve_time=solve_time,
-        sole_size=soles,
-    )
+    wall = time.perf_counter() - t0
+    return _Ticks(q, com, feet_p, feet_R, iterations, feet_err, wall)

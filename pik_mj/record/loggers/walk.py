@@ -19,7 +19,8 @@ from pik_mj.record.loggers.physics import check_every
 from pik_mj.record.loggers.surface import RecorderSurface
 from pik_mj.walking.gait import DOUBLE_SUPPORT
 from pik_mj.walking.playback import PlaybackReport, WalkSample
-from pik_mj.walking.wholebody import WalkPattern, sole_corners, support_margin
+from pik_mj.walking.support import outline_at, support_margin
+from pik_mj.walking.wholebody import WalkPattern
 
 __all__ = ["WalkLogger", "log_walk"]
 
@@ -120,8 +121,8 @@ def log_walk(recorder: RecorderSurface, pattern: WalkPattern, report: PlaybackRe
     during = np.where(seen[:K, None], measured[:K], 0.0)
     if len(during) < K:  # the playback stopped early (a fall)
         during = np.vstack([during, np.zeros((K - len(during), 2))])
-    margin_measured = support_margin(plan, during, pattern.sole_size)
-    margin_id = support_margin(plan, pattern.zmp_computed, pattern.sole_size)
+    margin_measured = support_margin(plan, during, pattern.outlines)
+    margin_id = support_margin(plan, pattern.zmp_computed, pattern.outlines)
     sensed = np.asarray(report.zmp_force_sensors, dtype=float)
     paths = recorder.paths
     recorder.disable_timeline("iteration")
@@ -162,11 +163,11 @@ def _log_footsteps(recorder: RecorderSurface, pattern: WalkPattern, z: float) ->
     planned pose, the initial stance first; and the walking series' legends."""
     plan = pattern.plan
     steps = [*plan.initial_feet.values(), *plan.footsteps]
-    outlines = [sole_corners(f.p_W, f.yaw, pattern.sole_size) for f in steps]
+    outlines = [outline_at(f.p_W, f.yaw, pattern.soles[f.limb].outline) for f in steps]
     recorder.log_static(
         recorder.paths.footsteps,
         rr.LineStrips3D(
-            [np.column_stack([np.vstack([c, c[:1]]), np.full(5, z)]) for c in outlines],
+            [np.column_stack([np.vstack([c, c[:1]]), np.full(len(c) + 1, z)]) for c in outlines],
             colors=[style.FOOTSTEP],
             radii=[style.OUTLINE_RADIUS / 2],
         ),
@@ -188,7 +189,7 @@ def _log_plan_tick(
     if key != last_polygon:
         corners = np.vstack(
             [
-                sole_corners(plan.feet_p[lb][k], plan.feet_yaw[lb][k], pattern.sole_size)
+                outline_at(plan.feet_p[lb][k], plan.feet_yaw[lb][k], pattern.soles[lb].outline)
                 for lb in support
             ]
         )
