@@ -14,13 +14,17 @@ saying so), built as a user builds it (``Robot.from_model``,
   from its first pose; its torque plan (the inverse dynamics at the knots,
   :func:`pik_mj.sim.effort.plan_torques`) is timed on its own;
 * the same two with ``record_every=1`` (every step sampled: the per-step path)
-  and their figures beside the sampled ones.
+  and their figures beside the sampled ones;
+* **batch** (the first robot): ``--batch`` holds of the standing pose one by
+  one (``scene.hold``) and together (``scene.hold_many`` on 1 and 2 threads),
+  against ``--batch`` times the raw ``mj_step``; the verdicts and drifts of the
+  batch checked equal to the single holds'.
 
 Each time is the median of ``--repeats`` runs, the runs of the compared pair
 alternating (a change of the machine's load hits both). Ratios are wall time
 over the raw ``mj_step`` time.
 
-Run: ``MENAGERIE_ROOT=... python benchmarks/bench_physics.py [--repeats 5]``
+Run: ``MENAGERIE_ROOT=... python benchmarks/bench_physics.py [--repeats 5] [--batch 8]``
 """
 
 from __future__ import annotations
@@ -108,6 +112,27 @@ def run_robot(name: str, repeats: int) -> dict:
     return row
 
 
+def run_batch(name: str, n: int) -> dict:
+    """``n`` holds of ``name``'s standing pose one by one and by ``hold_many``."""
+    robot = Robot.from_model(name)
+    scene = Scene.from_robot(robot)
+    q0 = robot.configuration.q.copy()
+    qs = [q0] * n
+    t = time.perf_counter()
+    single = [scene.hold(q, HOLD) for q in qs]
+    out = {"robot": name, "n": n, "single": time.perf_counter() - t}
+    out["raw"] = sum(_raw(scene, q0, round(HOLD / scene.model.opt.timestep)) for _ in qs)
+    for threads in (1, 2):
+        t = time.perf_counter()
+        many = scene.hold_many(qs, HOLD, nthread=threads)
+        out[f"many{threads}"] = time.perf_counter() - t
+        out[f"same{threads}"] = all(
+            a.passed == b.passed and abs(a.drift - b.drift) < 1e-9
+            for a, b in zip(single, many, strict=True)
+        )
+    return out
+
+
 def _available(name: str) -> bool:
     return name not in menagerie_models() or menagerie_available(name)
 
@@ -116,6 +141,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", nargs="*", default=list(ROBOTS))
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--batch", type=int, default=8, help="holds of the batch (0: none)")
     args = parser.parse_args(argv)
     rows, skipped = [], []
     for name in args.robots:
@@ -145,10 +171,20 @@ def main(argv: list[str] | None = None) -> dict:
                 f"{1e3 * b.slip:.3f} mm; min margin {1e3 * a.min_margin:.2f} | "
                 f"{1e3 * b.min_margin:.2f} mm; steps {a.steps} | {b.steps}"
             )
+    batch = run_batch(rows[0]["robot"], args.batch) if rows and args.batch else None
+    if batch:
+        b = batch
+        print(
+            f"\nbatch of {b['n']} {HOLD:g} s holds ({b['robot']}): one by one {b['single']:.2f} s "
+            f"({b['single'] / b['raw']:.2f}x raw mj_step {b['raw']:.2f} s); hold_many 1 thread "
+            f"{b['many1']:.2f} s ({b['many1'] / b['raw']:.2f}x), 2 threads {b['many2']:.2f} s "
+            f"({b['many2'] / b['raw']:.2f}x); verdicts and drifts equal to the single holds': "
+            f"{b['same1'] and b['same2']}"
+        )
     for name in skipped:
         print(f"{name:16} skipped: not under MENAGERIE_ROOT nor in the mujoco-menagerie cache")
     print(f"load average (1 min): {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    return {"rows": rows, "skipped": skipped}
+    return {"rows": rows, "skipped": skipped, "batch": batch}
 
 
 if __name__ == "__main__":

@@ -3,12 +3,13 @@
 ``ray start --head --num-cpus 1`` and ``ray start --address HEAD --num-cpus 1``
 (a second raylet on the same machine, its own CPU count and worker ports) make a
 cluster of two nodes; the sweep (default: 20 random right-hand targets of the
-sample humanoid x the two stacks, 1 s holds) runs on it with two workers
-(:func:`pik_mj.sweep.run_sweep` in a process connected to the head), then on a
-local Ray instance of two CPUs. Printed: each run's wall time and cases per
-second, the node each case ran on (from Ray's state API: the actors' process
-ids and nodes), and whether the rows are equal but for the times and worker
-names. The cluster's processes (found by its temporary directory in their
+sample humanoid x the two stacks, 1 s holds) runs on a local Ray instance of
+two CPUs, then on the cluster with two workers (:func:`pik_mj.sweep.run_sweep`
+in a process connected to the head). Printed, before the cluster stops: each
+run's wall time and cases per second, the cases of each worker process (each
+actor takes 1 CPU, each node has 1: one actor per node; Ray's state API needs
+the dashboard, off here), and whether the rows are equal but for the times and
+worker names. The cluster's processes (found by its temporary directory in their
 command line) are stopped by process id at the end, also on an error.
 
 Run: ``python benchmarks/bench_ray_cluster.py [--n 20] [--hold 1]``
@@ -29,7 +30,6 @@ from collections import Counter
 from pathlib import Path
 
 import ray
-from ray.util.state import list_actors
 
 from pik_mj.sweep import Sweep, Uniform, run_sweep
 from pik_mj.sweep.cli import DEFAULT_BOX
@@ -94,6 +94,9 @@ def main(argv: list[str] | None = None) -> dict:
     tmp = tempfile.mkdtemp(prefix="pikray")
     os.environ.update(RAY_USAGE_STATS_ENABLED="0", RAY_AUTH_MODE="disabled")
     quiet = {"log_to_driver": False, "logging_level": logging.ERROR}
+    # the local run first: this process then joins the cluster once, and reports
+    # before the cluster is stopped (a driver outliving its GCS is aborted by Ray)
+    local = run_sweep(sweep, base / "local", workers=2, num_cpus=2, progress=False)
     try:
         t0 = time.perf_counter()
         address = start_cluster(tmp)
@@ -101,31 +104,30 @@ def main(argv: list[str] | None = None) -> dict:
         nodes = [n["NodeID"] for n in ray.nodes() if n["Alive"]]
         up = time.perf_counter() - t0
         cluster = run_sweep(sweep, base / "cluster", workers=2, progress=False)
-        actors = list_actors(detail=True, limit=1000)
-        node_of = {int(a.pid): a.node_id for a in actors if a.pid}
+        rows = cluster.table.to_pylist()
+        per_worker = Counter(r["worker"] for r in rows)
+        same = comparable(rows) == comparable(local.table.to_pylist())
+        print(
+            f"sweep: {len(sweep)} cases ({args.n} random right-hand targets x {sweep.stacks}), "
+            f"hold {args.hold:g} s, sample_humanoid; Ray {ray.__version__}"
+        )
+        print(f"cluster: {len(nodes)} nodes of 1 CPU on this machine, up in {up:.1f} s ({address})")
+        print(f"{'run':>8} {'workers':>7} {'wall [s]':>9} {'cases/s':>8}")
+        for name, report in (("cluster", cluster), ("local", local)):
+            print(
+                f"{name:>8} {report.workers:>7} {report.wall_time:>9.1f} "
+                f"{report.ran / report.wall_time:>8.2f}"
+            )
+        # each actor takes 1 CPU (run_sweep) and each node has 1: one actor per node
+        for worker, count in per_worker.items():
+            print(f"cases on worker {worker} (one actor of 1 CPU per 1-CPU node): {count}")
+        print(f"rows equal to the local run's (times and workers aside): {same}")
+        print(f"load average (1 min): {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+        sys.stdout.flush()
         ray.shutdown()
     finally:
         _stop(tmp)
-    local = run_sweep(sweep, base / "local", workers=2, num_cpus=2, progress=False)
-    rows = cluster.table.to_pylist()
-    per_node = Counter(node_of.get(int(r["worker"].rpartition(":")[2]), "?") for r in rows)
-    same = comparable(rows) == comparable(local.table.to_pylist())
-    print(
-        f"sweep: {len(sweep)} cases ({args.n} random right-hand targets x {sweep.stacks}), "
-        f"hold {args.hold:g} s, sample_humanoid; Ray {ray.__version__}"
-    )
-    print(f"cluster: {len(nodes)} nodes of 1 CPU on this machine, up in {up:.1f} s ({address})")
-    print(f"{'run':>8} {'workers':>7} {'wall [s]':>9} {'cases/s':>8}")
-    for name, report in (("cluster", cluster), ("local", local)):
-        print(
-            f"{name:>8} {report.workers:>7} {report.wall_time:>9.1f} "
-            f"{report.ran / report.wall_time:>8.2f}"
-        )
-    for node, count in per_node.items():
-        print(f"cases on node {node[:12]}: {count}")
-    print(f"rows equal to the local run's (times and workers aside): {same}")
-    print(f"load average (1 min): {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    return {"per_node": dict(per_node), "same_rows": same, "nodes": len(nodes)}
+    return {"per_worker": dict(per_worker), "same_rows": same, "nodes": len(nodes)}
 
 
 if __name__ == "__main__":

@@ -107,3 +107,20 @@ def test_twenty_rows_replay_from_their_pose_to_the_same_verdicts(tmp_path):
             assert b[k] == pytest.approx(a[k], abs=1e-9), (r["case"], k)
     validated = next(r["case"] for r in again if r["stored"]["verdict"] == "validated")
     assert pik_mj(["validate", f"{out}#{validated}"]) == 0
+
+
+def test_a_callback_sees_the_run_s_figures_so_far(humanoid):
+    """The drift and slip a per-step callback gets grow row by row to the report's
+    figures over the whole record (computed at once): equal at the last step."""
+    robot, scene = humanoid
+    q = _poses(robot)[3]  # leaning: it drifts and its feet slip
+    seen = []
+    report = scene.hold(q, 0.4, callback=lambda s: seen.append((s.drift, s.slip)), every=1)
+    assert len(seen) == report.steps + 1  # the start and every step
+    drifts = [d for d, _ in seen]
+    assert drifts == sorted(drifts) and drifts[-1] > 1e-3
+    assert drifts[-1] == pytest.approx(report.drift, abs=1e-12)
+    assert seen[-1][1] == pytest.approx(max(report.slip_per_geom.values()), abs=1e-12)
+    quiet = scene.hold(q, 0.4)  # no callback: the record's rows at the same steps
+    for name in ("drift", "slip", "min_margin", "tilt", "steps"):
+        assert getattr(quiet, name) == getattr(report, name), name

@@ -33,7 +33,7 @@ from pik_mj.sim.measures import Tracked
 from pik_mj.sim.physics import Physics
 from pik_mj.sim.sampling import Record
 
-__all__ = ["HULL_TOLERANCE", "figures", "margins", "slips"]
+__all__ = ["HULL_TOLERANCE", "RunningFigures", "figures", "margins", "slips"]
 
 HULL_TOLERANCE = 1e-4
 """Largest move [m] of a ground contact point for which a support hull is reused."""
@@ -53,6 +53,45 @@ def slips(delta: np.ndarray, touching: np.ndarray) -> np.ndarray:
     anchor = np.maximum.accumulate(index, axis=0)  # the last touch-down at or before t
     moved = np.linalg.norm(delta - delta[anchor, np.arange(g)], axis=2)
     return np.max(np.where(touching, moved, 0.0), axis=0)
+
+
+class RunningFigures:
+    """The drift and the largest slip of a run so far, row by row: what
+    :func:`figures` computes over the whole record (the same definitions), for a
+    callback at every sample without going over the record again.
+
+    Args:
+        scene: The scene (its up direction).
+        watched: Number of watched geoms (record columns).
+    """
+
+    def __init__(self, scene: Physics, watched: int):
+        up = scene.up()
+        self.P_h = np.eye(3) - np.outer(up, up)
+        self.rows = 0
+        self.drift = 0.0
+        self.anchor = np.zeros((watched, 3))
+        self.touching = np.zeros(watched, dtype=bool)
+        self.slip_per_geom = np.zeros(watched)
+
+    @property
+    def slip(self) -> float:
+        """Largest slip of a watched geom so far [m]."""
+        return float(np.max(self.slip_per_geom, initial=0.0))
+
+    def update(self, record: Record) -> None:
+        """Take in the rows of ``record`` not seen yet."""
+        for i in range(self.rows, len(record)):
+            dp = record.root_pos[i] - record.ref_root_pos[i]
+            self.drift = max(self.drift, float(np.linalg.norm(dp)))
+            delta = (record.geoms[i] - record.ref_geoms[i]) @ self.P_h
+            touch = record.touching[i]
+            down = touch & ~self.touching  # a touch-down: the slip's new anchor
+            self.anchor[down] = delta[down]
+            moved = np.linalg.norm(delta - self.anchor, axis=1)
+            self.slip_per_geom = np.maximum(self.slip_per_geom, np.where(touch, moved, 0.0))
+            self.touching = touch
+        self.rows = len(record)
 
 
 def margins(

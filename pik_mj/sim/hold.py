@@ -161,13 +161,17 @@ class HeldPose:
         self.data.qpos[:] = d.qpos
         mujoco.mj_kinematics(m, self.data)
         self._ctrl = d.ctrl.copy()
+        self._rows = np.empty((0, len(self._ctrl)))
 
     def update(self, t: float) -> None:
         """Nothing moves."""
 
     def controls(self, t: np.ndarray) -> np.ndarray:
-        """The controls written at the start, in every step."""
-        return np.tile(self._ctrl, (len(t), 1))
+        """The controls written at the start, in every step (read-only rows)."""
+        if len(self._rows) != len(t):
+            self._rows = np.tile(self._ctrl, (len(t), 1))
+            self._rows.flags.writeable = False
+        return self._rows
 
     def loads(self, t: np.ndarray) -> np.ndarray:
         """The external wrenches as given."""
@@ -210,10 +214,10 @@ def hold(
             at the frame's origin (a site or body name of the scene), written
             to ``xfrc_applied`` of the frame's body every step.
         callback: A callable or a list, each called with a :class:`HoldSample`
-            at the start and every ``every`` steps (the checks then sample
-            every ``every`` steps too: :mod:`pik_mj.sim.tracking`).
+            at the start and every ``every`` steps (the checks sample as
+            without callbacks: :mod:`pik_mj.sim.tracking`).
         every: Steps between callback calls (>= 1).
-        record_every: Steps between the checks' samples without callbacks
+        record_every: Steps between the checks' samples
             (the physics runs in C between them); 1: every step.
         margin_every: Steps between evaluations of the CoM margin (a convex hull
             of the ground contacts).

@@ -353,10 +353,10 @@ def play(
             reaching, for a path solved with the full load.
         callback: A callable or a list, called with a
             :class:`~pik_mj.sim.measures.HoldSample` every ``every`` steps (its
-            ``reference`` and ``waypoint`` are set; the checks then sample every
-            ``every`` steps too: :mod:`pik_mj.sim.tracking`).
+            ``reference`` and ``waypoint`` are set; the checks sample as
+            without callbacks: :mod:`pik_mj.sim.tracking`).
         every: Steps between callback calls.
-        record_every: Steps between the checks' samples without callbacks; 1:
+        record_every: Steps between the checks' samples; 1:
             every step.
         margin_every: Steps between evaluations of the CoM margin.
         feedforward: Plan the torques the path needs: the servos' feed-forward

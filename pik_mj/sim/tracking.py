@@ -16,10 +16,11 @@ chunk's start.
 
 **Callbacks** (e.g. a recorder's ``hold_logger()``) get a
 :class:`~pik_mj.sim.measures.HoldSample` of the scene's data every ``every``
-steps: the chunks are then ``every`` steps long and the checks see every
-``every``-th step. ``every=1`` is the slow path, a Python call per step, for a
-callback that needs every step; it also gives the checks every step (what the
-benchmarks compare the sampled figures with).
+steps: the chunks then end at every ``every``-th step too, while the record
+keeps its rows at every ``record_every``-th step, so a run with callbacks has
+the figures of the same run without. ``every=1`` is the slow path, a Python
+call per step, for a callback that needs every step; ``record_every=1`` gives
+the checks every step (what the benchmarks compare the sampled figures with).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from pik_mj.callbacks import Callback
 from pik_mj.frames import Frame
 from pik_mj.sim.criteria import HoldCriteria, slip_verdict_geoms
 from pik_mj.sim.falls import fall_measures, first_fall
-from pik_mj.sim.figures import figures
+from pik_mj.sim.figures import RunningFigures, figures
 from pik_mj.sim.measures import HoldSample, Reference, Tracked
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.sampling import Record, Sampler
@@ -79,6 +80,7 @@ class Run:
         planned_pairs: Geom pairs allowed to touch each other.
         external: Wrenches ``(frame, force, moment)`` acting on the robot.
         margin_every: Steps between CoM margin evaluations.
+        record_every: Steps between the record's rows (and the last step).
         frames: Task frames whose distance to the reference is recorded.
     """
 
@@ -94,6 +96,7 @@ class Run:
         external: Sequence[External] = (),
         margin_every: int = MARGIN_EVERY,
         frames: Sequence[Frame] = (),
+        record_every: int = RECORD_EVERY,
     ):
         self.scene, self.reference, self.criteria = scene, reference, criteria
         self.sampler = Sampler(
@@ -110,9 +113,12 @@ class Run:
         self.steps = 0
         self.n_steps = max(1, round(duration / scene.model.opt.timestep))
         self.margin_every = int(margin_every)
+        self.record_every = int(record_every)
+        self._recorded = 0  # the steps at the last row
         self.wrenches = [_wrench(scene, *w) for w in external]
         self.settled: np.ndarray | None = None
         self.fell = False
+        self.so_far: RunningFigures | None = None  # the figures a callback sees
         self._checked = 0
         self._t_wall = time.perf_counter()
         reference.begin()
@@ -149,11 +155,13 @@ class Run:
     def sample(self, n: int, state: np.ndarray) -> None:
         """Record the state (``mjSTATE_FULLPHYSICS``) after ``n`` more steps."""
         m = self.scene.model
-        before = self.steps
         self.steps += n
         t = self.steps * m.opt.timestep
         reference = self.reference
         reference.update(t)
+        if self.steps % self.record_every and self.steps < self.n_steps:
+            return  # between rows (a callback's chunk)
+        before, self._recorded = self._recorded, self.steps
         margin = self.steps // self.margin_every > before // self.margin_every
         qpos = state[1 : 1 + m.nq]
         self._last = self.sampler.read(
@@ -242,8 +250,8 @@ def track(
     run = Run(
         scene, reference, duration, criteria=criteria, allowed=allowed,
         planned_pairs=planned_pairs, external=external, margin_every=margin_every, frames=frames,
+        record_every=record_every,
     )  # fmt: skip
-    chunk = every if callbacks else record_every
     xfrc = bool(external)
     stepper = Stepper(scene.model, xfrc=xfrc)
     d = scene.data
@@ -251,10 +259,13 @@ def track(
         if callbacks:
             _call(callbacks, run, criteria, frames)
         while not run.done:
+            chunk = record_every - run.steps % record_every
+            if callbacks:  # the rows where they fall without callbacks: the same figures
+                chunk = min(chunk, every - run.steps % every)
             controls = run.controls(chunk, xfrc)
             run.sample(len(controls), stepper.step(d, controls))
             run.keep_settled(d)
-            if callbacks:
+            if callbacks and (run.steps % every == 0 or run.done):
                 _call(callbacks, run, criteria, frames)
     finally:
         stepper.close()
@@ -264,9 +275,10 @@ def track(
 def _call(callbacks: Sequence[Callback], run: Run, criteria: HoldCriteria, frames) -> None:
     """Each callback with a :class:`HoldSample` of the scene's data now."""
     scene, reference = run.scene, run.reference
-    so_far = figures(
-        scene, run.record, run.sampler.watched, run.feet, run.limits, run.steps, run.t0, 0.0
-    )
+    if run.so_far is None:
+        run.so_far = RunningFigures(scene, len(run.sampler.watch))
+    so_far = run.so_far
+    so_far.update(run.record)
     d = scene.data
     sample = HoldSample(
         time=float(d.time),
@@ -275,7 +287,7 @@ def _call(callbacks: Sequence[Callback], run: Run, criteria: HoldCriteria, frame
         data=d,
         com=scene.com(),
         drift=so_far.drift,
-        slip=max(so_far.slip_per_geom.values(), default=0.0),
+        slip=so_far.slip,
         _scene=scene,
         reference=reference.data if reference.moving else None,
         waypoint=reference.waypoint,
@@ -307,7 +319,15 @@ def track_many(
         SimulationUnstable: MuJoCo reported an invalid state.
     """
     runs = [
-        Run(scene, r, duration, criteria=criteria, allowed=allowed, margin_every=margin_every)
+        Run(
+            scene,
+            r,
+            duration,
+            criteria=criteria,
+            allowed=allowed,
+            margin_every=margin_every,
+            record_every=record_every,
+        )
         for r in references
     ]
     stepper = Stepper(scene.model, nthread=nthread)
