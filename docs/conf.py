@@ -70,11 +70,14 @@ def _drop_missing_pages(app, docname: str, source: list[str]) -> None:
 
 # Docstrings write |x| for a norm; reStructuredText reads it as a substitution.
 # Outside literals, roles and math blocks the bars are escaped (shown as written).
+# A literal followed by a letter or digit (``x``s, ``scale``³) ends with an
+# escaped space, without which reStructuredText does not end it.
 _LITERAL = re.compile(r"(``.*?``|`[^`]*`)")
+_GLUED = re.compile(r"(``[^`]+``)(?=\w)")
 _BARS = re.compile(r"(?<!\\)\|([^|\s][^|]*?)\|")
 
 
-def _escape_bars(app, what, name, obj, options, lines: list[str]) -> None:
+def _escape_docstring(app, what, name, obj, options, lines: list[str]) -> None:
     math_indent = None
     for i, line in enumerate(lines):
         indent = len(line) - len(line.lstrip())
@@ -83,11 +86,11 @@ def _escape_bars(app, what, name, obj, options, lines: list[str]) -> None:
         math_indent = indent if line.strip().startswith(".. math::") else None
         if math_indent is not None:
             continue
-        parts = _LITERAL.split(line)
+        parts = _LITERAL.split(_GLUED.sub(r"\1\\ ", line))
         parts[::2] = [_BARS.sub(r"\\|\1\\|", p) for p in parts[::2]]
         lines[i] = "".join(parts)
 
 
 def setup(app) -> None:
     app.connect("source-read", _drop_missing_pages)
-    app.connect("autodoc-process-docstring", _escape_bars)
+    app.connect("autodoc-process-docstring", _escape_docstring)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+import rerun as rr
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
@@ -87,9 +88,14 @@ CASES = [case for page in PAGES for case in _runs(page)]
 
 @pytest.fixture
 def in_tmp(tmp_path, monkeypatch):
+    """A temporary working directory; rerun's global and thread-local recordings
+    as they were afterwards (a page's ``rr.script_setup`` sets the global one)."""
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(sys, "argv", [sys.argv[0]])
-    return tmp_path
+    before = rr.get_global_data_recording(), rr.get_thread_local_data_recording()
+    yield tmp_path
+    rr.set_global_data_recording(before[0])
+    rr.set_thread_local_data_recording(before[1])
 
 
 @pytest.mark.parametrize(("page", "code"), CASES)
