@@ -41,6 +41,8 @@ FAILING: dict[tuple[str, str], str] = {
     "at the elbow, does not reach the target past the box (the iterates 14 mm inside it)",
     ("obstacle_reach", "booster_t1"): "the reaches do not converge and the box, placed from "
     "the arm's length, is off the straight way (35 mm clear without avoidance)",
+    ("obstacle_reach", "unitree_g1"): "the final pose does not hold: the 0.5 s hold drifts "
+    "16.7 mm, slips 7.1 mm and the CoM margin falls to -20 mm",
 }
 """The pairs that run and fail their checks, with why."""
 
@@ -86,14 +88,15 @@ def test_scenario_on_robot(scenario, robot, tmp_path):
 
 
 def test_refusal_through_the_command_line_is_one_line_before_any_work(capsys, tmp_path):
-    """``pik-mj run wall_contact --model dm_humanoid``: dm_control's humanoid has its
-    arms and legs but no touch sensor on its hand; refused with exit status 2, one
-    line on stderr, nothing written."""
+    """``pik-mj run wall_contact --model unitree_g1``: G1 has its arms and legs but no
+    touch sensor on its hand; refused with exit status 2, one line on stderr, nothing
+    written."""
+    requires_menagerie("unitree_g1")
     out = tmp_path / "out.json"
-    assert cli.main(["run", "wall_contact", "--model", "dm_humanoid", "--json", str(out)]) == 2
+    assert cli.main(["run", "wall_contact", "--model", "unitree_g1", "--json", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].endswith(
-        "error: argument --model: model 'dm_humanoid' cannot play this scenario: its right "
+        "error: argument --model: model 'unitree_g1' cannot play this scenario: its right "
         "hand has no touch sensor, which tells the palm on the wall"
     )
     assert not out.exists()
