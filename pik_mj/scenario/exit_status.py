@@ -38,6 +38,17 @@ def guarded(command: Callable[[], int], prog: str = "pik-mj") -> int:
     :class:`~pik_mj.exceptions.PikError` one line on stderr and 2, Ctrl-C 130 once
     the command has unwound."""
     try:
+        status = _status(command, prog)
+        sys.stdout.flush()  # a reader gone shows here, not in the interpreter's last flush
+        return status
+    except BrokenPipeError:
+        return closed_pipe()
+
+
+def _status(command: Callable[[], int], prog: str) -> int:
+    """``command``'s exit status, every outcome but a closed standard output mapped
+    to one (see :func:`guarded`)."""
+    try:
         return command()
     except SystemExit as exc:
         return exit_code(exc)
@@ -50,8 +61,6 @@ def guarded(command: Callable[[], int], prog: str = "pik-mj") -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except BrokenPipeError:
-        return closed_pipe()
 
 
 def closed_pipe() -> int:
