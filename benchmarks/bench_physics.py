@@ -44,6 +44,7 @@ from pik_mj.robot.loading import menagerie_available, menagerie_models
 from pik_mj.sim import Waypoints
 from pik_mj.sim.motion import MotionReference, velocity_limits
 from pik_mj.sim.path import Waypoint
+from pik_mj.sim.tracking import RECORD_EVERY
 
 ROBOTS = ("sample_humanoid", "dm_humanoid", "unitree_g1")
 HOLD = 3.0  # [s]
@@ -182,7 +183,7 @@ def main(argv: list[str] | None = None) -> dict:
             skipped.append(name)
     for clock, wall in (("CPU time of this process", False), ("wall time", True)):
         _table(rows, clock, wall)
-    print("\nfigures, sampled every 10 steps | every step:")
+    print(f"\nfigures, sampled every {RECORD_EVERY} steps | every step:")
     for r in rows:
         for kind in ("hold", "play"):
             a, b = r[kind]["report"], r[f"{kind} per step"]["report"]
