@@ -42,6 +42,15 @@ their ratio, IK converged % without avoidance, motion pass % (of all targets),
 hold pass % (of all targets) and the largest base drift of the passing holds.
 ``--qp-solver daqp`` runs every level on DAQP instead of OSQP.
 
+Walk column (``--walk-steps``, default 6; 0: none): the robot walking
+``--walk-steps`` strides forward and a go-pos to (0.5 m, 0.2 m, 30°) in physics,
+as ``benchmarks/bench_walking.py`` does (:func:`bench_walking.walk_column`): per
+walk the verdict (pass, FAIL or refused), the footsteps, the least ZMP margin to
+the support polygon [mm] of the pattern's inverse dynamics / measured in physics
+(the feet's force sensors where the robot has them, else MuJoCo's contact
+forces), and the final error of the mid-feet point to the plan [mm]; a refusal's
+or failure's reason on the line below.
+
 ``--scenarios``: instead, every scenario but the walking ones on each robot, as
 ``pik-mj run S --model R`` runs it (its default ``--hold`` 3 s and ``--speed`` 0.2):
 passed, failed (the checks that failed) or refused before any work (the one line
@@ -61,6 +70,7 @@ from pathlib import Path
 
 import numpy as np
 import pik_mj.scenarios
+from bench_walking import cell, notes, walk_column
 
 from pik_mj import HoldCriteria, Recorder, Robot, Scene, Waypoints
 from pik_mj.balance import support_polygon
@@ -97,6 +107,7 @@ class Row:
     hold_pass: float  # fraction of targets whose final pose held
     max_drift: float  # [m] largest base drift of the passing holds
     failures: list[str] = field(default_factory=list)
+    walk: dict | None = None  # bench_walking.walk_column: {"forward": ..., "go_pos": ...}
 
     @property
     def ratio(self) -> float:
@@ -292,6 +303,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument(
         "--speed", type=float, default=SPEED, help="motion speed (of velocity limits); 0: none"
     )
+    parser.add_argument(
+        "--walk-steps", type=int, default=6, help="strides of the walk column; 0: no walk"
+    )
     parser.add_argument("--quiet", action="store_true")
     parser.add_argument(
         "--scenarios", action="store_true", help="the scenario x robot matrix instead"
@@ -306,11 +320,13 @@ def main(argv: list[str] | None = None) -> dict:
             skipped.append(name)
             continue
         rows.append(run_robot(name, args.n, args.seed, args.qp_solver, args.hold, args.speed))
+        if args.walk_steps > 0:
+            rows[-1].walk = walk_column(name, args.walk_steps)
     if not args.quiet:
         print(
             f"{'robot':16} {'nv':>3} {'pairs':>5} {'IK conv':>7} {'ms/it':>6} "
             f"{'ms/it w/o':>9} {'ratio':>5} {'conv w/o':>8} {'motion':>6} {'hold pass':>9} "
-            f"{'drift mm':>8}"
+            f"{'drift mm':>8}  {'walk forward':38}  {'walk go-pos':38}"
         )
         for r in rows:
             print(
@@ -320,15 +336,23 @@ def main(argv: list[str] | None = None) -> dict:
                 f"{100 * r.converged_without:7.0f}% {100 * r.motion_pass:5.0f}% "
                 f"{100 * r.hold_pass:8.0f}% "
                 f"{1e3 * r.max_drift:8.2f}"
+                + (
+                    ""
+                    if r.walk is None
+                    else f"  {cell(r.walk['forward']):38}  {cell(r.walk['go_pos']):38}"
+                )
             )
             for failure in sorted(set(r.failures)):
                 print(f"{'':16}   failure: {failure}")
+            for line in [] if r.walk is None else notes(r.walk):
+                print(f"{'':16}   walk {line}")
         for name in skipped:
             print(f"{name:16} skipped: not under MENAGERIE_ROOT nor in the mujoco-menagerie cache")
         print(
             f"{args.n} targets per robot, seed {args.seed}, QP solver {args.qp_solver}, "
             f"motion at {args.speed} of the velocity limits, hold {args.hold} s, "
-            f"{time.perf_counter() - t0:.0f} s"
+            f"walk {args.walk_steps} strides and go-pos (0.5 m, 0.2 m, 30 deg), walk ZMP "
+            f"margins inverse dynamics/physics, {time.perf_counter() - t0:.0f} s"
         )
     return {
         "targets": args.n,

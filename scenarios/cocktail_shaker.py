@@ -44,6 +44,7 @@ from pik_mj.scenario import (
     open_recorder,
     parser,
     report,
+    run_options,
 )
 from pik_mj.tasks.collision import GeomPair
 
@@ -253,16 +254,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--steps", type=count, default=32, help="shaking steps")
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            hold=args.hold,
-            speed=args.speed,
-            quiet=args.quiet,
-            steps=args.steps,
-        )
+        result = run(recorder, **run_options(args), steps=args.steps)
     return report(result, args)
 
 

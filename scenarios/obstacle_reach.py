@@ -49,6 +49,7 @@ from pik_mj.scenario import (
     parser,
     report,
     robot_in,
+    run_options,
 )
 from pik_mj.scenario.scenes import obstacle_scene
 from pik_mj.sim.motion import Clearance, min_distance
@@ -217,15 +218,7 @@ def check(result: ScenarioResult) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parser(__doc__, robot=ROBOT, description=True).parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            hold=args.hold,
-            speed=args.speed,
-            quiet=args.quiet,
-        )
+        result = run(recorder, **run_options(args))
     return report(result, args)
 
 

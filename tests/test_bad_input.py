@@ -353,7 +353,9 @@ CLI_CASES: list[tuple[str, list[str], str]] = [
     ("unknown option", ["run", "three_dof_reach", "--frob"], r"unrecognized arguments: --frob"),
     ("option of another scenario", ["run", "three_dof_reach", "--hold", "1"], r"unrecognized arguments: --hold 1"),
     # --model
-    ("model unknown", ["run", "--model", "nope"], r"argument --model: model 'nope' does not exist. Valid model names:"),
+    ("model unknown", ["run", "--model", "nope"], r"argument --model: model 'nope' does not exist. Models for this scenario \(a left arm, two legs, a floating base\): \['sample_humanoid', 'dm_humanoid', 'dm_humanoid_cmu'\], the MuJoCo Menagerie humanoids \[.*'unitree_g1'.*\], or an MJCF path$"),
+    ("model misspelt", ["run", "kettle", "--model", "unitree_g"], r"model 'unitree_g' does not exist \(did you mean 'unitree_g1'"),
+    ("arm model unknown", ["run", "three_dof_reach", "--model", "nope"], r"Models for this scenario \(an arm, a fixed base\): \['three_dof_arm'\], the MuJoCo Menagerie arms \[.*'franka_emika_panda'"),
     ("model missing value", ["run", "--model"], r"argument --model: expected one argument"),
     ("model not XML", ["run", "--model", "{garbage}"], r"argument --model: cannot parse MJCF file '.*garbage.xml': XML parse error"),
     ("model XML not MJCF", ["run", "--model", "{other}"], r"argument --model: cannot parse MJCF file .*other.xml"),

@@ -72,6 +72,10 @@ def test_available_models():
         "dm_humanoid",
         "dm_humanoid_cmu",
     ]
+    assert available_models("humanoid") == ["sample_humanoid", "dm_humanoid", "dm_humanoid_cmu"]
+    assert available_models("arm") == ["three_dof_arm"]
+    assert available_models("scene") == ["room"]
+    assert available_models("quadruped") == []
 
 
 @pytest.mark.parametrize(

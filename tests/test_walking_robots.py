@@ -11,6 +11,7 @@ Costs on a 2-core machine: the synthetic walk's pattern ~10 s and each playback
 from __future__ import annotations
 
 import math
+import re
 
 import mujoco
 import numpy as np
@@ -31,6 +32,7 @@ from pik_mj.walking.robot_gait import (
     STEP_TIME_RATIO,
     gait_value,
     robot_gait,
+    single_support_limit,
 )
 from pik_mj.walking.walk import walk
 from pik_mj.walking.wholebody import corrected_plan, feet_from_robot
@@ -218,13 +220,47 @@ def test_menagerie_robot_goes_to_a_pose(menagerie_walker):
 
 def test_unitree_h1_is_refused_saying_why():
     """H1's legs have no ankle roll: with both soles flat its CoM moves sideways a few
-    millimetres, not the quarter of its feet's 0.41 m separation a step needs."""
+    millimetres, not the quarter of its feet's 0.41 m separation a step needs; the
+    stance sole's ZMP, ~0.17 m to the side, pushes the CoM out of that range in
+    about a tenth of a second, far short of the step's single support."""
     requires_menagerie("unitree_h1")
     robot = Robot.from_model("unitree_h1")
-    with pytest.raises(
-        InvalidInput, match=r"cannot move its CoM sideways .* \d+ mm of the 10\d mm"
-    ):
+    with pytest.raises(InvalidInput) as refused:
         robot_gait(robot)
+    found = re.search(
+        r"cannot move its CoM sideways .*: (\d+) mm of the 10\d mm .* ZMP on the stance sole, "
+        r"(\d+) mm to the side, .* after (\d+) ms of single support \(T_c (\S+) s\), "
+        r"of the (\S+) s a step needs",
+        str(refused.value),
+    )
+    assert found, str(refused.value)
+    reach, edge, limit, tc, needed = (float(v) for v in found.groups())
+    assert reach < 10 and 165 < edge < 180  # separation 0.406 m, soles 0.06 m wide
+    assert 0.28 < tc < 0.34  # sqrt(z_c / g), z_c ~ 0.9-1.0 m
+    assert limit < 150 and 1e3 * needed > 4 * limit
+
+
+def test_single_support_limit_is_where_the_pendulum_takes_the_com_out_of_reach():
+    """The closed form against the cart-table pendulum c'' = (c - p) / T_c^2
+    integrated step by step (RK4) from c = r at rest, p = e: the time c reaches -r."""
+    reach, edge, tc = 0.004, 0.173, 0.3
+    c, v, t, h = reach, 0.0, 0.0, 1e-5
+
+    def acc(x):
+        return (x - edge) / tc**2
+
+    while c > -reach:
+        k1, l1 = v, acc(c)
+        k2, l2 = v + 0.5 * h * l1, acc(c + 0.5 * h * k1)
+        k3, l3 = v + 0.5 * h * l2, acc(c + 0.5 * h * k2)
+        k4, l4 = v + h * l3, acc(c + h * k3)
+        c, v, t = (
+            c + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4),
+            v + h / 6 * (l1 + 2 * l2 + 2 * l3 + l4),
+            t + h,
+        )
+    assert single_support_limit(reach, edge, tc) == pytest.approx(t, abs=2e-5)
+    assert 0.08 < t < 0.1
 
 
 def test_corrected_plan_moves_the_cart_table_zmp_by_the_zmp_error():

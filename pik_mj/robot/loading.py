@@ -48,9 +48,26 @@ _DM_CONTROL = {
 }
 
 
-def available_models() -> list[str]:
-    """Names that :func:`model_path` resolves without a file path."""
-    return [*_SHIPPED, *_DM_CONTROL]
+_CATEGORIES = {
+    "three_dof_arm": "arm",
+    "sample_humanoid": "humanoid",
+    "room": "scene",
+    "dm_humanoid": "humanoid",
+    "dm_humanoid_cmu": "humanoid",
+}
+"""The kind of each named model, in MuJoCo Menagerie's words (``room`` is a world)."""
+
+
+def available_models(category: str | None = None) -> list[str]:
+    """Names that :func:`model_path` resolves without a file path.
+
+    Args:
+        category: Only the models of this kind, in MuJoCo Menagerie's words:
+            ``"humanoid"``, ``"arm"`` or ``"scene"`` (a world without a robot).
+            None: every name.
+    """
+    names = [*_SHIPPED, *_DM_CONTROL]
+    return [x for x in names if category is None or _CATEGORIES[x] == category]
 
 
 def menagerie_models(category: str | None = None) -> list[str]:

@@ -4,12 +4,14 @@ is said in one line before any work (:class:`RobotRefused`)."""
 
 from __future__ import annotations
 
+import difflib
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from pik_mj.exceptions import InvalidInput, PikError
+from pik_mj.exceptions import InvalidInput, PikError, UnknownName
 from pik_mj.robot import Robot
+from pik_mj.robot.loading import available_models, menagerie_models
 
 LIMB_WORDS = {
     "rarm": "a right arm",
@@ -72,6 +74,31 @@ class RobotOption:
         text = ", ".join(words) or "any robot"
         return text + (f"; uses {self.uses} where it has one" if self.uses else "")
 
+    @property
+    def category(self) -> str | None:
+        """The kind of robot the scenario needs, in MuJoCo Menagerie's words:
+        ``"arm"`` (a fixed base), ``"humanoid"`` (a floating base), None (any)."""
+        if self.fixed_base:
+            return "arm"
+        return "humanoid" if self.floating_base else None
+
+    def model_names(self) -> list[str]:
+        """The model names of the scenario's kind: the shipped and dm_control ones,
+        then MuJoCo Menagerie's (worlds such as ``room`` left out)."""
+        named = [x for x in available_models(self.category) if x != "room"]
+        return [*named, *menagerie_models(self.category)]
+
+    def valid_models(self) -> str:
+        """The models ``--model`` may name for this scenario, in one sentence: the named
+        models of its kind, MuJoCo Menagerie's robots of that kind, or an MJCF path."""
+        named = [x for x in available_models(self.category) if x != "room"]
+        menagerie = menagerie_models(self.category)
+        kind = f"{self.category}s" if self.category else "robots"
+        return (
+            f"Models for this scenario ({self.needs()}): {named}, the MuJoCo Menagerie "
+            f"{kind} {menagerie}, or an MJCF path"
+        )
+
     def check(self, model: str | None, description: str | None) -> tuple[str | None, Robot]:
         """The model to run (the default when neither option names one) and the
         robot built from it and its description.
@@ -87,6 +114,15 @@ class RobotOption:
         named = f"model {model!r}" if model is not None else f"the model of {description!r}"
         try:
             robot = Robot.from_model(model, description=description)
+        except UnknownName as exc:
+            if exc.kind != "model":
+                raise InvalidInput(f"argument {option}: {exc}") from None
+            near = difflib.get_close_matches(exc.name, self.model_names(), n=3)
+            guess = f" (did you mean {' or '.join(map(repr, near))}?)" if near else ""
+            raise InvalidInput(
+                f"argument {option}: model {exc.name!r} does not exist{guess}. "
+                f"{self.valid_models()}"
+            ) from None
         except PikError as exc:
             raise InvalidInput(f"argument {option}: {exc}") from None
         if self.fixed_base and robot.has_floating_base:

@@ -9,6 +9,7 @@ collision detection at the pose (kinematics only, no stepping) and reports a
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Sequence
@@ -200,13 +201,25 @@ def point_contacts(
     mu: float | None = None,
     pyramid: Literal["inscribed", "circumscribed"] = "inscribed",
 ) -> list[balance.ContactConstraint]:
-    """Point-contact constraints (friction pyramid about each normal) of contacts."""
+    """Point-contact constraints (friction pyramid about each normal) of contacts
+    (the same contact point, normal and friction: the same constraint object,
+    kept from an earlier call: a path's knots share their feet's contacts)."""
     return [
-        balance.contact_from_normal(
-            c.position, c.normal, mu=c.friction if mu is None else mu, pyramid=pyramid
+        _point_contact(
+            *c.position.tolist(), *c.normal.tolist(), c.friction if mu is None else mu, pyramid
         )
         for c in contacts
     ]
+
+
+@functools.lru_cache(maxsize=4096)
+def _point_contact(
+    px: float, py: float, pz: float, nx: float, ny: float, nz: float, mu: float, pyramid: str
+) -> balance.ContactConstraint:
+    """:func:`pik_mj.balance.contact_from_normal` of a point contact, by value."""
+    return balance.contact_from_normal(
+        np.array([px, py, pz]), np.array([nx, ny, nz]), mu=mu, pyramid=pyramid
+    )
 
 
 def _scfr_margin(

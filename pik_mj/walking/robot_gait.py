@@ -80,6 +80,7 @@ __all__ = [
     "leg_geometry",
     "robot_gait",
     "sideways_reach",
+    "single_support_limit",
 ]
 
 PITCH_AXIS = 0.9
@@ -353,7 +354,9 @@ def robot_gait(
             ``max_inward`` >= 0), a step time shorter than 2 dt, or a robot that
             cannot walk this way: its CoM moves sideways, with both soles flat,
             less than half of :data:`SWAY_RATIO` times the feet's separation
-            (:func:`sideways_reach`; Unitree H1's legs have no ankle roll).
+            (:func:`sideways_reach`; Unitree H1's legs have no ankle roll); the
+            message gives the longest single support that reach allows
+            (:func:`single_support_limit`).
     """
     for name in overrides:
         if name not in _DERIVED or name == "dt":
@@ -388,10 +391,15 @@ def robot_gait(
     need = SWAY_RATIO * gait.foot_separation
     reach = sideways_reach(robot, soles, need)
     if reach < 0.5 * need:
+        edge = 0.5 * (gait.foot_separation - geo.sole_size[1])
+        limit = single_support_limit(reach, edge, tc)
         raise InvalidInput(
             f"the robot cannot move its CoM sideways with both soles flat: {reach * 1e3:.0f} mm "
             f"of the {need * 1e3:.0f} mm a step of the cart-table walk needs (its legs have "
-            "no joint that keeps a sole flat while the leg leans sideways)"
+            "no joint that keeps a sole flat while the leg leans sideways); with the ZMP on "
+            f"the stance sole, {edge * 1e3:.0f} mm to the side, its CoM leaves that range after "
+            f"{limit * 1e3:.0f} ms of single support (T_c {tc:.2f} s), of the "
+            f"{gait.step_time - gait.double_support_time:.2f} s a step needs"
         )
     return gait
 
@@ -452,6 +460,32 @@ def sideways_reach(robot: Robot, soles: Mapping[str, Sole], distance: float) -> 
     finally:
         configuration.update(q0)
     return min(reached)
+
+
+def single_support_limit(reach: float, edge: float, tc: float) -> float:
+    """The longest single support [s] after which the CoM is back within ``reach``
+    [m] of the mid-feet, as both soles flat require when the swing foot lands.
+
+    Both soles flat hold the CoM within :math:`\\pm r` (``reach``, at rest); the
+    stance sole's ZMP is at least :math:`e` (``edge``: half the feet's separation
+    less half the sole's width) to the side. The cart-table's pendulum,
+    :math:`\\ddot c = (c - p) / T_c^2`, from :math:`c_0 = r` at rest with :math:`p = e`
+    (the best case: the CoM as near the stance sole as it gets, the ZMP at its
+    inner edge) moves the CoM away from the stance sole,
+    :math:`c(t) = e - (e - r) \\cosh(t / T_c)`, past :math:`-r` at
+
+    .. math::
+
+        T_{ss} = T_c \\operatorname{arccosh}\\left(1 + \\frac{2 r}{e - r}\\right)
+
+    (and still moving there, so a walk needs a single support well short of it).
+
+    Args:
+        reach: r [m], :func:`sideways_reach`.
+        edge: e [m] > r.
+        tc: T_c = sqrt(z_c / g) [s].
+    """
+    return tc * math.acosh(1.0 + 2.0 * reach / max(edge - reach, 1e-12))
 
 
 def _lateral(soles: Mapping[str, Sole], model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
