@@ -10,7 +10,8 @@ same full-body IK (feet fixed, CoM over the feet, the hand target) is solved
 twice from the same start: with a :class:`pik_mj.CollisionAvoidanceTask` of the
 arm's links against the box in level 1 (above the target: irteus's
 ``:collision-avoidance-link-pair``, yellow zone ``YELLOW``, orange ``ORANGE``;
-a second task keeps the arm off the body), and without it. Both solves' iterates are played in physics. Reported for both:
+a second task keeps the arm off the body), and without it. Both solves' iterates
+are played in physics. Reported for both:
 the smallest arm–box distance (MuJoCo's ``mj_geomDistance``, negative when
 penetrating) over the IK iterates, over the reference the servos track
 between them, and over the physical motion. With avoidance the iterates keep
