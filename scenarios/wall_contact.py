@@ -66,6 +66,7 @@ FEET = ("rleg", "lleg")
 ROBOT = RobotOption("sample_humanoid", (ARM, *FEET), floating_base=True)
 HAND_ABOVE_SHOULDER = 0.1  # [arm lengths] the palm's centre above the shoulder
 LEAN = 0.35  # the CoM's target past the toes: this fraction of the way to the wall
+LEAN_MET = 0.5  # the lean is met within this share of its way past the toes
 FLAT_JOINTS = 5  # an arm sets its hand's position and palm normal (5 numbers) with 5 joints
 TOUCHING = 1e-3  # [m] hand-wall distance at which the palm is on the wall
 # The first trust radius of 1: the palm's solve then ends with the forearm clear of
@@ -277,8 +278,8 @@ def lean_on_wall(
     stage: Stage, support: WallSupport, path: Waypoints
 ) -> tuple[ScfrTask, SolveResult]:
     """The palm kept on the wall, the CoM in the SCFR of the three contacts (level 1)
-    and leaning past the toes (a lower level, met within half its way past the toes);
-    the rest of the robot kept off the wall (:func:`wall_avoidance`) and the arm off the
+    and leaning past the toes (a lower level, met within :data:`LEAN_MET` of its way
+    past the toes); the rest of the robot kept off the wall (:func:`wall_avoidance`) and the arm off the
     body (:func:`body_avoidance`). Returns the SCFR task and the solve's result."""
     robot, hand = stage.robot, support.hand
     scfr_task = ScfrTask(
@@ -286,7 +287,10 @@ def lean_on_wall(
     )
     past_toes = Stature.of(robot).to_robot(support.lean)[0] - support.toes
     lean_task = CentroidTask(
-        robot.configuration, support.lean, root_body=robot.root_body, centroid_thre=past_toes / 2
+        robot.configuration,
+        support.lean,
+        root_body=robot.root_body,
+        centroid_thre=LEAN_MET * past_toes,
     )
     res = stage.solve(
         fullbody_inverse_kinematics,

@@ -33,8 +33,6 @@ REFUSED = {
 """The pairs refused, and the reason their refusal gives."""
 
 FAILING: dict[tuple[str, str], str] = {
-    ("kettle", "booster_t1"): "the servos cannot hold the grasp pose: its right shoulder roll "
-    "needs more torque at rest than its actuator's limit",
     ("obstacle_reach", "unitree_h1"): "the reaches do not converge: the arm of 4 joints, ending "
     "at the elbow, does not reach the target past the box (the iterates 14 mm inside it)",
     ("obstacle_reach", "booster_t1"): "the reaches do not converge and the box, placed from "
