@@ -4,7 +4,9 @@ A wall is built before the robot (:func:`pik_mj.scenario.scenes.wall_scene`): it
 face 0.75 L ahead of the shoulders, L the arm's length. The right palm is put flat
 on the wall :data:`HAND_ABOVE_SHOULDER` arm lengths above the shoulder, straight
 ahead of it (the palm's normal into the wall, the rotation about it free; the hand:
-:class:`pik_mj.scenario.Hand`); the feet stay. The balance task of level 1 is the
+:class:`pik_mj.scenario.Hand`; an arm of fewer than :data:`FLAT_JOINTS` joints, which
+cannot set the palm's normal besides its position, touches the wall at a point, the
+hand's orientation free); the feet stay. The balance task of level 1 is the
 static centroid feasible region of the three contacts (two soles on the floor, μ =
 0.8; the palm on the wall, μ = 0.5), and a lower level asks the CoM to lean
 :data:`LEAN` of the way from the toes to the wall — outside the feet's support
@@ -123,7 +125,7 @@ class WallSupport:
             :data:`FLAT_JOINTS` joints); else the hand touches it at a point, its
             orientation free, the hand frame the radius of the hand's ball
             (:attr:`Hand.radius`) off the wall.
-        p_palm: The palm's centre on the wall [m], below the shoulder.
+        p_palm: The palm's centre on the wall [m], above the shoulder.
         p_hand: The hand frame's target [m]: the palm's offset off the wall.
         R_hand: The hand's orientation: the palm's normal into the wall (matched
             when ``flat``).
