@@ -282,7 +282,8 @@ def lean_on_wall(
     """The palm kept on the wall, the CoM in the SCFR of the three contacts (level 1)
     and leaning past the toes (a lower level, met within :data:`LEAN_MET` of its way
     past the toes); the rest of the robot kept off the wall (:func:`wall_avoidance`)
-    and the arm off the body (:func:`body_avoidance`). Returns the SCFR task and the solve's result."""
+    and the arm off the body (:func:`body_avoidance`). Returns the SCFR task and the
+    solve's result."""
     robot, hand = stage.robot, support.hand
     scfr_task = ScfrTask(
         robot.configuration, support.contacts, root_body=robot.root_body, margin=0.01
