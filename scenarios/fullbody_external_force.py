@@ -42,6 +42,7 @@ from pik_mj.scenario import (
     open_recorder,
     parser,
     report,
+    run_options,
 )
 from pik_mj.solve import TrustRegion
 from pik_mj.tasks.collision import collision_pairs
@@ -247,15 +248,7 @@ def check(result: ScenarioResult, robot: Robot, res: SolveResult) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parser(__doc__, robot=ROBOT, description=True).parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            hold=args.hold,
-            speed=args.speed,
-            quiet=args.quiet,
-        )
+        result = run(recorder, **run_options(args))
     return report(result, args)
 
 

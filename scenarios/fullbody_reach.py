@@ -43,6 +43,7 @@ from pik_mj.scenario import (
     open_recorder,
     parser,
     report,
+    run_options,
 )
 
 NAME = "fullbody_reach"
@@ -161,15 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     p = parser(__doc__, robot=ROBOT, description=True)
     args = p.parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            hold=args.hold,
-            speed=args.speed,
-            quiet=args.quiet,
-        )
+        result = run(recorder, **run_options(args))
     return report(result, args)
 
 

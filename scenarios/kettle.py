@@ -85,6 +85,7 @@ from pik_mj.scenario import (
     parser,
     report,
     robot_in,
+    run_options,
 )
 from pik_mj.scenario.scenes import KettleLayout, kettle_scene
 from pik_mj.sim.motion import Clearance
@@ -583,15 +584,7 @@ def check_motion(result: ScenarioResult, kettle: Kettle) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parser(__doc__, robot=ROBOT, description=True).parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            hold=args.hold,
-            speed=args.speed,
-            quiet=args.quiet,
-        )
+        result = run(recorder, **run_options(args))
     return report(result, args)
 
 

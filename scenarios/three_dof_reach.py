@@ -25,6 +25,7 @@ from pik_mj.scenario import (
     open_recorder,
     parser,
     report,
+    run_options,
 )
 
 NAME = "three_dof_reach"
@@ -139,13 +140,7 @@ def check(
 def main(argv: list[str] | None = None) -> int:
     args = parser(__doc__, hold=False, robot=ROBOT, description=True).parse_args(argv)
     with open_recorder(args, NAME) as recorder:
-        result = run(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            quiet=args.quiet,
-        )
+        result = run(recorder, **run_options(args))
     return report(result, args)
 
 

@@ -25,31 +25,23 @@ MATRIX = [s for s in SCENARIOS if not s.startswith("walk_")]
 
 FLOATING = r"has a floating base \(a free joint at its root '\w+'\); this scenario moves an arm"
 SHAKER = r"its right arm has 4 joints; holding the shaker to the left hand's axis asks 5"
-BUMPER = r"its right hand has no touch sensor, which tells the palm on the wall"
 REFUSED = {
     **{("three_dof_reach", r): FLOATING for r in ROBOTS},
     ("cocktail_shaker", "unitree_h1"): SHAKER,
     ("cocktail_shaker", "booster_t1"): SHAKER,
-    **{("wall_contact", r): BUMPER for r in ROBOTS if r != "sample_humanoid"},
 }
 """The pairs refused, and the reason their refusal gives."""
 
 FAILING: dict[tuple[str, str], str] = {
-    ("kettle", "booster_t1"): "the servos cannot hold the grasp pose: its right shoulder roll "
-    "needs more torque at rest than its actuator's limit",
-    ("obstacle_reach", "unitree_h1"): "the reaches do not converge: the arm of 4 joints, ending "
-    "at the elbow, does not reach the target past the box (the iterates 14 mm inside it)",
-    ("obstacle_reach", "booster_t1"): "the reaches do not converge and the box, placed from "
-    "the arm's length, is off the straight way (35 mm clear without avoidance)",
-    ("obstacle_reach", "unitree_g1"): "the final pose does not hold: the 0.5 s hold drifts "
-    "16.7 mm, slips 7.1 mm and the CoM margin falls to -20 mm",
+    ("wall_contact", "unitree_h1"): "the lean does not converge: the hand of the 4-joint arm "
+    "(a ball at the elbow link) on the wall, the CoM does not get past the toes",
+    ("wall_contact", "booster_t1"): "the final pose does not hold: with the point contact of "
+    "the 4-joint arm's hand the static-equilibrium LP is infeasible, and the right hand "
+    "touches geom H2 at the hold's start",
 }
 """The pairs that run and fail their checks, with why."""
 
-SLOW_FAILING = {
-    ("cocktail_shaker", "unitree_g1"): "the hand frame of G1's mesh hand has its grip axis "
-    "forward: the right hand's target lies ahead of the left hand, 0.5 m off (not run: 3 min)",
-}
+SLOW_FAILING: dict[tuple[str, str], str] = {}
 """Failing pairs too slow to run in the suite (``bench_robots.py --scenarios`` runs them)."""
 
 
@@ -88,15 +80,15 @@ def test_scenario_on_robot(scenario, robot, tmp_path):
 
 
 def test_refusal_through_the_command_line_is_one_line_before_any_work(capsys, tmp_path):
-    """``pik-mj run wall_contact --model unitree_g1``: G1 has its arms and legs but no
-    touch sensor on its hand; refused with exit status 2, one line on stderr, nothing
-    written."""
-    requires_menagerie("unitree_g1")
+    """``pik-mj run cocktail_shaker --model unitree_h1``: H1 has its arms, of 4 joints
+    each; refused with exit status 2, one line on stderr, nothing written."""
+    requires_menagerie("unitree_h1")
     out = tmp_path / "out.json"
-    assert cli.main(["run", "wall_contact", "--model", "unitree_g1", "--json", str(out)]) == 2
+    assert cli.main(["run", "cocktail_shaker", "--model", "unitree_h1", "--json", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].endswith(
-        "error: argument --model: model 'unitree_g1' cannot play this scenario: its right "
-        "hand has no touch sensor, which tells the palm on the wall"
+        "error: argument --model: model 'unitree_h1' cannot play this scenario: its right "
+        "arm has 4 joints; holding the shaker to the left hand's axis asks 5 (3 of position, "
+        "2 of orientation)"
     )
     assert not out.exists()

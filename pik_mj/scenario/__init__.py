@@ -10,7 +10,8 @@ play the iterates in physics (:meth:`Stage.play`), hold the final pose in physic
 :class:`ScenarioResult`. A failed check makes the scenario fail; it does not
 raise. Its ``main(argv)`` parses :func:`parser`'s options (rerun's
 ``--save/--connect/--serve/--stdout/--headless``, ``--json``, ``--hold``,
-``--speed``, ``--quiet``, ``--model``), records into :func:`open_recorder`'s
+``--speed``, ``--quiet``, ``--model``; :func:`run_options` maps them to ``run``'s
+keywords), records into :func:`open_recorder`'s
 stream and ends with :func:`report`.
 
 The user's options are checked here, once for every scenario, before any work
@@ -30,7 +31,13 @@ balance summary, JSON), :mod:`.figures` (measures the scenarios report),
 
 from pik_mj.exceptions import OptionError
 from pik_mj.scenario.arguments import count, duration, finite, fraction, positive
-from pik_mj.scenario.command_line import DEFAULT_HOLD, DEFAULT_SPEED, ScenarioParser, parser
+from pik_mj.scenario.command_line import (
+    DEFAULT_HOLD,
+    DEFAULT_SPEED,
+    ScenarioParser,
+    parser,
+    run_options,
+)
 from pik_mj.scenario.figures import com_margin, end_pose, largest_move, largest_turn
 from pik_mj.scenario.output import open_recorder, report
 from pik_mj.scenario.result import ScenarioResult, balance_summary, jsonable
@@ -66,4 +73,5 @@ __all__ = [
     "positive",
     "report",
     "robot_in",
+    "run_options",
 ]

@@ -167,3 +167,15 @@ def parser(
                 "kinematic tree does not tell",
             )
     return p
+
+
+def run_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The keyword arguments of a scenario's ``run`` from its parsed :func:`parser`
+    options: ``model``, ``description`` and the ``robot`` built when they were checked
+    (with ``--model``), ``hold`` and ``speed`` (with ``--hold``), ``quiet``. A
+    scenario's own options (``--steps``) are added by the scenario."""
+    names = ("model", "description", "hold", "speed", "quiet")
+    options = {n: getattr(args, n) for n in names if n in args}
+    if "model" in options:
+        options["robot"] = args.robot
+    return options

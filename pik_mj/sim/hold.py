@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -165,6 +165,11 @@ class HeldPose:
 
     def update(self, t: float) -> None:
         """Nothing moves."""
+
+    def updates(self, times: np.ndarray) -> Iterator[None]:
+        """Nothing moves, at each of ``times``."""
+        for _ in times:
+            yield
 
     def controls(self, t: np.ndarray) -> np.ndarray:
         """The controls written at the start, in every step (read-only rows)."""

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -124,6 +124,10 @@ class Reference(Protocol):
     def update(self, t: float) -> None:
         """Move the reference to time ``t`` [s] from its start: :attr:`data`,
         :attr:`waypoint`, :attr:`load`."""
+
+    def updates(self, times: np.ndarray) -> Iterator[None]:
+        """Move the reference to each of ``times`` [s] in turn (as :meth:`update`),
+        yielding after each: the stepping loop reads the rows of a chunk."""
 
     def controls(self, t: np.ndarray) -> np.ndarray:
         """The actuators' controls (len(t), nu) of the steps that start at times

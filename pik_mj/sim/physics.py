@@ -407,9 +407,9 @@ class Physics:
 
     def up(self) -> np.ndarray:
         """Unit vector against gravity (z without gravity)."""
-        g = np.asarray(self.model.opt.gravity, dtype=float)
-        n = float(np.linalg.norm(g))
-        return -g / n if n > 0 else np.array([0.0, 0.0, 1.0])
+        gx, gy, gz = self.model.opt.gravity
+        n = math.sqrt(gx * gx + gy * gy + gz * gz)
+        return np.array([-gx / n, -gy / n, -gz / n]) if n > 0 else np.array([0.0, 0.0, 1.0])
 
     def support(
         self, contacts: list[ContactInfo], com: np.ndarray, max_slope: float
@@ -443,23 +443,41 @@ class Physics:
         normal into the robot is within ``max_slope`` [rad] of up, read from
         MuJoCo's contact arrays at once; and their geom pairs as bytes (equal
         bytes: the same contacts)."""
+        contacts = self.probe_contacts(qpos)
+        keep = self.ground_contacts(contacts, max_slope)
+        return contacts[4][keep], contacts[0][keep].tobytes()
+
+    def probe_contacts(self, qpos: np.ndarray) -> tuple[np.ndarray, ...]:
+        """MuJoCo's contacts of the probe model (as :meth:`touching`) at the world
+        state ``qpos``, its arrays copied: ``geom`` (n, 2), ``dist`` (n,) [m],
+        ``exclude`` (n,), the normal ``frame[:, :3]`` (n, 3) and ``pos`` (n, 3) [m]."""
         m, d = self._probe_model, self._probe_data
         d.qpos[:] = qpos
         mujoco.mj_kinematics(m, d)
         mujoco.mj_collision(m, d)
-        if not d.ncon:
-            return np.zeros((0, 3)), b""
         con = d.contact
-        g = con.geom
+        return (
+            con.geom.copy(),
+            con.dist.copy(),
+            con.exclude.copy(),
+            con.frame[:, :3].copy(),
+            con.pos.copy(),
+        )
+
+    def ground_contacts(self, contacts: tuple[np.ndarray, ...], max_slope: float) -> np.ndarray:
+        """Which of the probe ``contacts`` (:meth:`probe_contacts`, or rows of
+        several of them stacked) are ground contacts: robot (or grasped object)
+        with the environment, within ``contact_tolerance``, the normal into the
+        robot within ``max_slope`` [rad] of up."""
+        g, dist, exclude, frame = contacts[:4]
         r1, r2 = self._system_geom[g[:, 0]], self._system_geom[g[:, 1]]
-        normal = con.frame[:, :3] * np.where(r2, 1.0, -1.0)[:, None]  # into the robot
-        keep = (
-            (con.dist <= self.contact_tolerance)
-            & ((con.exclude == 0) | (con.exclude == 1))
+        normal = frame * np.where(r2, 1.0, -1.0)[:, None]  # into the robot
+        return (
+            (dist <= self.contact_tolerance)
+            & ((exclude == 0) | (exclude == 1))
             & (r1 != r2)
             & (normal @ self.up() >= math.cos(max_slope))
         )
-        return con.pos[keep].copy(), g[keep].tobytes()
 
     @property
     def system_geoms(self) -> np.ndarray:

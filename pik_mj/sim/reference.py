@@ -39,7 +39,7 @@ through the actuators: MuJoCo clamps them with the rest of the drive's force.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -245,19 +245,32 @@ class MotionReference:
     def update(self, t: float) -> None:
         """The reference at time ``t`` [s]: its kinematics (:attr:`data`),
         :attr:`waypoint` and :attr:`load`."""
+        for _ in self.updates(np.array([t], dtype=float)):
+            pass
+
+    def updates(self, times: np.ndarray) -> Iterator[None]:
+        """The reference at each of ``times`` [s] in turn (as :meth:`update`; the
+        timing evaluated for all of them at once), yielding after each."""
         scene, rm, timing = self.scene, self._rm, self.timing
-        sigma, _, _ = timing.progress(np.array([t]))
-        self.load = float(self.loads(np.array([t]))[0])
-        (i,), (alpha,) = timing.piece(sigma)
-        self.waypoint = int(np.searchsorted(self.times, t, side="right") - 1)
-        q = self.q[i].copy()
-        if i < len(self.q) - 1 and timing.steps[i] > 0:
-            mujoco.mj_integratePos(rm, q, self._dv[i], alpha)
-        if scene.grasps:  # the grasped objects follow the hand
-            self.data.qpos[:] = scene.qpos_of(q)
-        else:  # the waypoints were checked (planned_contacts): no check per step
-            self.data.qpos[: len(q)] = q
-        mujoco.mj_kinematics(scene.model, self.data)
+        times = np.asarray(times, dtype=float)
+        sigma, _, _ = timing.progress(times)
+        loads = self.loads(times)
+        pieces, alphas = timing.piece(sigma)
+        waypoints = np.searchsorted(self.times, times, side="right") - 1
+        last = len(self.q) - 1
+        for i, alpha, load, waypoint in zip(
+            pieces.tolist(), alphas.tolist(), loads.tolist(), waypoints.tolist(), strict=True
+        ):
+            self.load, self.waypoint = load, waypoint
+            q = self.q[i].copy()
+            if i < last and timing.steps[i] > 0:
+                mujoco.mj_integratePos(rm, q, self._dv[i], alpha)
+            if scene.grasps:  # the grasped objects follow the hand
+                self.data.qpos[:] = scene.qpos_of(q)
+            else:  # the waypoints were checked (planned_contacts): no check per step
+                self.data.qpos[: len(q)] = q
+            mujoco.mj_kinematics(scene.model, self.data)
+            yield
 
     def controls(self, t: np.ndarray) -> np.ndarray:
         """The actuators' controls (len(t), nu) at times ``t`` [s] from the start:

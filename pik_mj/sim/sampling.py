@@ -121,6 +121,8 @@ class Sampler:
         self.root = scene.robot.root_body_id
         self.qadr = np.array([m.joint(j).qposadr[0] for j in scene.servo_joints], dtype=int)
         self.names = scene.geom_names
+        self._contacts: list[tuple[int, float, np.ndarray, np.ndarray, np.ndarray]] = []
+        self._ground: list[tuple[np.ndarray, ...]] = []
 
     @property
     def watched(self) -> list[str]:
@@ -141,7 +143,8 @@ class Sampler:
         kinematics ``ref`` (an ``MjData`` of the scene's model; not ``moving``:
         the same as in the first row); with ``ground``, its ground contacts too.
         Returns the sampler's data (kinematics, CoM and contacts of ``qpos``;
-        valid until the next read)."""
+        valid until the next read). The row's contacts (``touching``,
+        ``unexpected``, ``ground``) are read into ``record`` by :meth:`flush`."""
         m, d = self.model, self.data
         d.qpos[:] = qpos
         mujoco.mj_kinematics(m, d)
@@ -168,22 +171,51 @@ class Sampler:
             record.frames.append(np.array([f.position(d) for f in self.frames]))
             record.ref_frames.append(np.array([f.position(ref) for f in self.frames]))
         record.waypoint.append(-1 if waypoint is None else int(waypoint))
-        record.touching.append(self._contacts(record, float(time)))
+        con = d.contact
+        row = len(record.time) - 1
+        self._contacts.append(
+            (row, float(time), con.geom.copy(), con.dist.copy(), con.exclude.copy())
+        )
         if ground:
-            record.margin_rows.append(len(record.time) - 1)
-            record.ground.append(self.scene.ground_points(qpos, self.max_slope))
+            record.margin_rows.append(row)
+            self._ground.append(self.scene.probe_contacts(qpos))
         return d
 
-    def _contacts(self, record: Record, time: float) -> np.ndarray:
-        """Which watched geoms touch now (allowed, or in a planned pair with what
-        they touch); new unexpected contacts into ``record``."""
-        d = self.data
-        touching = np.zeros(len(self.watch), dtype=bool)
-        if not d.ncon:
-            return touching
-        con = d.contact
-        keep = (con.dist <= 0.0) & ((con.exclude == 0) | (con.exclude == 1))
-        g1, g2 = con.geom[keep].T
+    def flush(self, record: Record) -> None:
+        """Read the contacts of the rows since the last flush into ``record``, all
+        rows at once: which watched geoms touch (allowed, or in a planned pair
+        with what they touch; ``touching``), the new unexpected contacts, and
+        the ground contacts of the margin rows (``ground``)."""
+        if self._contacts:
+            rows = self._contacts
+            self._contacts = []
+            counts = [len(r[3]) for r in rows]
+            touching = np.zeros((len(rows), len(self.watch)), dtype=bool)
+            if sum(counts):
+                self._touching(record, rows, counts, touching)
+            record.touching.extend(touching)
+        if self._ground:
+            found = self._ground
+            self._ground = []
+            stacked = [np.concatenate([f[i] for f in found]) for i in range(5)]
+            keep = np.split(
+                self.scene.ground_contacts(stacked, self.max_slope),
+                np.cumsum([len(f[1]) for f in found])[:-1],
+            )
+            for (g, *_, pos), k in zip(found, keep, strict=True):
+                record.ground.append((pos[k], g[k].tobytes()))
+
+    def _touching(
+        self, record: Record, rows: list, counts: list[int], touching: np.ndarray
+    ) -> None:
+        """``touching`` (rows, watched) and the unexpected contacts of ``rows``."""
+        index = np.repeat(np.arange(len(rows)), counts)
+        geom = np.concatenate([r[2] for r in rows])
+        dist = np.concatenate([r[3] for r in rows])
+        exclude = np.concatenate([r[4] for r in rows])
+        keep = (dist <= 0.0) & ((exclude == 0) | (exclude == 1))
+        index = index[keep]
+        g1, g2 = geom[keep].T
         r1, r2 = self.system[g1], self.system[g2]
         robot, other = np.where(r2, g2, g1), np.where(r2, g1, g2)
         mine = r1 | r2
@@ -191,7 +223,7 @@ class Sampler:
         planned = self.planned[robot, other]
         fine = planned | (~self_contact & self.allowed[robot]) | (self_contact & self.allow_self)
         touch = mine & ~self_contact & (self.allowed[robot] | planned)
-        touching[self.column[robot[touch]]] = True
-        for a, b in zip(robot[mine & ~fine], other[mine & ~fine], strict=True):
-            record.unexpected.setdefault((self.names[a], self.names[b]), time)
-        return touching
+        touching[index[touch], self.column[robot[touch]]] = True
+        bad = mine & ~fine
+        for i, a, b in zip(index[bad], robot[bad], other[bad], strict=True):
+            record.unexpected.setdefault((self.names[a], self.names[b]), rows[i][1])

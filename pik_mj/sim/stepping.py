@@ -68,7 +68,8 @@ class Stepper:
         """Advance ``data`` by ``len(controls)`` steps, row ``k`` of ``controls``
         (``ncontrol``) the controls of step ``k``; ``data`` ends in the last
         step's state (its contacts, forces), warm-started from its own
-        ``qacc_warmstart``. Returns the final state (:data:`FULL`).
+        ``qacc_warmstart``. Returns the trajectory (``len(controls)``,
+        :data:`FULL`): the state after each step, the last one ``data``'s.
 
         Raises:
             SimulationUnstable: A step went unstable (the chunk replayed, see the
@@ -86,10 +87,10 @@ class Stepper:
             nstep=n, initial_warmstart=warm, state=out, sensordata=sensors,
         )  # fmt: skip
         if not self._finished(out[0], start[0, 0], n):
-            _, replayed = self.replay(start[0], warm[0], controls[0])
+            trajectory, replayed = self.replay(start[0], warm[0], controls[0])
             mujoco.mj_copyData(data, self.model, replayed)
-            return self.state(data)
-        return out[0, -1].copy()
+            return trajectory
+        return out[0].copy()
 
     def step_many(self, states: np.ndarray, controls: np.ndarray) -> np.ndarray:
         """The trajectories (n, k, nstate) of the states (n, nstate) under the

@@ -1,18 +1,20 @@
 """The stepping loop of a hold and a motion: :func:`track` steps a scene's physics
 while its servos track a reference; :func:`track_many` steps many at once.
 
-The physics runs in C, ``chunk`` steps per Python call (``mujoco.rollout``,
+The physics runs in C, a chunk of steps per Python call (``mujoco.rollout``,
 :class:`~pik_mj.sim.stepping.Stepper`), with the controls of every step from the
 reference (:class:`~pik_mj.sim.measures.Reference`): the same physics, step for
-step, as stepping one at a time. After each chunk the state is sampled
-(:class:`~pik_mj.sim.sampling.Sampler`: root pose, CoM, joints, watched geoms,
-contacts; every ``margin_every`` steps the ground contacts), so the checks see
-the run at ``chunk`` steps' rate (:data:`RECORD_EVERY` by default: 20 ms at a
-2 ms step); the figures are computed over the whole record at the end
-(:func:`pik_mj.sim.figures.figures`). A fall ends the run within
-:data:`FALL_CHECK_EVERY` samples of it (``stop_on_fall``). External wrenches
-act at their frames' origins, the lever arm to the body's CoM taken at each
-chunk's start.
+step, as stepping one at a time. A chunk runs on to the next check for a fall
+(:data:`FALL_CHECK_EVERY` rows; with external wrenches, one row: their lever
+arms to the bodies' CoM are taken at each chunk's start). The rollout returns
+the state after every step; the record keeps every ``record_every``-th
+(:data:`RECORD_EVERY` by default: 40 ms at a 2 ms step), read by the
+:class:`~pik_mj.sim.sampling.Sampler` (root pose, CoM, joints, watched geoms,
+contacts; every ``margin_every`` steps the ground contacts; the contacts of a
+chunk's rows vectorized at once), the reference moved to the rows' times
+(:meth:`~pik_mj.sim.measures.Reference.updates`). The figures are computed over
+the whole record at the end (:func:`pik_mj.sim.figures.figures`). A fall ends
+the run at the check after it (``stop_on_fall``).
 
 **Callbacks** (e.g. a recorder's ``hold_logger()``) get a
 :class:`~pik_mj.sim.measures.HoldSample` of the scene's data every ``every``
@@ -51,10 +53,10 @@ __all__ = [
     "track_many",
 ]
 
-RECORD_EVERY = 10
-"""Steps per chunk (and between samples) without callbacks."""
+RECORD_EVERY = 20
+"""Steps between the record's rows (samples)."""
 
-MARGIN_EVERY = 25
+MARGIN_EVERY = 40
 """Steps between evaluations of the CoM margin (a hull of the ground contacts)."""
 
 FALL_CHECK_EVERY = 10
@@ -120,6 +122,9 @@ class Run:
         self.fell = False
         self.so_far: RunningFigures | None = None  # the figures a callback sees
         self._checked = 0
+        self.settle_step = self.record_every  # the first row at or after SETTLE
+        while self.settle_step * scene.model.opt.timestep < SETTLE:
+            self.settle_step += self.record_every
         self._t_wall = time.perf_counter()
         reference.begin()
         d = scene.data
@@ -130,6 +135,7 @@ class Run:
         self._last = self.sampler.read(
             self.record, d.qpos, self.t0, reference.data, reference.waypoint, True
         )
+        self.sampler.flush(self.record)
 
     @property
     def done(self) -> bool:
@@ -152,13 +158,42 @@ class Run:
             xfrc_rows[:, body] += loads[:, None] * w
         return np.hstack([ctrl, xfrc_rows.reshape(len(t), -1)])
 
+    def chunk(self, every: int | None = None, long: bool = True) -> int:
+        """Steps of the next chunk: to the next row (and the next ``every``-th
+        step with callbacks); ``long`` (no ``every``): on to the row of the next
+        fall check, ending at the settle row (``SETTLE``) on the way. The chunks
+        end at the same rows and checks whatever their length."""
+        r = self.record_every
+        n = r - self.steps % r
+        if every is not None:
+            n = min(n, every - self.steps % every)
+        elif long:
+            n += max(FALL_CHECK_EVERY - (len(self.record) - self._checked) - 1, 0) * r
+            if self.steps < self.settle_step:
+                n = min(n, self.settle_step - self.steps)
+        return min(n, self.n_steps - self.steps)
+
+    def take(self, trajectory: np.ndarray) -> None:
+        """Record a chunk's trajectory (the states after each of its steps,
+        ``mjSTATE_FULLPHYSICS``): its rows at every ``record_every``-th step and
+        its last state."""
+        r, n = self.record_every, len(trajectory)
+        ends = list(range(r - self.steps % r, n + 1, r))
+        if not ends or ends[-1] != n:
+            ends.append(n)
+        times = (self.steps + np.array(ends)) * self.scene.model.opt.timestep
+        done = 0
+        for k, _ in zip(ends, self.reference.updates(times), strict=True):
+            self.sample(k - done, trajectory[k - 1])
+            done = k
+        self.sampler.flush(self.record)
+
     def sample(self, n: int, state: np.ndarray) -> None:
-        """Record the state (``mjSTATE_FULLPHYSICS``) after ``n`` more steps."""
+        """Record the state (``mjSTATE_FULLPHYSICS``) after ``n`` more steps, the
+        reference moved to that time."""
         m = self.scene.model
         self.steps += n
-        t = self.steps * m.opt.timestep
         reference = self.reference
-        reference.update(t)
         if self.steps % self.record_every and self.steps < self.n_steps:
             return  # between rows (a callback's chunk)
         before, self._recorded = self._recorded, self.steps
@@ -259,11 +294,11 @@ def track(
         if callbacks:
             _call(callbacks, run, criteria, frames)
         while not run.done:
-            chunk = record_every - run.steps % record_every
-            if callbacks:  # the rows where they fall without callbacks: the same figures
-                chunk = min(chunk, every - run.steps % every)
-            controls = run.controls(chunk, xfrc)
-            run.sample(len(controls), stepper.step(d, controls))
+            # With callbacks, the rows where they fall without: the same figures.
+            # With external wrenches, a row per chunk: their lever arms are the
+            # last row's.
+            chunk = run.chunk(every if callbacks else None, long=not xfrc)
+            run.take(stepper.step(d, run.controls(chunk, xfrc)))
             run.keep_settled(d)
             if callbacks and (run.steps % every == 0 or run.done):
                 _call(callbacks, run, criteria, frames)
@@ -334,12 +369,12 @@ def track_many(
     states = [stepper.state(_start(scene, run)) for run in runs]
     try:
         while active := [i for i, run in enumerate(runs) if not run.done]:
-            n = min(record_every, min(runs[i].n_steps - runs[i].steps for i in active))
+            n = min(runs[i].chunk() for i in active)
             controls = np.stack([runs[i].controls(n, False) for i in active])
             out = stepper.step_many(np.stack([states[i] for i in active]), controls)
             for k, i in enumerate(active):
                 states[i] = out[k, -1]
-                runs[i].sample(n, states[i])
+                runs[i].take(out[k])
                 if runs[i].settled is None and runs[i].steps * scene.model.opt.timestep >= SETTLE:
                     runs[i].settled = _integration(scene, states[i], controls[k, -1])
     finally:
