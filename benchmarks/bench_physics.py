@@ -21,8 +21,11 @@ saying so), built as a user builds it (``Robot.from_model``,
   batch checked equal to the single holds'.
 
 Each time is the median of ``--repeats`` runs, the runs of the compared pair
-alternating (a change of the machine's load hits both). Ratios are wall time
-over the raw ``mj_step`` time.
+alternating (a change of the machine's load hits both). Ratios are time over
+the raw ``mj_step`` time, by two clocks: the CPU time of this process (what a
+busy shared machine does not distort: the rollout steps in the calling thread)
+and the wall time; ``play - plan`` is the playback without its torque plan.
+The batch's times are wall times (``hold_many`` runs on threads).
 
 Run: ``MENAGERIE_ROOT=... python benchmarks/bench_physics.py [--repeats 5] [--batch 8]``
 """
@@ -41,17 +44,23 @@ from pik_mj.robot.loading import menagerie_available, menagerie_models
 from pik_mj.sim import Waypoints
 from pik_mj.sim.motion import MotionReference, velocity_limits
 from pik_mj.sim.path import Waypoint
+from pik_mj.sim.tracking import RECORD_EVERY
 
 ROBOTS = ("sample_humanoid", "dm_humanoid", "unitree_g1")
 HOLD = 3.0  # [s]
 
 
-def _raw(scene: Scene, q: np.ndarray, steps: int) -> float:
-    """Wall time [s] of ``mj_step(m, d, steps)`` from ``q`` at rest."""
+def _clock() -> np.ndarray:
+    """Wall and CPU (this process) time [s]."""
+    return np.array([time.perf_counter(), time.process_time()])
+
+
+def _raw(scene: Scene, q: np.ndarray, steps: int) -> np.ndarray:
+    """Wall and CPU time [s] of ``mj_step(m, d, steps)`` from ``q`` at rest."""
     scene.set_pose(q)
-    t = time.perf_counter()
+    t = _clock()
     mujoco.mj_step(scene.model, scene.data, steps)
-    return time.perf_counter() - t
+    return _clock() - t
 
 
 def _path(robot: Robot) -> Waypoints:
@@ -69,15 +78,20 @@ def _path(robot: Robot) -> Waypoints:
     return path
 
 
-def _timed(call, raw, repeats: int) -> tuple[float, float, object]:
-    """Median wall time of ``call()`` and of ``raw()``, alternating; the last result."""
+def _timed(call, raw, repeats: int) -> dict:
+    """Median wall and CPU times of ``call()`` and of ``raw()``, alternating, their
+    ratios, and the last result."""
     runs, raws, out = [], [], None
     for _ in range(repeats):
-        t = time.perf_counter()
+        t = _clock()
         out = call()
-        runs.append(time.perf_counter() - t)
+        runs.append(_clock() - t)
         raws.append(raw())
-    return float(np.median(runs)), float(np.median(raws)), out
+    (wall, cpu), (raw_wall, raw_cpu) = np.median(runs, axis=0), np.median(raws, axis=0)
+    return {
+        "wall": wall, "raw": raw_wall, "ratio": wall / raw_wall,
+        "cpu": cpu, "raw cpu": raw_cpu, "cpu ratio": cpu / raw_cpu, "report": out,
+    }  # fmt: skip
 
 
 def run_robot(name: str, repeats: int) -> dict:
@@ -89,26 +103,24 @@ def run_robot(name: str, repeats: int) -> dict:
     row: dict = {"robot": name, "nv": scene.model.nv}
     for label, every in (("hold", None), ("hold per step", 1)):
         options = {} if every is None else {"record_every": every}
-        wall, raw, report = _timed(
+        row[label] = _timed(
             lambda o=options: scene.hold(q0, HOLD, **o),
             lambda: _raw(scene, q0, n_hold),
             repeats,
         )
-        row[label] = {"wall": wall, "raw": raw, "ratio": wall / raw, "report": report}
     path = _path(robot)
     lower, upper = velocity_limits(scene)
-    t = time.perf_counter()
+    t = _clock()
     MotionReference(scene, path, lower, upper, speed=0.2)
-    row["plan"] = time.perf_counter() - t
+    row["plan"], row["plan cpu"] = _clock() - t
     for label, every in (("play", None), ("play per step", 1)):
         options = {} if every is None else {"record_every": every}
         first = scene.play(path, **options)
-        wall, raw, report = _timed(
+        row[label] = _timed(
             lambda o=options: scene.play(path, **o),
             lambda n=first.steps: _raw(scene, path.q[0], n),
             repeats,
         )
-        row[label] = {"wall": wall, "raw": raw, "ratio": wall / raw, "report": report}
     return row
 
 
@@ -121,7 +133,7 @@ def run_batch(name: str, n: int) -> dict:
     t = time.perf_counter()
     single = [scene.hold(q, HOLD) for q in qs]
     out = {"robot": name, "n": n, "single": time.perf_counter() - t}
-    out["raw"] = sum(_raw(scene, q0, round(HOLD / scene.model.opt.timestep)) for _ in qs)
+    out["raw"] = sum(_raw(scene, q0, round(HOLD / scene.model.opt.timestep))[0] for _ in qs)
     for threads in (1, 2):
         t = time.perf_counter()
         many = scene.hold_many(qs, HOLD, nthread=threads)
@@ -131,6 +143,26 @@ def run_batch(name: str, n: int) -> dict:
             for a, b in zip(single, many, strict=True)
         )
     return out
+
+
+def _table(rows: list[dict], clock: str, wall: bool) -> None:
+    """The times [ms] and ratios of ``rows`` by one clock."""
+    time_of, ratio, plan = ("wall", "ratio", "plan") if wall else ("cpu", "cpu ratio", "plan cpu")
+    raw = "raw" if wall else "raw cpu"
+    print(f"\n{clock}:")
+    print(
+        f"{'robot':16} {'nv':>3} {'hold [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} "
+        f"{'play [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} {'plan [ms]':>10} "
+        f"{'play - plan':>12}"
+    )
+    for r in rows:
+        h, hp, p, pp = r["hold"], r["hold per step"], r["play"], r["play per step"]
+        print(
+            f"{r['robot']:16} {r['nv']:>3} {1e3 * h[time_of]:>10.1f} {1e3 * h[raw]:>8.1f} "
+            f"{h[ratio]:>5.2f}x {hp[ratio]:>8.2f}x {1e3 * p[time_of]:>10.1f} "
+            f"{1e3 * p[raw]:>8.1f} {p[ratio]:>5.2f}x {pp[ratio]:>8.2f}x "
+            f"{1e3 * r[plan]:>10.1f} {(p[time_of] - r[plan]) / p[raw]:>11.2f}x"
+        )
 
 
 def _available(name: str) -> bool:
@@ -149,19 +181,9 @@ def main(argv: list[str] | None = None) -> dict:
             rows.append(run_robot(name, args.repeats))
         else:
             skipped.append(name)
-    print(
-        f"{'robot':16} {'nv':>3} {'hold [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} "
-        f"{'play [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} {'plan [ms]':>10}"
-    )
-    for r in rows:
-        h, hp, p, pp = r["hold"], r["hold per step"], r["play"], r["play per step"]
-        print(
-            f"{r['robot']:16} {r['nv']:>3} {1e3 * h['wall']:>10.1f} {1e3 * h['raw']:>8.1f} "
-            f"{h['ratio']:>5.2f}x {hp['ratio']:>8.2f}x {1e3 * p['wall']:>10.1f} "
-            f"{1e3 * p['raw']:>8.1f} {p['ratio']:>5.2f}x {pp['ratio']:>8.2f}x "
-            f"{1e3 * r['plan']:>10.1f}"
-        )
-    print("\nfigures, sampled every 10 steps | every step:")
+    for clock, wall in (("CPU time of this process", False), ("wall time", True)):
+        _table(rows, clock, wall)
+    print(f"\nfigures, sampled every {RECORD_EVERY} steps | every step:")
     for r in rows:
         for kind in ("hold", "play"):
             a, b = r[kind]["report"], r[f"{kind} per step"]["report"]

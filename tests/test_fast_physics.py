@@ -10,6 +10,7 @@ import pytest
 
 from pik_mj import Robot, Scene
 from pik_mj.cli import main as pik_mj
+from pik_mj.sim.tracking import RECORD_EVERY
 from pik_mj.sweep import Grid, Sweep, Worker
 from pik_mj.sweep.dataset import Dataset, make_row
 from pik_mj.sweep.replay import FIGURES, replay
@@ -40,10 +41,12 @@ def _poses(robot: Robot) -> list[np.ndarray]:
 
 
 def test_the_chunked_physics_is_the_per_step_physics(humanoid):
-    """A hold stepped 10 steps per rollout call ends in the very state of the same
-    hold stepped one step per call (the controls and warm start carried over):
-    sampling changes which states the checks see, not the physics; the figures
-    seen every step and every 10th differ by less than 0.1 mm."""
+    """A hold stepped by the rollout in chunks of a hundred and more steps ends in
+    the very state of the same hold stepped one step per call (the controls and
+    warm start carried over): sampling changes which states the checks see, not
+    the physics; the figures seen every step and every ``RECORD_EVERY``-th
+    differ by less than 0.1 mm, the margins (every ``MARGIN_EVERY``-th step in
+    both) are equal."""
     robot, scene = humanoid
     q = _poses(robot)[2]
     fast = scene.hold(q, 1.0)
@@ -54,6 +57,28 @@ def test_the_chunked_physics_is_the_per_step_physics(humanoid):
     assert fast.passed == slow.passed and fast.failures == slow.failures
     assert fast.drift <= slow.drift + 1e-12 and slow.drift - fast.drift < 1e-4
     assert abs(fast.slip - slow.slip) < 1e-4 and fast.min_margin == pytest.approx(slow.min_margin)
+
+
+def test_a_sampled_motion_and_fall_agree_with_the_per_step_checks(humanoid):
+    """The arm raised in physics (a motion) and the leaning pose's fall, checked
+    every ``RECORD_EVERY``-th step and every step: the same verdicts and
+    failures, the drift and the tracking error within 0.1 mm (rad), the margins
+    equal; the fall of the same kind within a row's time of the per-step one,
+    failing the same criteria."""
+    robot, scene = humanoid
+    poses = _poses(robot)
+    path = np.array(poses[:3])
+    fast, slow = scene.play(path), scene.play(path, record_every=1)
+    assert fast.passed == slow.passed and fast.failures == slow.failures
+    assert fast.steps == slow.steps and fast.drift <= slow.drift + 1e-12
+    assert slow.drift - fast.drift < 1e-4 and abs(fast.slip - slow.slip) < 1e-4
+    assert slow.tracking_error - fast.tracking_error < 1e-4
+    assert fast.min_margin == pytest.approx(slow.min_margin, abs=1e-12)
+    fast, slow = scene.hold(poses[3], 2.0), scene.hold(poses[3], 2.0, record_every=1)
+    assert fast.fell and slow.fell and fast.fall.kind == slow.fall.kind
+    # the runs stop at the check after the fall: their figures past it differ
+    assert [f.split()[0] for f in fast.failures] == [f.split()[0] for f in slow.failures]
+    assert 0 <= fast.fall.time - slow.fall.time <= RECORD_EVERY * scene.model.opt.timestep + 1e-9
 
 
 def test_holds_stepped_together_are_the_single_holds(humanoid):

@@ -201,9 +201,10 @@ def point_contacts(
     mu: float | None = None,
     pyramid: Literal["inscribed", "circumscribed"] = "inscribed",
 ) -> list[balance.ContactConstraint]:
-    """Point-contact constraints (friction pyramid about each normal) of contacts
-    (the same contact point, normal and friction: the same constraint object,
-    kept from an earlier call: a path's knots share their feet's contacts)."""
+    """Point-contact constraints (friction pyramid about each normal) of contacts,
+    as :func:`pik_mj.balance.contact_from_normal` (the same contact point, normal
+    and friction: the same constraint object, kept from an earlier call; the
+    same normal: the same frame)."""
     return [
         _point_contact(
             *c.position.tolist(), *c.normal.tolist(), c.friction if mu is None else mu, pyramid
@@ -217,9 +218,17 @@ def _point_contact(
     px: float, py: float, pz: float, nx: float, ny: float, nz: float, mu: float, pyramid: str
 ) -> balance.ContactConstraint:
     """:func:`pik_mj.balance.contact_from_normal` of a point contact, by value."""
-    return balance.contact_from_normal(
-        np.array([px, py, pz]), np.array([nx, ny, nz]), mu=mu, pyramid=pyramid
+    return balance.ContactConstraint(
+        p_WC=np.array([px, py, pz]), R_WC=_contact_frame(nx, ny, nz), mu=mu, pyramid=pyramid
     )
+
+
+@functools.lru_cache(maxsize=256)
+def _contact_frame(nx: float, ny: float, nz: float) -> np.ndarray:
+    """:func:`pik_mj.balance.plane_basis` of a contact normal, by value (read-only)."""
+    R = balance.plane_basis(np.array([nx, ny, nz]))
+    R.flags.writeable = False
+    return R
 
 
 def _scfr_margin(

@@ -1,18 +1,20 @@
 """The stepping loop of a hold and a motion: :func:`track` steps a scene's physics
 while its servos track a reference; :func:`track_many` steps many at once.
 
-The physics runs in C, ``chunk`` steps per Python call (``mujoco.rollout``,
+The physics runs in C, a chunk of steps per Python call (``mujoco.rollout``,
 :class:`~pik_mj.sim.stepping.Stepper`), with the controls of every step from the
 reference (:class:`~pik_mj.sim.measures.Reference`): the same physics, step for
-step, as stepping one at a time. After each chunk the state is sampled
-(:class:`~pik_mj.sim.sampling.Sampler`: root pose, CoM, joints, watched geoms,
-contacts; every ``margin_every`` steps the ground contacts), so the checks see
-the run at ``chunk`` steps' rate (:data:`RECORD_EVERY` by default: 20 ms at a
-2 ms step); the figures are computed over the whole record at the end
-(:func:`pik_mj.sim.figures.figures`). A fall ends the run within
-:data:`FALL_CHECK_EVERY` samples of it (``stop_on_fall``). External wrenches
-act at their frames' origins, the lever arm to the body's CoM taken at each
-chunk's start.
+step, as stepping one at a time. A chunk runs on to the next check for a fall
+(:data:`FALL_CHECK_EVERY` rows; with external wrenches, one row: their lever
+arms to the bodies' CoM are taken at each chunk's start). The rollout returns
+the state after every step; the record keeps every ``record_every``-th
+(:data:`RECORD_EVERY` by default: 40 ms at a 2 ms step), read by the
+:class:`~pik_mj.sim.sampling.Sampler` (root pose, CoM, joints, watched geoms,
+contacts; every ``margin_every`` steps the ground contacts; the contacts of a
+chunk's rows vectorized at once), the reference moved to the rows' times
+(:meth:`~pik_mj.sim.measures.Reference.updates`). The figures are computed over
+the whole record at the end (:func:`pik_mj.sim.figures.figures`). A fall ends
+the run at the check after it (``stop_on_fall``).
 
 **Callbacks** (e.g. a recorder's ``hold_logger()``) get a
 :class:`~pik_mj.sim.measures.HoldSample` of the scene's data every ``every``
@@ -51,10 +53,10 @@ __all__ = [
     "track_many",
 ]
 
-RECORD_EVERY = 10
-"""Steps per chunk (and between samples) without callbacks."""
+RECORD_EVERY = 20
+"""Steps between the record's rows (samples)."""
 
-MARGIN_EVERY = 25
+MARGIN_EVERY = 40
 """Steps between evaluations of the CoM margin (a hull of the ground contacts)."""
 
 FALL_CHECK_EVERY = 10
