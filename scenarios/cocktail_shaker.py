@@ -31,6 +31,7 @@ from pik_mj import (
     Waypoints,
     inverse_kinematics,
 )
+from pik_mj.robot.collisions import self_collision_pairs
 from pik_mj.scenario import (
     DEFAULT_HOLD,
     DEFAULT_SPEED,
@@ -45,7 +46,7 @@ from pik_mj.scenario import (
     report,
     run_options,
 )
-from pik_mj.tasks.collision import collision_pairs
+from pik_mj.tasks.collision import GeomPair
 
 NAME = "cocktail_shaker"
 SHAKER = 0.16  # [arm lengths] between the hands along the shaker axis
@@ -122,6 +123,7 @@ def run(
     L = stature.arm_lengths["larm"]
     start = shoulders + L * stature.direction(START)
     path = Waypoints(robot, "left hand to start")
+    avoid = arms_apart(robot, shaker)
     stage.solve(
         inverse_kinematics,
         "left hand to start",
@@ -131,8 +133,8 @@ def run(
         limbs="larm",
         move_targets=shaker.left.frame,
         rotation_axis=None,
+        collision_avoidance=avoid,
     )
-    avoid = arms_apart(robot, shaker)
     swing = [
         L * stature.direction([SWING[0], 0.0, 0.0]),
         L * stature.direction([0.0, SWING[1], 0.0]),
@@ -150,16 +152,23 @@ def run(
 
 
 def arms_apart(robot: Robot, shaker: Shaker) -> CollisionAvoidanceTask:
-    """The arms keep ``ORANGE`` apart (the hands' bodies, holding the shaker together,
-    excepted): the right hand's first move to the shaker passes the left hand."""
-    arms = [b for a in ARMS for b in robot.bodies(a)]
+    """The arms keep ``ORANGE`` from each other and from the body (every pair of the
+    robot's own geoms the arms' joints move): the right hand's first move to the
+    shaker passes the left hand, and a hand brought to the middle does not press its
+    shoulder into the torso. Not watched: the hands' bodies, holding the shaker
+    together, and pairs of one arm's own links (a wrist bending next to its forearm
+    is the arm's own business)."""
     m = robot.model
+    side = {b: a for a in ARMS for b in robot.bodies(a)}
+    dofs = [int(m.joint(j).dofadr[0]) for a in ARMS for j in robot.limb(a).joints]
     hands = {shaker.left.body, shaker.right.body}
-    pairs = [
-        p
-        for p in collision_pairs(m, robot.data, arms)
-        if {m.body(m.geom_bodyid[p.geom1]).name, m.body(m.geom_bodyid[p.geom2]).name} != hands
-    ]
+
+    def watched(p: GeomPair) -> bool:
+        bodies = {m.body(m.geom_bodyid[g]).name for g in (p.geom1, p.geom2)}
+        arms = {side.get(b) for b in bodies}
+        return bodies != hands and not (len(arms) == 1 and None not in arms)
+
+    pairs = [p for p in self_collision_pairs(robot, dofs) if watched(p)]
     return CollisionAvoidanceTask(robot.configuration, pairs, yellow=YELLOW, orange=ORANGE)
 
 

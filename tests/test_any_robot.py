@@ -27,6 +27,7 @@ from pik_mj.robot import GROUND_TOLERANCE, STANDING_KEYFRAME
 from pik_mj.robot.couplings import find_couplings
 from pik_mj.robot.description import load_description
 from pik_mj.robot.ground import floor_gap
+from pik_mj.scenario import Stature
 
 IDENTITY = np.array([1.0, 0.0, 0.0, 0.0])
 
@@ -383,3 +384,35 @@ def test_description_gives_the_limbs_to_the_cli(tmp_path, capsys):
     )  # a usage error, before any work: what is missing and how to describe it
     err = capsys.readouterr().err
     assert "has no limb larm" in err and "--description PATH" in err
+
+
+# ------------------------------------------------------------- hand's axes
+@pytest.mark.parametrize("quat", ["1 0 0 0", "0.5 0.5 0.5 0.5", "0 0.7071068 0 0.7071068"])
+def test_grip_axis_from_the_forearm_not_the_wrist_or_the_hand_geom_frame(quat):
+    """The right hand ends in a wrist of two joints whose last anchor sits 5 cm
+    to the front and side of the hand's centre (an offset wrist yaw), the hand
+    frame is a box geom whose axes are turned as a mesh's principal axes would be
+    (``quat``), no site. The forearm hangs: the grip axis (a bar in the fist) is
+    forward, the palm faces the body's middle, whatever the geom's axes, because the
+    forearm is read from the elbow, not from the wrist's anchor next to the hand."""
+    hand = f"""<body name="rarm_hand" pos="0 0 -0.15">
+            <joint name="rarm_wrist_p" axis="0 1 0" range="-2.5 2.5"/>
+            <geom type="box" size="0.01 0.01 0.01" pos="0 0 -0.01" mass="0.05"/>
+            <body name="rarm_palm" pos="0 0 -0.02">
+              <joint name="rarm_wrist_y" axis="0 0 1" pos="0.03 0.04 -0.035" range="-2.5 2.5"/>
+              <geom type="box" size="0.02 0.03 0.04" pos="0 0 -0.04" quat="{quat}" mass="0.1"/>
+            </body>
+          </body>"""
+    mjcf = humanoid(keyframe=False)
+    start = mjcf.index('<body name="rarm_hand"')
+    end = mjcf.index("</body>", mjcf.index('<site name="rarm_end"')) + len("</body>")
+    mjcf = mjcf[:start] + hand + mjcf[end:]
+    robot = Robot.from_model(mujoco.MjSpec.from_string(mjcf))
+    assert robot.limb("rarm").joints[-1] == "rarm_wrist_y"
+    stature = Stature.of(robot)
+    right = stature.hands["rarm"]
+    assert right.frame_type == "geom" and right.body == "rarm_palm"
+    X = right.pose(robot)
+    forward, left = stature.R_WR[:, 0], stature.R_WR[:, 1]
+    assert right.axis(X, right.grip) @ forward > 0.99
+    assert right.axis(X, right.palm) @ left > 0.99  # the right palm faces left, inwards

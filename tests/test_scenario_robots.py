@@ -33,26 +33,15 @@ REFUSED = {
 """The pairs refused, and the reason their refusal gives."""
 
 FAILING: dict[tuple[str, str], str] = {
-    ("kettle", "booster_t1"): "the servos cannot hold the grasp pose: its right shoulder roll "
-    "needs more torque at rest than its actuator's limit",
-    ("obstacle_reach", "unitree_h1"): "the reaches do not converge: the arm of 4 joints, ending "
-    "at the elbow, does not reach the target past the box (the iterates 14 mm inside it)",
-    ("obstacle_reach", "booster_t1"): "the reaches do not converge and the box, placed from "
-    "the arm's length, is off the straight way (35 mm clear without avoidance)",
     ("wall_contact", "unitree_h1"): "the lean does not converge: the hand of the 4-joint arm "
     "(a ball at the elbow link) on the wall, the CoM does not get past the toes",
     ("wall_contact", "booster_t1"): "the final pose does not hold: with the point contact of "
     "the 4-joint arm's hand the static-equilibrium LP is infeasible, and the right hand "
     "touches geom H2 at the hold's start",
-    ("obstacle_reach", "unitree_g1"): "the final pose does not hold: the 0.5 s hold drifts "
-    "16.7 mm, slips 7.1 mm and the CoM margin falls to -20 mm",
 }
 """The pairs that run and fail their checks, with why."""
 
-SLOW_FAILING = {
-    ("cocktail_shaker", "unitree_g1"): "the hand frame of G1's mesh hand has its grip axis "
-    "forward: the right hand's target lies ahead of the left hand, 0.5 m off (not run: 3 min)",
-}
+SLOW_FAILING: dict[tuple[str, str], str] = {}
 """Failing pairs too slow to run in the suite (``bench_robots.py --scenarios`` runs them)."""
 
 

@@ -239,10 +239,11 @@ def wall_scene(stature: Stature) -> mujoco.MjSpec:
 
 
 # --------------------------------------------------------------------------- obstacle
-OBSTACLE_FROM_MIDDLE = (0.0, -0.05, -0.125)
+OBSTACLE_FROM_MIDDLE = (0.0, 0.15, 0.0)
 """Where the obstacle's centre is from the middle of the hand's straight way to its
-target, in arm lengths, in the robot's frame: off that way, so that the way round it
-is one side of it, not a saddle."""
+target, in arm lengths, in the robot's frame with y outwards (away from the body's
+middle plane, on the arm's side): off that way, so that the way round it is its inner
+side, between the box and the body, not a saddle."""
 
 
 def obstacle_scene(
@@ -250,16 +251,17 @@ def obstacle_scene(
 ) -> mujoco.MjSpec:
     """A floor and a box (geom ``obstacle``) across the way of ``arm``'s hand from
     ``p_hand`` to ``p_target`` [m]: centred :data:`OBSTACLE_FROM_MIDDLE` arm lengths
-    from the middle of that segment (below it: the way over the box is shorter than
-    the way under it), thin along the robot's forward axis (0.1 L), 0.34 L wide and
+    from the middle of that segment (outwards: the way inside it, along the body, is
+    the short one), thin along the robot's forward axis (0.1 L), 0.34 L wide and
     0.17 L high, ``L`` the arm's length."""
     spec = floor_environment("obstacle_scene")
     L = stature.arm_lengths[arm]
     middle = 0.5 * (np.asarray(p_hand) + np.asarray(p_target))
+    x, y, z = OBSTACLE_FROM_MIDDLE
     add_box(
         spec,
         "obstacle",
-        middle + L * stature.direction(OBSTACLE_FROM_MIDDLE),
+        middle + L * stature.direction((x, stature.outward(arm) * y, z)),
         (0.05 * L, 0.17 * L, 0.085 * L),
         quat=yaw_quat(yaw_of(stature.R_WR)),
         rgba=(0.9, 0.5, 0.2, 1.0),

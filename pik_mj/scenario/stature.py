@@ -37,6 +37,8 @@ from pik_mj.robot import Robot
 from pik_mj.robot.ground import collision_geoms, sole_polygons
 
 AXES = ("x", "y", "z")
+FOREARM = 0.25
+"""The shortest forearm, as a share of the shoulder–hand distance (:func:`forearm`)."""
 
 
 @dataclass(frozen=True)
@@ -233,21 +235,35 @@ def hand_geoms(model: mujoco.MjModel, frame: str, frame_type: str, body: str) ->
     return collision_geoms(model, [model.body(body).id]).tolist()
 
 
+def forearm(robot: Robot, arm: str, p_hand: np.ndarray) -> np.ndarray:
+    """The forearm's direction [world] at the current pose: from the last of ``arm``'s
+    joint anchors at least :data:`FOREARM` of the shoulder–hand distance from the hand
+    frame at ``p_hand`` [m] to it. Wrist joints next to the hand frame (a wrist of
+    three joints, a hand frame on the wrist) are passed over: their offsets say
+    nothing of where the forearm points."""
+    reach = np.linalg.norm(p_hand - shoulder(robot, arm))
+    for joint in reversed(robot.limb(arm).joints):
+        f = p_hand - robot.data.joint(joint).xanchor
+        if np.linalg.norm(f) >= FOREARM * reach:
+            return f
+    return p_hand - shoulder(robot, arm)
+
+
 def hand(robot: Robot, arm: str, R_WR: np.ndarray) -> Hand:
     """``arm``'s hand (:class:`Hand`) at the robot's current pose, ``R_WR`` the robot's
-    frame. The forearm ``f`` runs from the arm's last joint anchor to the hand frame; a
-    bar held in the fist runs along ``f × y_R`` (``y_R`` the robot's left: forward for a
-    hanging forearm, up for one held forward). Of the hand frame's axes, the one
-    nearest ``f`` is neither grip nor palm; of the other two, the one nearest ``f ×
-    y_R`` grips, the other is the palm's normal, signed inwards."""
+    frame. The forearm ``f`` (:func:`forearm`) runs to the hand frame; a bar held in
+    the fist runs along ``f × y_R`` (``y_R`` the robot's left: forward for a hanging
+    forearm, up for one held forward). Of the hand frame's axes, the one nearest ``f``
+    is neither grip nor palm; of the other two, the one nearest ``f × y_R`` grips, the
+    other is the palm's normal, signed inwards."""
     name, kind, body = hand_frame(robot, arm)
     X_WH = robot.frame_pose(name, kind)
     R_WH = X_WH.rotation().as_matrix()
-    f_W = X_WH.translation() - robot.data.joint(robot.limb(arm).joints[-1]).xanchor
+    f_W = forearm(robot, arm, X_WH.translation())
     side = 1.0 if (R_WR.T @ (X_WH.translation() - robot.root_pose()[0]))[1] >= 0 else -1.0
-    forearm, bar = R_WH.T @ f_W, R_WH.T @ np.cross(f_W, R_WR[:, 1])
+    f_H, bar = R_WH.T @ f_W, R_WH.T @ np.cross(f_W, R_WR[:, 1])
     inward = R_WH.T @ (-side * R_WR[:, 1])
-    rest = [k for k in range(3) if k != int(np.argmax(np.abs(forearm)))]
+    rest = [k for k in range(3) if k != int(np.argmax(np.abs(f_H)))]
     grip = rest[int(np.argmax(np.abs(bar[rest])))]
     palm = next(k for k in rest if k != grip)
     m, d = robot.model, robot.data
