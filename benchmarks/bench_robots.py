@@ -78,7 +78,7 @@ from pik_mj.cli import load_scenario
 from pik_mj.ik import fullbody_inverse_kinematics
 from pik_mj.robot.ground import foot_geoms, geom_heights, sole_polygons, subtree_bodies
 from pik_mj.robot.loading import menagerie_available, menagerie_models
-from pik_mj.scenario import DEFAULT_HOLD, DEFAULT_SPEED, RobotRefused
+from pik_mj.scenario import DEFAULT_HOLD, DEFAULT_SPEED, RobotRefused, ScenarioResult
 from pik_mj.tasks.collision import CollisionAvoidanceTask, collision_pairs, moving_pairs
 from pik_mj.tasks.support_polygon import SupportPolygonTask
 
@@ -270,8 +270,27 @@ def run_scenario(name: str, robot: str, hold: float, speed: float) -> tuple[str,
     with tempfile.TemporaryDirectory() as folder:
         with Recorder.to_file(Path(folder) / f"{name}.rrd", name) as recorder:
             result = module.run(recorder, model=model, robot=built, **options)
-    failed = [m.removeprefix("[FAILED] ")[:90] for m in result.messages if m.startswith("[FAILED]")]
-    return ("passed" if result.passed else "failed"), "; ".join(failed), time.perf_counter() - t0
+    return ("passed" if result.passed else "failed"), why_failed(result), time.perf_counter() - t0
+
+
+def why_failed(result: ScenarioResult) -> str:
+    """The failed checks of ``result``, each by its label; a failed motion or hold
+    with its failures (a fall, a drift, the servos' unstable mode, a drive's
+    shortfall), each cut at 120 characters."""
+    out = []
+    for message in result.messages:
+        if not message.startswith("[FAILED]"):
+            continue
+        text = message.removeprefix("[FAILED] ")
+        label = text.split(":", 1)[0]
+        motion = result.motions.get(label.removeprefix("motion ").strip("'"))
+        hold = (result.balance or {}).get("hold") if label == "simulation" else None
+        if motion is None and hold is None:
+            out.append(text[:120])
+            continue
+        failures = motion.failures if motion is not None else hold.get("failures", [])
+        out.append(label + "".join(f" [{f[:120]}]" for f in failures))
+    return "; ".join(out)
 
 
 def scenario_matrix(robots: list[str], hold: float, speed: float, quiet: bool) -> dict:

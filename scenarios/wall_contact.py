@@ -4,7 +4,9 @@ A wall is built before the robot (:func:`pik_mj.scenario.scenes.wall_scene`): it
 face 0.75 L ahead of the shoulders, L the arm's length. The right palm is put flat
 on the wall :data:`HAND_ABOVE_SHOULDER` arm lengths above the shoulder, straight
 ahead of it (the palm's normal into the wall, the rotation about it free; the hand:
-:class:`pik_mj.scenario.Hand`); the feet stay. The balance task of level 1 is the
+:class:`pik_mj.scenario.Hand`; an arm of fewer than :data:`FLAT_JOINTS` joints, which
+cannot set the palm's normal besides its position, touches the wall at a point, the
+hand's orientation free); the feet stay. The balance task of level 1 is the
 static centroid feasible region of the three contacts (two soles on the floor, μ =
 0.8; the palm on the wall, μ = 0.5), and a lower level asks the CoM to lean
 :data:`LEAN` of the way from the toes to the wall — outside the feet's support
@@ -66,6 +68,7 @@ FEET = ("rleg", "lleg")
 ROBOT = RobotOption("sample_humanoid", (ARM, *FEET), floating_base=True)
 HAND_ABOVE_SHOULDER = 0.1  # [arm lengths] the palm's centre above the shoulder
 LEAN = 0.35  # the CoM's target past the toes: this fraction of the way to the wall
+LEAN_MET = 0.5  # the lean is met within this share of its way past the toes
 FLAT_JOINTS = 5  # an arm sets its hand's position and palm normal (5 numbers) with 5 joints
 TOUCHING = 1e-3  # [m] hand-wall distance at which the palm is on the wall
 # The first trust radius of 1: the palm's solve then ends with the forearm clear of
@@ -122,7 +125,7 @@ class WallSupport:
             :data:`FLAT_JOINTS` joints); else the hand touches it at a point, its
             orientation free, the hand frame the radius of the hand's ball
             (:attr:`Hand.radius`) off the wall.
-        p_palm: The palm's centre on the wall [m], below the shoulder.
+        p_palm: The palm's centre on the wall [m], above the shoulder.
         p_hand: The hand frame's target [m]: the palm's offset off the wall.
         R_hand: The hand's orientation: the palm's normal into the wall (matched
             when ``flat``).
@@ -277,16 +280,20 @@ def lean_on_wall(
     stage: Stage, support: WallSupport, path: Waypoints
 ) -> tuple[ScfrTask, SolveResult]:
     """The palm kept on the wall, the CoM in the SCFR of the three contacts (level 1)
-    and leaning past the toes (a lower level, met within half its way past the toes);
-    the rest of the robot kept off the wall (:func:`wall_avoidance`) and the arm off the
-    body (:func:`body_avoidance`). Returns the SCFR task and the solve's result."""
+    and leaning past the toes (a lower level, met within :data:`LEAN_MET` of its way
+    past the toes); the rest of the robot kept off the wall (:func:`wall_avoidance`)
+    and the arm off the body (:func:`body_avoidance`). Returns the SCFR task and the
+    solve's result."""
     robot, hand = stage.robot, support.hand
     scfr_task = ScfrTask(
         robot.configuration, support.contacts, root_body=robot.root_body, margin=0.01
     )
     past_toes = Stature.of(robot).to_robot(support.lean)[0] - support.toes
     lean_task = CentroidTask(
-        robot.configuration, support.lean, root_body=robot.root_body, centroid_thre=past_toes / 2
+        robot.configuration,
+        support.lean,
+        root_body=robot.root_body,
+        centroid_thre=LEAN_MET * past_toes,
     )
     res = stage.solve(
         fullbody_inverse_kinematics,

@@ -14,7 +14,7 @@ from local_menagerie import requires_menagerie
 from test_any_robot import humanoid
 
 from pik_mj import Robot, Scene, Waypoints, fullbody_inverse_kinematics
-from pik_mj.sim.drives import torque_bounds
+from pik_mj.sim.drives import SERVO_GIVE, servo_bounds, torque_bounds
 from pik_mj.sim.effort import DRIVE_RESERVE
 from pik_mj.sim.motion import MotionReference, velocity_limits
 from pik_mj.sim.path import Waypoint
@@ -55,6 +55,26 @@ def test_torque_bounds_are_the_clamps_mujoco_applies():
         np.testing.assert_allclose(d.qfrc_actuator, bound, rtol=1e-12)
     np.testing.assert_allclose(lo[0], [40 * (-0.5 - 0.2), -10.0, -3.0])
     np.testing.assert_allclose(hi[0], [40 * (0.5 - 0.2), 10.0, 3.0])
+
+
+def test_a_servo_at_its_control_range_end_holds_by_giving_way():
+    """Joint ``a`` at its control range's end (0.5): there its servo gives no torque
+    towards the inside of the range, but with the joint :data:`SERVO_GIVE` further
+    in it gives ``kp · SERVO_GIVE`` (MuJoCo's ``qfrc_actuator`` there is the
+    reference); the force and joint ranges of ``b`` and ``c`` stay as they are."""
+    m = mujoco.MjModel.from_xml_string(PENDULA)
+    d = mujoco.MjData(m)
+    q = np.array([0.5, -0.1, 0.3])
+    lo, hi = torque_bounds(m, np.arange(3), q[None])
+    assert hi[0, 0] == pytest.approx(0.0, abs=1e-12)
+    lo_s, hi_s = servo_bounds(m, np.arange(3), q[None])
+    for ctrl, sign, bound in ((1e6, -1.0, hi_s[0, 0]), (-1e6, 1.0, lo_s[0, 0])):
+        d.qpos[:] = q + sign * SERVO_GIVE
+        d.ctrl[:] = ctrl
+        mujoco.mj_forward(m, d)
+        assert d.qfrc_actuator[0] == pytest.approx(bound, rel=1e-12)
+    assert hi_s[0, 0] == pytest.approx(40 * SERVO_GIVE)
+    np.testing.assert_allclose([lo_s[0, 1:], hi_s[0, 1:]], [lo[0, 1:], hi[0, 1:]])
 
 
 def _robot(extra_joint: str = "", actuators: str = "") -> Robot:

@@ -14,7 +14,14 @@ the scene added, :mod:`pik_mj.sim.servos`) whose joint torque at control ``u`` i
 much torque it has near a range end), the actuator force to ``forcerange``
 (``forcelimited``) and the sum of the actuator forces on the joint to the
 joint's ``actuatorfrcrange`` (``jnt_actfrclimited``). The bounds
-``[τ_min, τ_max]`` of :func:`torque_bounds` are the intersection. A servo the
+``[τ_min, τ_max]`` of :func:`torque_bounds` are the intersection.
+
+A position servo whose control is at its range's end (a pose at the joint's range
+end, the control range the joint's) gives a torque only as its joint gives way: its
+torque grows by its stiffness ``-γ² b_1`` per unit the joint sags from the control's
+end. What a servo can hold is therefore judged over the poses within
+:data:`SERVO_GIVE` of the pose (:func:`servo_bounds`): the torque a drive gives there,
+with the joint that much off its target, which the tracking tolerances accept. A servo the
 scene adds on a joint the robot drives with a motor (``<motor>``) gets that
 motor's torque range (:func:`motor_torque_range`) as its force range: it
 stands for the robot's drive, not for a stronger one.
@@ -29,7 +36,18 @@ import numpy as np
 
 from pik_mj.sim.servos import position_feedback
 
-__all__ = ["DriveShortfall", "motor_torque_range", "shortfalls", "torque_bounds"]
+__all__ = [
+    "SERVO_GIVE",
+    "DriveShortfall",
+    "motor_torque_range",
+    "servo_bounds",
+    "shortfalls",
+    "torque_bounds",
+]
+
+SERVO_GIVE = 0.01
+"""How far [rad or m] a servo joint may give way from its pose to deliver a torque
+(:func:`servo_bounds`)."""
 
 
 def motor_torque_range(model: mujoco.MjModel, joint: int) -> tuple[float, float] | None:
@@ -95,6 +113,26 @@ def torque_bounds(
     lo = np.where(joint_limited, np.maximum(lo, model.jnt_actfrcrange[joints, 0]), lo)
     hi = np.where(joint_limited, np.minimum(hi, model.jnt_actfrcrange[joints, 1]), hi)
     return lo, hi
+
+
+def servo_bounds(
+    model: mujoco.MjModel, actuators: np.ndarray, qpos: np.ndarray, give: float = SERVO_GIVE
+) -> tuple[np.ndarray, np.ndarray]:
+    """Torque bounds ``(τ_min, τ_max)`` [N·m or N] (k, len(actuators)) the servo
+    ``actuators`` reach at rest when their joints give way by up to ``give`` [rad or
+    m] from the configurations ``qpos`` (k, nq): the widest of :func:`torque_bounds`
+    at ``q_j ± give`` on each servo joint (module docstring: a servo at its control
+    range's end holds by sagging)."""
+    a = np.asarray(actuators, dtype=int)
+    qpos = np.atleast_2d(np.asarray(qpos, float))
+    adr = model.jnt_qposadr[model.actuator_trnid[a, 0]]
+    ends = []
+    for sign in (-1.0, 1.0):
+        moved = qpos.copy()
+        moved[:, adr] += sign * give
+        ends.append(torque_bounds(model, a, moved))
+    (lo_minus, hi_minus), (lo_plus, hi_plus) = ends
+    return np.minimum(lo_minus, lo_plus), np.maximum(hi_minus, hi_plus)
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,8 @@ from MuJoCo's inverse dynamics (``mj_inverse`` at ``q̈ = q'`` and at
 part of a generalized force (the least-norm contact forces that apply it,
 without their limits: the moving part is small beside the weight). With the
 drive's bounds ``[τ_min, τ_max]`` at the knot's pose
-(:func:`pik_mj.sim.drives.torque_bounds`: force and control ranges, the gains
-of a position actuator near a range end):
+(:func:`pik_mj.sim.drives.servo_bounds`: force and control ranges, the gains
+of a position actuator near a range end, the joint giving way a little):
 
 * ``τ_s`` outside the bounds at a knot: the drives cannot hold the path even
   quasi-statically; the joint, its torque and bound are a
@@ -47,7 +47,7 @@ import numpy as np
 
 from pik_mj.dynamics import frame_jacobian, joint_torques
 from pik_mj.frames import Frame
-from pik_mj.sim.drives import DriveShortfall, shortfalls, torque_bounds
+from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
 from pik_mj.sim.timing import Timing
 from pik_mj.sim.torques import holding_torques
@@ -201,11 +201,12 @@ class _Knots:
         )
 
     def bounds(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Torque bounds (k, servos) of the servo joints at rest at the poses ``qs``."""
+        """Torque bounds (k, servos) of the servo joints at rest at the poses ``qs``
+        (:func:`~pik_mj.sim.drives.servo_bounds`)."""
         model, nq = self.scene.model, self.scene.robot_nq
         qpos = np.tile(model.qpos0, (len(qs), 1))
         qpos[:, :nq] = qs
-        return torque_bounds(model, self.actuators, qpos)
+        return servo_bounds(model, self.actuators, qpos)
 
 
 def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray, rates) -> np.ndarray:

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pik_mj.dynamics import contact_wrenches, joint_torques, root_wrench
-from pik_mj.sim.drives import DriveShortfall, shortfalls, torque_bounds
+from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
 from pik_mj.sim.static import point_contacts
 
@@ -100,8 +100,8 @@ def holding_torques(
 
 
 def drive_shortfalls(scene: Physics, q: np.ndarray, tau: np.ndarray) -> list[DriveShortfall]:
-    """The servo joints whose drive cannot give ``tau`` (nv,) at rest at ``q``
-    (:func:`pik_mj.sim.drives.torque_bounds`)."""
+    """The servo joints whose drive cannot give ``tau`` (nv,) at rest at ``q``, the
+    joint giving way a little (:func:`pik_mj.sim.drives.servo_bounds`)."""
     actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], dtype=int)
-    lo, hi = torque_bounds(scene.model, actuators, scene.qpos_of(q))
+    lo, hi = servo_bounds(scene.model, actuators, scene.qpos_of(q))
     return shortfalls(list(scene.servo_joints), tau[scene.servo_dofs], lo, hi, ["the held pose"])
