@@ -279,11 +279,11 @@ def palm_to_wall(stage: Stage, support: WallSupport, path: Waypoints) -> SolveRe
 def lean_on_wall(
     stage: Stage, support: WallSupport, path: Waypoints
 ) -> tuple[ScfrTask, SolveResult]:
-    """The palm kept on the wall, the CoM in the SCFR of the three contacts (level 1)
-    and leaning past the toes (a lower level, met within :data:`LEAN_MET` of its way
-    past the toes); the rest of the robot kept off the wall (:func:`wall_avoidance`)
-    and the arm off the body (:func:`body_avoidance`). Returns the SCFR task and the
-    solve's result."""
+    """The palm kept on the wall, every joint free, the CoM in the SCFR of the three
+    contacts (level 1) and leaning past the toes (a lower level, met within
+    :data:`LEAN_MET` of its way past the toes); the rest of the robot kept off the wall
+    (:func:`wall_avoidance`) and the arm off the body (:func:`body_avoidance`). Returns
+    the SCFR task and the solve's result."""
     robot, hand = stage.robot, support.hand
     scfr_task = ScfrTask(
         robot.configuration, support.contacts, root_body=robot.root_body, margin=0.01
@@ -303,6 +303,7 @@ def lean_on_wall(
         total=100,
         start=False,
         limbs=[ARM],
+        joints="all",  # the other arm too: held, it swings into the wall as the robot leans
         move_targets=[hand.frame],
         rotation_axis=support.rotation_axis,
         balance=[scfr_task],
