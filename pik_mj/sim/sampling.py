@@ -1,18 +1,20 @@
 """What the checks of a hold or a motion read from the physics, sample by sample:
 :class:`Sampler` writes one :class:`Record` row per physics state.
 
-A sample is the state at the end of a chunk of steps (:mod:`pik_mj.sim.stepping`),
+A sample is a state of a rollout's trajectory (:mod:`pik_mj.sim.stepping`),
 its kinematics, centre of mass and contacts recomputed on the sampler's own
 ``MjData`` (``mj_kinematics``, ``mj_comPos``, ``mj_collision``): the same figures
 whatever ``MjData`` stepped it (one of a rollout pool's threads, or the
-scene's). A row holds the time, the root body's pose, the CoM, the servo
-joints' positions, the positions of the watched geoms (the allowed and planned
-contacts' robot geoms, whose slip is measured) and which of them touch, the
-reference's values at the same time, the task frames' positions, and the
-unexpected contacts by the time they began (read from MuJoCo's contact arrays
-at once: a contact with ``dist <= 0`` of a robot geom). Every
+scene's). :meth:`Sampler.read` keeps a row's contact arrays and
+:meth:`Sampler.flush` classifies those of all the rows since the last flush in
+one vectorized pass (a chunk's rows at once). A row holds the time, the root
+body's pose, the CoM, the servo joints' positions, the positions of the
+watched geoms (the allowed and planned contacts' robot geoms, whose slip is
+measured) and which of them touch, the reference's values at the same time,
+the task frames' positions, and the unexpected contacts by the time they
+began (a contact with ``dist <= 0`` of a robot geom). Every
 ``margin_every``-th row also keeps the ground contact points within the
-scene's contact tolerance (:meth:`~pik_mj.sim.physics.Physics.ground_points`)
+scene's contact tolerance (:meth:`~pik_mj.sim.physics.Physics.ground_contacts`)
 for the CoM margin.
 """
 

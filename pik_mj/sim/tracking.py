@@ -272,8 +272,10 @@ def track(
     frames: Sequence[Frame] = (),
 ) -> Tracked:
     """Step the physics for ``duration`` [s] while the servos track ``reference``
-    (module docstring), in chunks of ``record_every`` steps (``every`` with
-    callbacks); the scene's data ends in the last state.
+    (module docstring), in chunks that end at a fall check (at every
+    ``every``-th step with callbacks; at every row with external wrenches); the
+    record's rows every ``record_every`` steps; the scene's data ends in the
+    last state.
 
     A contact is unexpected unless its robot geom is in ``allowed`` (touching
     the environment anywhere), or the pair is in ``planned_pairs`` (environment
