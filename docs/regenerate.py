@@ -17,7 +17,7 @@ out/runs/NAME.rrd``, then
     python docs/regenerate.py kettle walk_forward # some
     python docs/regenerate.py --no-images         # figures only
     python docs/regenerate.py --reuse             # from the runs in out/runs (pictures)
-    MENAGERIE_ROOT=... python docs/regenerate.py  # (no scenario needs it by default)
+    MENAGERIE_ROOT=... python docs/regenerate.py --menagerie  # and Menagerie robots' pictures
 
 The sweep picture (``docs/images/sweep_reach.png``) takes about ten minutes on two
 cores: ``python docs/regenerate.py --sweep`` runs the sweep of
@@ -84,11 +84,23 @@ PICTURES: dict[str, list[Picture]] = {
     "walk_go_pos": [Picture("walk_go_pos.png", "last", "sim_time")],
 }
 
+#: Pictures of scenarios run on MuJoCo Menagerie robots (``--menagerie``; the robots
+#: are found through MENAGERIE_ROOT): (scenario, model) -> pictures.
+MENAGERIE_PICTURES: dict[tuple[str, str], list[Picture]] = {
+    ("walk_forward", "unitree_g1"): [
+        Picture("walk_forward_unitree_g1.png", _motion_fraction(0.4), "sim_time")
+    ],
+    ("walk_go_pos", "booster_t1"): [Picture("walk_go_pos_booster_t1.png", "last", "sim_time")],
+}
 
-def run_scenario(name: str, out: Path) -> dict[str, Any]:
-    """``pik-mj run NAME`` with its JSON summary and recording in ``out``; the summary."""
-    json_path, rrd = out / f"{name}.json", out / f"{name}.rrd"
+
+def run_scenario(name: str, out: Path, model: str | None = None) -> dict[str, Any]:
+    """``pik-mj run NAME [--model MODEL]`` with its JSON summary and recording in
+    ``out`` (``NAME.json``, ``NAME.rrd``; ``NAME-MODEL.*`` with a model); the summary."""
+    stem = name if model is None else f"{name}-{model}"
+    json_path, rrd = out / f"{stem}.json", out / f"{stem}.rrd"
     command = [*PIK_MJ, "run", name, "--json", str(json_path), "--save", str(rrd), "--quiet"]
+    command += [] if model is None else ["--model", model]
     print("+", " ".join(command[2:]), flush=True)
     done = subprocess.run(command, check=False, capture_output=True, text=True)
     if not json_path.is_file():
@@ -187,10 +199,10 @@ def figures_page(summary: dict[str, Any]) -> str:
     return text
 
 
-def take_pictures(name: str, summary: dict[str, Any], rrd: Path) -> list[Path]:
-    """The scenario's :data:`PICTURES` of its recording ``rrd``."""
+def take_pictures(pictures: list[Picture], summary: dict[str, Any], rrd: Path) -> list[Path]:
+    """``pictures`` of a run's recording ``rrd`` (its JSON ``summary`` times them)."""
     written = []
-    for p in PICTURES.get(name, []):
+    for p in pictures:
         t = p.time(summary) if callable(p.time) else p.time
         shot = screenshot.Shot(IMAGES / p.file, p.timeline, t, view=p.view, tab=p.tab)
         written += screenshot.screenshots(rrd, [shot], size=p.size)
@@ -214,6 +226,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--reuse", action="store_true", help="use the runs already in --out (pictures again)"
     )
     parser.add_argument("--sweep", action="store_true", help="also the sweep picture (~10 min)")
+    parser.add_argument(
+        "--menagerie",
+        action="store_true",
+        help="also the pictures of Menagerie robots (MENAGERIE_ROOT must name their folder)",
+    )
     parser.add_argument("--out", default="out/runs", help="where runs go (default out/runs)")
     args = parser.parse_args(argv)
     unknown = sorted(set(args.names) - set(SCENARIOS))
@@ -230,7 +247,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         (FIGURES / f"{name}.md").write_text(figures_page(summary))
         print(f"  {FIGURES / name}.md", flush=True)
         if not args.no_images and not problem:
-            for png in take_pictures(name, summary, out / f"{name}.rrd"):
+            for png in take_pictures(PICTURES.get(name, []), summary, out / f"{name}.rrd"):
+                print(f"  {png}", flush=True)
+    if args.menagerie and not problem:
+        for (name, model), pictures in MENAGERIE_PICTURES.items():
+            summary = run_scenario(name, out, model)
+            for png in take_pictures(pictures, summary, out / f"{name}-{model}.rrd"):
                 print(f"  {png}", flush=True)
     if args.sweep and not problem:
         run_sweep_picture(out)

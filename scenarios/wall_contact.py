@@ -247,9 +247,10 @@ def wall_avoidance(robot: Robot, hand: Hand) -> list[CollisionAvoidanceTask]:
 
 def body_avoidance(robot: Robot) -> CollisionAvoidanceTask:
     """The arm kept off the body: the pairs between the arm's bodies, the root body,
-    the torso's and the legs' first links (pairs within 1 cm at the start dropped)."""
+    the torso's and the head's, and the legs' first links (pairs within 1 cm at the
+    start dropped)."""
     links = [*robot.bodies(ARM), robot.root_body]
-    links += robot.bodies("torso") if "torso" in robot.limbs else []
+    links += [b for limb in ("torso", "head") if limb in robot.limbs for b in robot.bodies(limb)]
     links += [robot.limb(leg).root_body for leg in FEET]
     pairs = collision_pairs(robot.model, robot.data, list(dict.fromkeys(links)), touching=0.01)
     return CollisionAvoidanceTask(
@@ -279,11 +280,11 @@ def palm_to_wall(stage: Stage, support: WallSupport, path: Waypoints) -> SolveRe
 def lean_on_wall(
     stage: Stage, support: WallSupport, path: Waypoints
 ) -> tuple[ScfrTask, SolveResult]:
-    """The palm kept on the wall, the CoM in the SCFR of the three contacts (level 1)
-    and leaning past the toes (a lower level, met within :data:`LEAN_MET` of its way
-    past the toes); the rest of the robot kept off the wall (:func:`wall_avoidance`)
-    and the arm off the body (:func:`body_avoidance`). Returns the SCFR task and the
-    solve's result."""
+    """The palm kept on the wall, every joint free, the CoM in the SCFR of the three
+    contacts (level 1) and leaning past the toes (a lower level, met within
+    :data:`LEAN_MET` of its way past the toes); the rest of the robot kept off the wall
+    (:func:`wall_avoidance`) and the arm off the body (:func:`body_avoidance`). Returns
+    the SCFR task and the solve's result."""
     robot, hand = stage.robot, support.hand
     scfr_task = ScfrTask(
         robot.configuration, support.contacts, root_body=robot.root_body, margin=0.01
@@ -303,6 +304,7 @@ def lean_on_wall(
         total=100,
         start=False,
         limbs=[ARM],
+        joints="all",  # the other arm too: held, it swings into the wall as the robot leans
         move_targets=[hand.frame],
         rotation_axis=support.rotation_axis,
         balance=[scfr_task],
@@ -414,6 +416,9 @@ def check_contact(result: ScenarioResult, touch: WallTouch) -> None:
     """The motion's figures and checks: the wall pushes on the hand (and the hand's
     bumper reads on) only once the palm is on it, and does at the end."""
     f = result.figures
+    if not touch.gap:  # the motion was not played (its check says why)
+        result.check("the wall pushes on the hand once it is on it", False, "motion not played")
+        return
     t = np.array(touch.bumpers.time)
     away = np.array(touch.gap) > TOUCHING
     pushed = np.array(touch.force) > 0.0
