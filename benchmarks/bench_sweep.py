@@ -1,5 +1,5 @@
 """How fast does a sweep run on 1 and 2 Ray workers, where does a case spend its time,
-and does checking the physics every 10th step change a verdict?
+and does checking the physics every ``RECORD_EVERY``-th step change a verdict?
 
 The same sweep (default: the ``pik-mj sweep`` default, 100 random right-hand
 targets of the sample humanoid in the box x ∈ [0.2, 0.7], y ∈ [-0.5, 0.2],
