@@ -163,3 +163,38 @@ def test_kettle_is_held_in_the_hand_during_the_hold(tmp_path):
     forces = np.array(report["static"]["forces"])
     assert forces[:, 2].sum() == pytest.approx((result.robot.mass + m_kettle) * 9.81, rel=1e-6)
     assert report["hold"]["unexpected_contacts"] == []
+
+
+class _Called(Exception):
+    """Raised by a stand-in ``run`` with the keywords ``main`` gave it."""
+
+    def __init__(self, options: dict):
+        super().__init__("run called")
+        self.options = options
+
+
+@pytest.mark.parametrize("name", [n for n in pik_mj.scenarios.SCENARIOS if "walk" not in n])
+def test_main_gives_run_the_parsed_options(name, tmp_path, monkeypatch):
+    """Every scenario's ``main`` hands its parsed options to its ``run`` through
+    ``run_options``: ``--hold``/``--speed``/``--quiet`` as given, the default model
+    and the robot its check built, and only keywords ``run`` takes."""
+    module = load_scenario(name)
+    params = inspect.signature(module.run).parameters
+
+    def fake_run(recorder, **options):
+        raise _Called(options)
+
+    monkeypatch.setattr(module, "run", fake_run)
+    argv = ["--save", str(tmp_path / "x.rrd"), "--quiet"]
+    if "hold" in params:
+        argv += ["--hold", "1.5", "--speed", "0.5"]
+    with pytest.raises(_Called) as called:
+        module.main(argv)
+    options = called.value.options
+    options.pop("steps", None)  # cocktail_shaker's own option
+    assert set(options) <= set(params)
+    assert options["quiet"] is True
+    assert options["model"] == module.ROBOT.default
+    assert isinstance(options["robot"], Robot) and options["description"] is None
+    if "hold" in params:
+        assert (options["hold"], options["speed"]) == (1.5, 0.5)
