@@ -119,7 +119,10 @@ class _Carrier:
     """``P``: a generalized force ``τ`` (nv,) less ``J_cᵀ f``, ``f`` the least-norm
     contact forces at the environment contacts ``env`` that apply the wrench of
     its free-joint rows (``τ_root = J_Bᵀ w_B``); the identity for a fixed base or
-    without contacts (kinematics of the pose current in ``data``)."""
+    without contacts (kinematics of the pose current in ``data``). Linear in
+    ``τ``: ``P τ = τ - J_cᵀ A⁺ T J_Bᵀ⁻¹ τ_root`` with ``A`` the contacts' map
+    from forces to the wrench about the origin and ``T`` the shift of
+    ``w_B`` from ``p_WB`` to the origin; the product is formed once."""
 
     def __init__(self, scene: Physics, data: mujoco.MjData, env: list[ContactInfo]):
         m = scene.model
@@ -129,23 +132,21 @@ class _Carrier:
         b = scene.robot.root_body_id
         self.dofs = m.jnt_dofadr[m.body_jntadr[b]] + np.arange(6)
         J_B = frame_jacobian(m, data, Frame(m, scene.root_body, "body", b))[:, self.dofs]
-        self.J_Bt = J_B.T
-        self.p_WB = data.xpos[b].copy()
+        shift = np.eye(6)  # (f, n about p_WB) -> (f, n about the origin)
+        shift[3:, :3] = skew(data.xpos[b])
         A = np.zeros((6, 3 * len(env)))
-        self.J = np.zeros((3 * len(env), m.nv))
+        J = np.zeros((3 * len(env), m.nv))
         for i, c in enumerate(env):
             A[:3, 3 * i : 3 * i + 3] = np.eye(3)
             A[3:, 3 * i : 3 * i + 3] = skew(c.position)  # f -> p x f
             body = int(m.geom_bodyid[scene.geom_ids[c.robot_geom]])
-            mujoco.mj_jac(m, data, self.J[3 * i : 3 * i + 3], None, c.position, body)
-        self.A_pinv = np.linalg.pinv(A)
+            mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, c.position, body)
+        self.carried = J.T @ np.linalg.pinv(A) @ shift @ np.linalg.inv(J_B.T)  # (nv, 6)
 
     def __call__(self, tau: np.ndarray) -> np.ndarray:
         if not self.active:
             return tau
-        w_B = np.linalg.solve(self.J_Bt, tau[self.dofs])  # (f, n about p_WB)
-        total = np.concatenate([w_B[:3], w_B[3:] + np.cross(self.p_WB, w_B[:3])])
-        return tau - self.J.T @ (self.A_pinv @ total)
+        return tau - self.carried @ tau[self.dofs]
 
 
 class _Knots:
