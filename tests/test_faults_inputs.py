@@ -54,10 +54,11 @@ NAN_BODY = """
     ],
 )
 def test_a_model_with_nan_or_inf_is_refused_at_load_naming_the_element(
-    tmp_path, pos, joint_range, named
+    tmp_path, monkeypatch, pos, joint_range, named
 ):
     """Before: the model loaded (MuJoCo only warns) and the first error came at the
     hold, blaming a servo gain."""
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its NaN warning to ./MUJOCO_LOG.TXT
     path = tmp_path / "nanbot.xml"
     path.write_text(NAN_BODY.format(pos=pos, range=joint_range))
     with pytest.raises(InvalidInput, match=named):
