@@ -17,7 +17,7 @@ from scipy.spatial import ConvexHull
 from pik_mj import Recorder, Robot, Scene, UnknownName
 from pik_mj.balance import support_polygon
 from pik_mj.cli import load_scenario, read_pose_file
-from pik_mj.scenario import ScenarioResult, jsonable
+from pik_mj.scenario import RobotRefused, ScenarioResult, Stature, jsonable
 from pik_mj.sim import validate_pose
 
 
@@ -198,3 +198,33 @@ def test_main_gives_run_the_parsed_options(name, tmp_path, monkeypatch):
     assert isinstance(options["robot"], Robot) and options["description"] is None
     if "hold" in params:
         assert (options["hold"], options["speed"]) == (1.5, 0.5)
+
+
+@pytest.mark.parametrize(
+    ("joints", "holds_axis"),
+    [
+        (["rarm_shoulder_p", "rarm_shoulder_r", "rarm_shoulder_y", "rarm_elbow_p"], False),
+        (["rarm_shoulder_p", "rarm_elbow_p"], None),  # refused
+    ],
+)
+def test_cocktail_shaker_on_a_shorter_right_arm(tmp_path, joints, holds_axis):
+    """The sample humanoid described with a right arm of fewer joints: 4 joints hold
+    the shaker's end by position (the grip left free), 2 are refused in one line; the
+    sample humanoid's own 7-joint arm holds the grip along the shaker axis."""
+    shaker = load_scenario("cocktail_shaker")
+    path = tmp_path / "short_arm.toml"
+    path.write_text(
+        'model = "sample_humanoid"\n[limbs.rarm]\nend = "rarm_end"\n'
+        f"joints = {json.dumps(joints)}\n"
+    )
+    if holds_axis is None:
+        with pytest.raises(RobotRefused, match="its right arm has 2 joints; holding the "
+                           r"shaker's end asks 3 \(its position\)"):  # fmt: skip
+            shaker.ROBOT.check(None, str(path))
+        return
+    _, robot = shaker.ROBOT.check(None, str(path))
+    assert robot.limb("rarm").joints == tuple(joints)
+    assert shaker.Shaker(Stature.of(robot), robot).holds_axis is holds_axis
+    whole = Robot.from_model("sample_humanoid")
+    assert len(whole.limb("rarm").joints) >= shaker.AXIS_JOINTS
+    assert shaker.Shaker(Stature.of(whole), whole).holds_axis
