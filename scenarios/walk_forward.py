@@ -20,12 +20,21 @@ from typing import Any
 
 from pik_mj import Recorder, Robot
 from pik_mj.robot.ground import robot_soles
-from pik_mj.scenario import ScenarioResult, count, open_recorder, parser, positive, report
+from pik_mj.scenario import (
+    ScenarioResult,
+    count,
+    open_recorder,
+    parser,
+    positive,
+    report,
+    run_options,
+)
 from pik_mj.scenario.arguments import argument_type
+from pik_mj.scenario.robot_option import model_label
 from pik_mj.walking.gait import Footstep
 from pik_mj.walking.playback import walk_motion
 from pik_mj.walking.robot_gait import DEFAULT_DT, RobotGait, gait_value, robot_gait
-from pik_mj.walking.walk import Walk, robot_label, walk
+from pik_mj.walking.walk import Walk, walk
 from pik_mj.walking.wholebody import feet_from_robot
 
 __all__ = ["LEGS", "NAME", "main", "run", "walk_command", "walk_parser", "walk_scenario"]
@@ -37,18 +46,23 @@ LEGS = ("rleg", "lleg")
 def walk_scenario(
     name: str,
     recorder: Recorder,
-    robot: Robot,
-    label: str,
     footsteps: Callable[[RobotGait, Mapping[str, Footstep]], Sequence[Footstep]],
     *,
+    model: str | None,
+    description: str | None = None,
+    robot: Robot | None = None,
     dt: float = DEFAULT_DT,
     gait: dict[str, float] | None = None,
     quiet: bool = True,
 ) -> tuple[ScenarioResult, Walk]:
-    """A walking scenario: the gait derived from ``robot`` (``gait``: values given
-    instead; printed with ``label`` unless ``quiet``), ``footsteps(gait, feet)`` from its feet,
+    """A walking scenario: the robot of ``model`` and ``description`` (``robot``: it
+    already built, else None), the gait derived from it (``gait``: values given
+    instead; printed unless ``quiet``), ``footsteps(gait, feet)`` from its feet,
     walked (:func:`pik_mj.walking.walk.walk`) into ``recorder``'s walk logger; the
     result with the walk's figures and checks."""
+    if robot is None:
+        robot = Robot.from_model(model, description=description, required_limbs=LEGS)
+    label = model_label(model, description)
     soles = robot_soles(robot)
     chosen = robot_gait(robot, soles, dt=dt, **(gait or {}))
     if not quiet:
@@ -101,14 +115,13 @@ def run(
     gait: dict[str, float] | None = None,
 ) -> ScenarioResult:
     """Walk ``n_steps`` forward; ``gait``: values given instead of derived."""
-    if robot is None:
-        robot = Robot.from_model(model, description=description, required_limbs=LEGS)
     result, _ = walk_scenario(
         NAME,
         recorder,
-        robot,
-        robot_label(model, description),
         lambda chosen, feet: chosen.straight_steps(n_steps, feet),
+        model=model,
+        description=description,
+        robot=robot,
         dt=dt,
         gait=gait,
         quiet=quiet,
@@ -122,17 +135,10 @@ def walk_command(
     """Run a walking scenario's ``run_walk`` from its parsed command line
     (:func:`walk_parser`), with ``options`` (its own), into the recorder the command
     asks for; the exit status of its report."""
-    label = robot_label(args.model, args.description)
+    label = model_label(args.model, args.description)
     with open_recorder(args, f"{name}_{label}") as recorder:
         result = run_walk(
-            recorder,
-            model=args.model,
-            description=args.description,
-            robot=args.robot,
-            quiet=args.quiet,
-            dt=args.dt,
-            gait=dict(args.gait),
-            **options,
+            recorder, **run_options(args), dt=args.dt, gait=dict(args.gait), **options
         )
     return report(result, args)
 

@@ -13,12 +13,11 @@ an MJCF path, or ``--description FILE``.
 from __future__ import annotations
 
 import numpy as np
-from pik_mj.scenarios.walk_forward import LEGS, walk_command, walk_parser, walk_scenario
+from pik_mj.scenarios.walk_forward import walk_command, walk_parser, walk_scenario
 
 from pik_mj import Recorder, Robot
 from pik_mj.scenario import ScenarioResult, finite
 from pik_mj.walking.robot_gait import DEFAULT_DT
-from pik_mj.walking.walk import robot_label
 
 NAME = "walk_go_pos"
 HEADING_TOLERANCE = 5.0
@@ -39,14 +38,13 @@ def run(
     gait: dict[str, float] | None = None,
 ) -> ScenarioResult:
     """Walk to ``(x, y, theta)`` from the start; ``gait``: values given instead of derived."""
-    if robot is None:
-        robot = Robot.from_model(model, description=description, required_limbs=LEGS)
     result, done = walk_scenario(
         NAME,
         recorder,
-        robot,
-        robot_label(model, description),
         lambda chosen, feet: chosen.go_pos(x, y, np.deg2rad(theta_deg), feet),
+        model=model,
+        description=description,
+        robot=robot,
         dt=dt,
         gait=gait,
         quiet=quiet,

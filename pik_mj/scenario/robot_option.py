@@ -82,16 +82,21 @@ class RobotOption:
             return "arm"
         return "humanoid" if self.floating_base else None
 
+    def named_models(self) -> list[str]:
+        """The shipped and dm_control model names of the scenario's kind (worlds
+        without a robot, such as ``room``, left out)."""
+        worlds = available_models("scene")
+        return [x for x in available_models(self.category) if x not in worlds]
+
     def model_names(self) -> list[str]:
-        """The model names of the scenario's kind: the shipped and dm_control ones,
-        then MuJoCo Menagerie's (worlds such as ``room`` left out)."""
-        named = [x for x in available_models(self.category) if x != "room"]
-        return [*named, *menagerie_models(self.category)]
+        """The model names of the scenario's kind: :meth:`named_models`, then MuJoCo
+        Menagerie's."""
+        return [*self.named_models(), *menagerie_models(self.category)]
 
     def valid_models(self) -> str:
         """The models ``--model`` may name for this scenario, in one sentence: the named
         models of its kind, MuJoCo Menagerie's robots of that kind, or an MJCF path."""
-        named = [x for x in available_models(self.category) if x != "room"]
+        named = self.named_models()
         menagerie = menagerie_models(self.category)
         kind = f"{self.category}s" if self.category else "robots"
         return (

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from pik_mj.callbacks import Callback
@@ -20,7 +19,7 @@ from pik_mj.walking.report import PlaybackReport, evaluate_walk
 from pik_mj.walking.robot_gait import RobotGait
 from pik_mj.walking.wholebody import WalkPattern, calc_walk_pattern
 
-__all__ = ["Walk", "robot_label", "walk"]
+__all__ = ["Walk", "walk"]
 
 
 @dataclass(frozen=True)
@@ -75,9 +74,3 @@ def walk(
     figures, checks = evaluate_walk(pattern, report)
     figures["gait"] = gait.to_dict()
     return Walk(gait, pattern, report, figures, checks)
-
-
-def robot_label(model: str | None, description: str | None = None) -> str:
-    """A robot's name in a recording's name: the model's (an MJCF path's stem),
-    else its description file's stem."""
-    return Path(str(model)).stem if model is not None else Path(str(description)).stem
