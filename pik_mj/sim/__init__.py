@@ -7,6 +7,8 @@ Modules, lowest first (each imports only those above it):
   invalid-state check around each step;
 * :mod:`.grasp` — :class:`Grasp`: an object held by a robot frame, and its weld;
 * :mod:`.falls` — what a fall is (:class:`Fall`, :class:`FallLimits`);
+* :mod:`.stabilizer` — the stance ankles' targets turned against the body's
+  inclination error (a balance controller through the robot's own servos);
 * :mod:`.physics` — :class:`Physics`: the compiled world in the robot's terms
   (contacts, wrenches, servo joints, stepping);
 * :mod:`.static` — :class:`StaticReport`, :class:`StaticChecks` (per iteration);

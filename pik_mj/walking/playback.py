@@ -9,7 +9,7 @@ towards the pattern (linear between its ticks) plus the pattern's own joint
 torques (inverse dynamics with the ground reaction on the support soles,
 :func:`feedforward_torques`), within the robot's torque limits, with the robot's
 own servo gains where they can carry it. The only balance feedback is the
-stabilizer's (:mod:`pik_mj.walking.stabilizer`: the stance ankles' targets turned
+stabilizer's (:mod:`pik_mj.sim.stabilizer`: the stance ankles' targets turned
 against the body's inclination error); the pattern carries the rest. After the
 pattern the last targets (and torques) are held for ``settle_time``.
 
@@ -44,6 +44,7 @@ from pik_mj.robot.ground import subtree_bodies
 from pik_mj.robot.sensors import RobotSensors, zmp_from_force_sensors
 from pik_mj.sim import ContactParams, Fall, Scene
 from pik_mj.sim.falls import fall_limits, fall_measures, first_fall
+from pik_mj.sim.stabilizer import TiltStabilizer, tilt_stabilizer
 from pik_mj.spatial import quat_to_matrix, yaw_of
 from pik_mj.walking.drive import JointDrive, joint_drive
 from pik_mj.walking.gait import DOUBLE_SUPPORT, wrap_angle
@@ -54,7 +55,6 @@ from pik_mj.walking.report import (
     evaluate_walk,
     walk_motion,
 )
-from pik_mj.walking.stabilizer import TiltStabilizer, tilt_stabilizer
 from pik_mj.walking.support import zmp_margin
 from pik_mj.walking.wholebody import WalkPattern
 
@@ -394,7 +394,7 @@ def play_walk_pattern(
         gains: The servo gains, ``"robot"`` or ``"derived"``; None: the robot's
             own where they can carry it (:func:`~pik_mj.walking.drive.joint_drive`).
         stabilize: Turn the stance ankles' targets against the body's
-            inclination error (:mod:`pik_mj.walking.stabilizer`).
+            inclination error (:mod:`pik_mj.sim.stabilizer`).
         fall_ratio: Root height ratio below which the robot counts as fallen
             (:mod:`pik_mj.sim.falls`: so does a trunk tilted beyond
             ``atan(L / z_c)`` or a root drifted more than ``L`` from the pattern's,

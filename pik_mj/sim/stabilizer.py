@@ -1,6 +1,7 @@
-"""Body inclination feedback through the stance ankles: what a walking robot's
-stabilizer adds to its servo targets so that the pattern's open-loop errors do
-not add up (the cart-table model's inverted pendulum diverges from any error).
+"""Body inclination feedback through the stance ankles: what a robot's balance
+controller adds to its servo targets so that open-loop errors do not add up (a
+walking pattern's cart-table pendulum diverges from any error; a robot whose
+ankle servos are softer than its weight's tipping stiffness falls from any).
 
 With the root body's measured rotation :math:`R` (its IMU), the pattern's
 :math:`R^{ref}` and the measured angular velocity :math:`\\omega` (world frame),
