@@ -231,6 +231,7 @@ def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
         return done[i]
 
     dofs = knots.scene.servo_dofs
+    _, rate, accel = knots.timing.progress(knots.timing.times_of(grid))
     ends = np.searchsorted(grid, knots.timing.nominal)
     stack = [(int(a), int(b)) for a, b in itertools.pairwise(ends)]
     get(int(ends[0]))
@@ -240,22 +241,26 @@ def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
             get(b)
             continue
         m = (a + b) // 2
-        ends_m = [get(a)[1], get(m)[1], get(b)[1]]
-        if any(p is None for p in ends_m) or not _linear(grid[[a, m, b]], ends_m, knots, dofs):
+        parts = [get(a)[1], get(m)[1], get(b)[1]]
+        if any(p is None for p in parts) or not _linear(
+            grid[[a, m, b]], parts, (rate[m], accel[m]), dofs
+        ):
             stack += [(a, m), (m, b)]
     return done
 
 
-def _linear(sigma: np.ndarray, parts: list[tuple], knots: _Knots, dofs: np.ndarray) -> bool:
+def _linear(
+    sigma: np.ndarray, parts: list[tuple], rates: tuple[float, float], dofs: np.ndarray
+) -> bool:
     """The plan linear between the knots ``σ_a``, ``σ_b`` gives ``σ_m``'s
-    feed-forward within :data:`KNOT_TOLERANCE` (:func:`_refined`)."""
-    _, rate, accel = knots.timing.progress(knots.timing.times_of(sigma[1:2]))
+    feed-forward at ``(σ̇, σ̈)`` within :data:`KNOT_TOLERANCE` (:func:`_refined`)."""
     a, m, b = parts
-    ends = TorquePlan(sigma[[0, 2]], *(np.array([a[i], b[i]]) for i in range(4)))
-    middle = TorquePlan(sigma[1:2], *(np.array([m[i]]) for i in range(4)))
-    error = np.abs(ends.at(sigma[1:2], rate, accel) - middle.at(sigma[1:2], rate, accel))
+    w = (sigma[1] - sigma[0]) / (sigma[2] - sigma[0])
+    rate, accel = rates
+    gains = (1.0, accel, rate**2, rate)
+    error = sum(g * ((1 - w) * a[i] + w * b[i] - m[i]) for i, g in enumerate(gains))
     scale = max(np.abs(a[0][dofs]).max(initial=0.0), np.abs(b[0][dofs]).max(initial=0.0))
-    return bool(np.all(error[0, dofs] <= KNOT_TOLERANCE * scale))
+    return bool(np.all(np.abs(error[dofs]) <= KNOT_TOLERANCE * scale))
 
 
 def plan_torques(
