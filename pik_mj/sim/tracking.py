@@ -20,9 +20,12 @@ the run at the check after it (``stop_on_fall``).
 :class:`~pik_mj.sim.measures.HoldSample` of the scene's data every ``every``
 steps: the chunks then end at every ``every``-th step too, while the record
 keeps its rows at every ``record_every``-th step, so a run with callbacks has
-the figures of the same run without. ``every=1`` is the slow path, a Python
-call per step, for a callback that needs every step; ``record_every=1`` gives
-the checks every step (what the benchmarks compare the sampled figures with).
+the figures of the same run without. A hold or a motion calls its callbacks
+as far apart as they ask (:func:`pik_mj.callbacks.call_stride`: a recorder's
+loggers at the viewer's rate); ``every=1``, or a callback that does not say,
+is the slow path, a Python call per step, for a callback that needs every
+step; ``record_every=1`` gives the checks every step (what the benchmarks
+compare the sampled figures with).
 """
 
 from __future__ import annotations
