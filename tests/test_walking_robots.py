@@ -35,7 +35,7 @@ from pik_mj.walking.robot_gait import (
     single_support_limit,
 )
 from pik_mj.walking.walk import walk
-from pik_mj.walking.wholebody import corrected_plan, feet_from_robot
+from pik_mj.walking.wholebody import calc_walk_pattern, corrected_plan, feet_from_robot
 
 STRIDES = 3  # strides of the test walks (the benchmark walks 6)
 
@@ -287,3 +287,46 @@ def test_corrected_plan_moves_the_cart_table_zmp_by_the_zmp_error():
     cart = corrected.com - gait.com_height / gait.geometry.gravity * corrected.com_acc
     np.testing.assert_allclose(corrected.zmp, cart, atol=1e-9)
     np.testing.assert_allclose(corrected.feet_p["rleg"], plan.feet_p["rleg"])
+
+
+# ---------------------------------------------------------------- dm_humanoid
+@pytest.fixture(scope="module")
+def dm_walk():
+    """dm_control's humanoid, 2 strides: its heavy limbs' momentum takes the ZMP of
+    the tracked cart-table pattern ~18 mm out of its 6 cm wide capsule soles."""
+    robot = Robot.from_model("dm_humanoid")
+    soles = robot_soles(robot)
+    gait = robot_gait(robot, soles)
+    steps = gait.straight_steps(2, feet_from_robot(robot, soles))
+    return robot, soles, gait, steps, walk(robot, steps, gait, soles=soles)
+
+
+def test_two_stage_correction_repeats_until_the_zmp_is_inside(dm_walk):
+    """The correction repeated on each pass's ZMP error brings the ZMP of the
+    inverse dynamics inside the soles, where one pass leaves it outside (the check
+    can fail)."""
+    robot, soles, gait, steps, done = dm_walk
+    assert done.pattern.zmp_corrections >= 2
+    assert done.pattern.support_margin("computed").min() > 0.0
+    robot.reset_pose()
+    once = calc_walk_pattern(
+        robot, steps, gait.parameters(), com_height=gait.com_height, soles=soles, max_corrections=1
+    )
+    assert once.zmp_corrections == 1
+    assert once.support_margin("computed").min() < 0.0
+
+
+def test_dm_humanoid_walks_and_its_force_sensors_read_the_contacts(dm_walk):
+    """No fall, every check of the walk (among them the ZMP of the feet's force
+    sensors within 2 mm RMS of the contact forces'); the first sample too, which the
+    lead time makes one of a robot held by its servos: without it the servos are
+    off at that instant and the sensors, which include the feet's inertia, read
+    38 mm away from the contacts (the check can fail)."""
+    robot, done = dm_walk[0], dm_walk[-1]
+    assert done.passed, done.checks
+    first = done.report.zmp_force_sensors[0] - done.report.zmp[0]
+    assert np.linalg.norm(first) < 1e-3
+    cold = play_walk_pattern(
+        done.pattern, Scene.from_robot(robot, contact=WALK_CONTACT), lead_time=0.0, settle_time=0
+    )
+    assert np.linalg.norm(cold.zmp_force_sensors[0] - cold.zmp[0]) > 0.01

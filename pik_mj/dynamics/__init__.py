@@ -33,6 +33,7 @@ from pik_mj.dynamics.distribution import (
     StaticTorques,
     contact_wrenches,
     static_torques,
+    wrench_map,
 )
 from pik_mj.dynamics.floating_base import (
     free_root_body,
@@ -41,7 +42,13 @@ from pik_mj.dynamics.floating_base import (
     zmp_from_wrench,
     zmp_of_motion,
 )
-from pik_mj.dynamics.inverse import ExternalSpec, frame_jacobian, joint_torques
+from pik_mj.dynamics.inverse import (
+    ExternalSpec,
+    external_torques,
+    frame_jacobian,
+    inverse_dynamics,
+    joint_torques,
+)
 from pik_mj.dynamics.statics import (
     DEFAULT_MAX_TORQUE,
     force_from_joint_torque,
@@ -56,15 +63,18 @@ __all__ = [
     "SoleContact",
     "StaticTorques",
     "contact_wrenches",
+    "external_torques",
     "force_from_joint_torque",
     "frame_jacobian",
     "free_root_body",
+    "inverse_dynamics",
     "joint_torques",
     "root_wrench",
     "static_balance_point",
     "static_torques",
     "torque_limits",
     "torque_ratio",
+    "wrench_map",
     "zmp_from_inverse_dynamics",
     "zmp_from_wrench",
     "zmp_of_motion",

@@ -4,9 +4,10 @@ wrenches within their limits that hold a static pose, and its joint torques."""
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import mujoco
 import numpy as np
@@ -18,7 +19,6 @@ from pik_mj.dynamics.floating_base import root_wrench
 from pik_mj.dynamics.inverse import ExternalSpec, frame_jacobian, joint_torques
 from pik_mj.exceptions import InvalidInput, PikError
 from pik_mj.frames import Frame
-from pik_mj.spatial import skew
 
 
 @dataclass(frozen=True)
@@ -143,6 +143,7 @@ def contact_wrenches(
     total: Sequence[float] | np.ndarray,
     *,
     moment_weight: float = 100.0,
+    solver: Literal["auto", "qp"] = "auto",
 ) -> np.ndarray | None:
     """Least-norm contact wrenches inside their limits that sum to ``total``.
 
@@ -150,16 +151,28 @@ def contact_wrenches(
     ``p_i``), inside its limits ``C_i w_i + d_i >= 0``
     (:func:`pik_mj.balance.wrench_constraints`: friction pyramid, centre of
     pressure inside the rectangle, torsion); a point contact (zero half sizes)
-    carries no moment, so only its force is unknown. The QP (DAQP)
+    carries no moment, so only its force is unknown. The QP
 
     .. math::
 
         \\min_w \\sum_i \\|f_i\\|^2 + \\rho \\|n_i\\|^2
         \\quad\\text{s.t.}\\quad
-        \\sum_i \\begin{bmatrix} f_i \\\\ n_i + p_i \\times f_i \\end{bmatrix} = w_{total},
+        \\underbrace{\\sum_i \\begin{bmatrix} f_i \\\\ n_i + p_i \\times f_i \\end{bmatrix}}_{A w}
+        = w_{total},
         \\quad C_i w_i + d_i \\ge 0
 
     is solved in units of ``|f_total|`` (an O(1) problem whatever the robot's weight).
+    Its equality-constrained minimum, the weighted least-norm split
+    (``W = diag(1, ρ)``)
+
+    .. math::
+
+        w^* = W^{-1} A^T (A W^{-1} A^T)^{-1} w_{total},
+
+    is the QP's solution whenever it is within every limit (the objective is
+    strictly convex): it is taken then (``solver="auto"``), and DAQP solves the
+    QP only where a limit is active, or where ``A`` is rank deficient (contacts
+    on one line) and ``w*`` misses ``w_total``.
     The least-norm split keeps forces away from the edges of the cones, where a
     feed-forward would push a foot to slip (an LP's solution sits on an edge).
 
@@ -168,6 +181,8 @@ def contact_wrenches(
         total: The wrench ``(f, n about the world origin)`` (6,) [N, N·m] the
             contacts must apply together (e.g. minus gravity and the external wrenches).
         moment_weight: ``ρ`` [1/m²]: the larger, the closer each CoP to its centre.
+        solver: ``"auto"`` (the closed form where it is within the limits, else
+            the QP) or ``"qp"`` (always the QP).
 
     Returns:
         Wrenches ``(n, 6)`` [N, N·m], or None when no wrenches within the limits exist.
@@ -175,48 +190,102 @@ def contact_wrenches(
     total = inputs.flat_vector(total, 6, "total")
     if not (np.isfinite(moment_weight) and moment_weight > 0):
         raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
-    cols, weights, A, G, h = [], [], [], [], []
-    n = 0
-    for c in contacts:
-        C, d = wrench_constraints(c)
-        point = c.half_x == 0.0 and c.half_y == 0.0
-        if point:  # rows on the force alone; the moment rows pin n = 0
-            keep = ~np.any(C[:, 3:] != 0.0, axis=1)
-            C, d = C[keep, :3], d[keep]
-        k = 3 if point else 6
-        cols.append((n, k))
-        weights += [1.0] * 3 + ([] if point else [moment_weight] * 3)
-        block = np.zeros((6, k))
-        block[:3, :3] = np.eye(3)
-        block[3:, :3] = skew(c.p_WC)
-        if not point:
-            block[3:, 3:] = np.eye(3)
-        A.append(block)
-        G.append((n, C))
-        h.append(d)
-        n += k
-    A_eq = np.hstack(A) if A else np.zeros((6, 0))
-    G_in = np.zeros((sum(len(d) for d in h), n))
-    r = 0
-    for start, C in G:
-        G_in[r : r + len(C), start : start + C.shape[1]] = C
-        r += len(C)
+    if solver not in ("auto", "qp"):
+        raise InvalidInput(f"solver must be 'auto' or 'qp', got {solver!r}")
+    problem = _Distribution(contacts, moment_weight)
     scale = float(np.linalg.norm(total[:3])) or 1.0
-    x = qpsolvers.solve_qp(
-        np.diag(weights),
-        np.zeros(n),
-        G=-G_in,
-        h=np.concatenate(h) / scale if h else np.zeros(0),
-        A=A_eq,
-        b=total / scale,
-        solver="daqp",
-    )
+    b = total / scale
+    h = problem.h / scale
+    x = problem.least_norm(b, h) if solver == "auto" else None
+    if x is None:
+        x = qpsolvers.solve_qp(
+            np.diag(problem.weights), np.zeros(problem.n), G=problem.G, h=h,
+            A=problem.A, b=b, solver="daqp",
+        )  # fmt: skip
     if x is None:
         return None
     out = np.zeros((len(contacts), 6))
-    for i, (start, k) in enumerate(cols):
+    for i, (start, k) in enumerate(problem.cols):
         out[i, :k] = scale * x[start : start + k]
     return out
+
+
+class _Distribution:
+    """The unknowns, the map ``A`` to the total wrench, the weights and the limits
+    ``G x <= h`` (``G = -C``) of :func:`contact_wrenches`."""
+
+    def __init__(self, contacts: Sequence[ContactConstraint], moment_weight: float):
+        cols, weights, moments, limits = [], [], [], []
+        n = 0
+        for i, c in enumerate(contacts):
+            if not isinstance(c, ContactConstraint):
+                raise InvalidInput(
+                    f"contacts[{i}] must be a ContactConstraint, got {type(c).__name__}"
+                )
+            C, d = _limits(c)
+            k = C.shape[1]
+            cols.append((n, k))
+            weights += [1.0] * 3 + [moment_weight] * (k - 3)
+            if k == 6:
+                moments.append(n + 3)
+            limits.append((n, C, d))
+            n += k
+        starts = np.array([start for start, _ in cols], dtype=int)
+        A = np.zeros((6, n))
+        if n:
+            forces = (starts[:, None] + np.arange(3)).reshape(-1)
+            A[:, forces] = wrench_map([c.p_WC for c in contacts])
+        for start in moments:
+            A[3:, start : start + 3] = np.eye(3)
+        self.A = A
+        self.n, self.cols, self.weights = n, cols, np.array(weights)
+        self.G = np.zeros((sum(len(d) for _, _, d in limits), n))
+        self.h = np.concatenate([d for _, _, d in limits]) if limits else np.zeros(0)
+        r = 0
+        for start, C, _ in limits:
+            self.G[r : r + len(C), start : start + C.shape[1]] = -C
+            r += len(C)
+
+    def least_norm(self, b: np.ndarray, h: np.ndarray) -> np.ndarray | None:
+        """``W⁻¹ Aᵀ (A W⁻¹ Aᵀ)⁻¹ b`` when it solves ``A x = b`` and keeps every
+        limit ``G x <= h``; else None."""
+        if not self.n:
+            return None
+        AW = self.A / self.weights
+        try:
+            x = AW.T @ np.linalg.solve(AW @ self.A.T, b)
+        except np.linalg.LinAlgError:
+            return None
+        if not (np.all(np.isfinite(x)) and np.max(np.abs(self.A @ x - b)) <= 1e-9):
+            return None
+        return x if np.all(self.G @ x <= h) else None
+
+
+def wrench_map(points: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
+    """``A`` (6, 3n): forces ``f_i`` at the points ``p_i`` (n, 3) [m] to the
+    wrench they apply about the world origin, ``(Σ f_i, Σ p_i × f_i)``."""
+    P = np.asarray(points, dtype=float).reshape(-1, 3)
+    x, y, z = P.T
+    A = np.zeros((6, len(P), 3))
+    A[:3] = np.eye(3)[:, None, :]
+    A[3, :, 1], A[3, :, 2] = -z, y
+    A[4, :, 0], A[4, :, 2] = z, -x
+    A[5, :, 0], A[5, :, 1] = -y, x
+    return A.reshape(6, -1)
+
+
+@functools.lru_cache(maxsize=4096)
+def _limits(contact: ContactConstraint) -> tuple[np.ndarray, np.ndarray]:
+    """``C, d`` of :func:`pik_mj.balance.wrench_constraints` (a contact is
+    immutable, cached by identity); a point contact's on its force alone (rows
+    that involve the moment dropped: they pin ``n = 0``)."""
+    C, d = wrench_constraints(contact)
+    if contact.half_x == 0.0 and contact.half_y == 0.0:
+        keep = ~np.any(C[:, 3:] != 0.0, axis=1)
+        C, d = C[keep, :3], d[keep]
+    C.flags.writeable = False
+    d.flags.writeable = False
+    return C, d
 
 
 def _cop(contact: ContactConstraint, w: np.ndarray) -> np.ndarray:

@@ -40,16 +40,29 @@ def _inverse(
     model: mujoco.MjModel, data: mujoco.MjData, q: np.ndarray, v: np.ndarray, a: np.ndarray
 ) -> np.ndarray:
     """``qfrc_inverse = M a + c(q, v) − τ_passive`` with constraints disabled (nv,)."""
+    return inverse_dynamics(model, data, q, v[None], a[None])[0]
+
+
+def inverse_dynamics(
+    model: mujoco.MjModel, data: mujoco.MjData, q: np.ndarray, qvel: np.ndarray, qacc: np.ndarray
+) -> np.ndarray:
+    """``M(q) q̈_k + c(q, q̇_k) − τ_passive(q, q̇_k)`` (k, nv) at one configuration
+    ``q`` (nq,) for the velocities ``qvel`` and accelerations ``qacc`` (k, nv):
+    ``mj_inverse`` with the constraint solver disabled (no contact forces),
+    unchecked (the callers' inputs are). ``data`` ends with the kinematics at ``q``."""
+    out = np.empty((len(qvel), model.nv))
     data.qpos[:] = q
-    data.qvel[:] = v
-    data.qacc[:] = a
     saved = model.opt.disableflags
     model.opt.disableflags = saved | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     try:
-        mujoco.mj_inverse(model, data)
+        for k, (v, a) in enumerate(zip(qvel, qacc, strict=True)):
+            data.qvel[:] = v
+            data.qacc[:] = a
+            mujoco.mj_inverse(model, data)
+            out[k] = data.qfrc_inverse
     finally:
         model.opt.disableflags = saved
-    return data.qfrc_inverse.copy()
+    return out
 
 
 def frame_jacobian(model: mujoco.MjModel, data: mujoco.MjData, frame: Frame) -> np.ndarray:
@@ -81,10 +94,12 @@ def _external_wrenches(
     return out
 
 
-def _generalized_external(
+def external_torques(
     model: mujoco.MjModel, data: mujoco.MjData, external: Sequence[ExternalSpec]
 ) -> np.ndarray:
-    """``Σ J_kᵀ w_k`` (nv,) of the external wrenches at the current kinematics."""
+    """``Σ J_kᵀ w_k`` (nv,) of the external wrenches ``(frame, force (3,) [N],
+    moment (3,) [N·m])`` (world frame, at each frame's origin) at the kinematics
+    current in ``data``."""
     total = np.zeros(model.nv)
     for frame, w in _external_wrenches(model, external):
         total += frame_jacobian(model, data, frame).T @ w
@@ -124,4 +139,4 @@ def joint_torques(
     """
     q, v, a = _state(model, q, qvel, qacc)
     tau = _inverse(model, data, q, v, a)
-    return tau - _generalized_external(model, data, external)
+    return tau - external_torques(model, data, external)

@@ -45,13 +45,11 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from pik_mj.dynamics import frame_jacobian, joint_torques
-from pik_mj.frames import Frame
+from pik_mj.dynamics import external_torques, inverse_dynamics
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
-from pik_mj.sim.physics import ContactInfo, External, Physics
+from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
-from pik_mj.sim.torques import holding_torques
-from pik_mj.spatial import skew
+from pik_mj.sim.torques import ContactSupport, weight_torques
 
 __all__ = ["DRIVE_RESERVE", "KNOT_SPACING", "MAX_STRETCH", "TorquePlan", "plan_torques"]
 
@@ -115,40 +113,6 @@ class TorquePlan:
         )
 
 
-class _Carrier:
-    """``P``: a generalized force ``τ`` (nv,) less ``J_cᵀ f``, ``f`` the least-norm
-    contact forces at the environment contacts ``env`` that apply the wrench of
-    its free-joint rows (``τ_root = J_Bᵀ w_B``); the identity for a fixed base or
-    without contacts (kinematics of the pose current in ``data``). Linear in
-    ``τ``: ``P τ = τ - J_cᵀ A⁺ T J_Bᵀ⁻¹ τ_root`` with ``A`` the contacts' map
-    from forces to the wrench about the origin and ``T`` the shift of
-    ``w_B`` from ``p_WB`` to the origin; the product is formed once."""
-
-    def __init__(self, scene: Physics, data: mujoco.MjData, env: list[ContactInfo]):
-        m = scene.model
-        self.active = scene.robot.has_floating_base and bool(env)
-        if not self.active:
-            return
-        b = scene.robot.root_body_id
-        self.dofs = m.jnt_dofadr[m.body_jntadr[b]] + np.arange(6)
-        J_B = frame_jacobian(m, data, Frame(m, scene.root_body, "body", b))[:, self.dofs]
-        shift = np.eye(6)  # (f, n about p_WB) -> (f, n about the origin)
-        shift[3:, :3] = skew(data.xpos[b])
-        A = np.zeros((6, 3 * len(env)))
-        J = np.zeros((3 * len(env), m.nv))
-        for i, c in enumerate(env):
-            A[:3, 3 * i : 3 * i + 3] = np.eye(3)
-            A[3:, 3 * i : 3 * i + 3] = skew(c.position)  # f -> p x f
-            body = int(m.geom_bodyid[scene.geom_ids[c.robot_geom]])
-            mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, c.position, body)
-        self.carried = J.T @ np.linalg.pinv(A) @ shift @ np.linalg.inv(J_B.T)  # (nv, 6)
-
-    def __call__(self, tau: np.ndarray) -> np.ndarray:
-        if not self.active:
-            return tau
-        return tau - self.carried @ tau[self.dofs]
-
-
 class _Knots:
     """The reference's poses and rates at knots (the plan's workspace)."""
 
@@ -180,25 +144,23 @@ class _Knots:
         """``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (nv of the robot) at a
         knot, or None without an equilibrium."""
         scene, d, nv = self.scene, self.data, self.rm.nv
-        qpos = scene.qpos_of(q)
-        contacts = scene.touching(qpos)
-        rest = holding_torques(scene, q, load, data=d, contacts=contacts)
-        if rest is None:
-            return None
         m = scene.model
+        qpos = scene.qpos_of(q)
         v = np.zeros(m.nv)
         v[:nv] = dq
         zero = np.zeros(m.nv)
-        g = joint_torques(m, d, qpos, zero, zero)
-        inertia = joint_torques(m, d, qpos, zero, v) - g
-        plus = joint_torques(m, d, qpos, v, zero) - g
-        minus = joint_torques(m, d, qpos, -v, zero) - g
-        carry = _Carrier(scene, d, [c for c in contacts if not c.self_contact])
+        g, accel, plus, minus = inverse_dynamics(
+            m, d, qpos, np.array([zero, zero, v, -v]), np.array([zero, v, zero, zero])
+        )
+        support = ContactSupport(scene, d, scene.touching(qpos))
+        rest = support.hold(g - external_torques(m, d, load) - weight_torques(scene, d))
+        if rest is None:
+            return None
         return (
             rest[:nv],
-            carry(inertia)[:nv],
-            carry(0.5 * (plus + minus))[:nv],
-            carry(0.5 * (plus - minus))[:nv],
+            support.carry(accel - g)[:nv],
+            support.carry(0.5 * (plus + minus) - g)[:nv],
+            support.carry(0.5 * (plus - minus))[:nv],
         )
 
     def bounds(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

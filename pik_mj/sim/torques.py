@@ -10,12 +10,13 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj.dynamics import contact_wrenches, joint_torques, root_wrench
+from pik_mj.dynamics import contact_wrenches, joint_torques, wrench_map
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
 from pik_mj.sim.static import point_contacts
+from pik_mj.spatial import skew
 
-__all__ = ["drive_shortfalls", "holding_torques"]
+__all__ = ["ContactSupport", "drive_shortfalls", "holding_torques", "weight_torques"]
 
 
 def holding_torques(
@@ -27,6 +28,7 @@ def holding_torques(
     qacc: np.ndarray | None = None,
     data: mujoco.MjData | None = None,
     contacts: Sequence[ContactInfo] | None = None,
+    support: ContactSupport | None = None,
 ) -> np.ndarray | None:
     r"""Generalized forces that move the robot through ``q`` at velocity ``qvel``
     and acceleration ``qacc`` (default: hold it still) under gravity, the
@@ -60,6 +62,8 @@ def holding_torques(
         data: Workspace (default: a new ``MjData`` of the scene's model).
         contacts: The robot's environment contacts at ``q`` when known (default:
             ``scene.touching``'s).
+        support: Their :class:`ContactSupport` at ``q`` when built already
+            (``contacts`` then unused).
 
     Returns:
         ``(nv,)`` [N, N·m] of the scene's model, or None when no contact forces
@@ -75,28 +79,99 @@ def holding_torques(
     if qacc is not None:
         a[:nv] = qacc
     wrenches = [(f, np.asarray(F, float), np.asarray(M, float)) for f, F, M in external]
-    tau = joint_torques(m, d, qpos, v, a, wrenches)
+    tau = joint_torques(m, d, qpos, v, a, wrenches) - weight_torques(scene, d)
+    if support is None:
+        support = ContactSupport(scene, d, scene.touching(qpos) if contacts is None else contacts)
+    return support.hold(tau)
+
+
+def weight_torques(scene: Physics, data: mujoco.MjData) -> np.ndarray:
+    """``Σ_o J_{p,F_o}(c_o)ᵀ m_o g`` (nv,): the weights of the grasped objects,
+    each on its grasping frame's body at the object's CoM (kinematics and
+    ``subtree_com`` current in ``data``; zeros without grasps)."""
+    m = scene.model
+    out = np.zeros(m.nv)
     jacp = np.zeros((3, m.nv))
     gravity = np.asarray(m.opt.gravity, dtype=float)
     for frame, b in scene.held_objects:
-        # the weight of a grasped object hangs on the frame's body at its CoM
-        mujoco.mj_jac(m, d, jacp, None, d.subtree_com[b], frame.body_id)
-        tau -= jacp.T @ (m.body_subtreemass[b] * gravity)
-    if not scene.robot.has_floating_base:
-        return tau
-    w_B, p_WB = root_wrench(m, d, tau, scene.root_body)
-    total = np.concatenate([w_B[:3], w_B[3:] + np.cross(p_WB, w_B[:3])])
-    if contacts is None:
-        contacts = scene.touching(qpos)
-    env = [c for c in contacts if not c.self_contact]
-    solved = contact_wrenches(point_contacts(env), total)
-    if solved is None:
-        return None
-    for c, f in zip(env, solved[:, :3], strict=True):
-        body = int(m.geom_bodyid[scene.geom_ids[c.robot_geom]])
-        mujoco.mj_jac(m, d, jacp, None, c.position, body)
-        tau -= jacp.T @ f
-    return tau
+        mujoco.mj_jac(m, data, jacp, None, data.subtree_com[b], frame.body_id)
+        out += jacp.T @ (m.body_subtreemass[b] * gravity)
+    return out
+
+
+class ContactSupport:
+    r"""The robot's environment contacts (within the scene's
+    ``contact_tolerance``, self-contacts left out) at the pose current in
+    ``data`` (its kinematics), as maps of generalized forces: what is left of
+    ``τ`` (nv,) once the contacts apply the wrench of its free-joint rows.
+
+    With ``J_B`` the root body's Jacobian on its free joint, the wrench about
+    the world origin is ``w(τ) = T J_B^{-T} τ_{root}`` (``T`` shifts it from
+    the root body's origin, :func:`pik_mj.dynamics.root_wrench`); ``A`` (6, 3n)
+    maps the contact forces ``f = (f_1, …, f_n)`` at the points ``p_i`` to the
+    wrench about the origin (``f_i ↦ (f_i, p_i × f_i)``) and ``J_c`` (3n, nv)
+    stacks the points' Jacobians (``mj_jac``):
+
+    * :meth:`hold`: ``τ − J_cᵀ f`` with ``f`` the least-norm forces inside the
+      friction pyramids with ``A f = w(τ)``
+      (:func:`pik_mj.dynamics.contact_wrenches`); None without them;
+    * :meth:`carry`: ``P τ = τ − J_cᵀ A⁺ w(τ)``, the least-norm forces without
+      their limits, linear in ``τ`` (the product ``J_cᵀ A⁺ T J_B^{-T}`` is
+      formed once).
+
+    Without a free joint or without contacts both are the identity.
+
+    Args:
+        scene: The scene.
+        data: Workspace of the scene's model, kinematics current.
+        contacts: The robot's contacts at that pose (:meth:`~pik_mj.sim.physics.Physics.touching`).
+    """
+
+    def __init__(self, scene: Physics, data: mujoco.MjData, contacts: Sequence[ContactInfo]):
+        m = scene.model
+        env = [c for c in contacts if not c.self_contact]
+        b = scene.robot.root_body_id
+        j = int(m.body_jntadr[b])
+        self.env = env
+        self.active = bool(env) and j >= 0 and m.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
+        if not self.active:
+            return
+        self._dofs = m.jnt_dofadr[j] + np.arange(6)
+        J_B = np.zeros((6, m.nv))
+        mujoco.mj_jacBody(m, data, J_B[:3], J_B[3:], b)
+        shift = np.eye(6)  # (f, n about p_WB) -> (f, n about the origin)
+        shift[3:, :3] = skew(data.xpos[b])
+        self._wrench = shift @ np.linalg.inv(J_B[:, self._dofs].T)  # (6, 6): τ_root -> w
+        points = np.array([c.position for c in env])
+        J = np.zeros((3 * len(env), m.nv))
+        for i, c in enumerate(env):
+            body = m.geom_bodyid[scene.geom_ids[c.robot_geom]]
+            mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, points[i], body)
+        self._A, self._J = wrench_map(points), J
+        self._carried: np.ndarray | None = None
+
+    def wrench(self, tau: np.ndarray) -> np.ndarray:
+        """``w(τ)``: the wrench ``(f, n about the origin)`` (6,) [N, N·m] the
+        contacts must apply for the free-joint rows of ``tau``."""
+        return self._wrench @ tau[self._dofs]
+
+    def hold(self, tau: np.ndarray) -> np.ndarray | None:
+        """``τ − J_cᵀ f``, ``f`` within the friction pyramids (class docstring);
+        None when no such forces apply ``w(τ)``."""
+        if not self.active:
+            return tau
+        solved = contact_wrenches(point_contacts(self.env), self.wrench(tau))
+        if solved is None:
+            return None
+        return tau - self._J.T @ solved[:, :3].reshape(-1)
+
+    def carry(self, tau: np.ndarray) -> np.ndarray:
+        """``P τ`` (class docstring)."""
+        if not self.active:
+            return tau
+        if self._carried is None:
+            self._carried = self._J.T @ np.linalg.pinv(self._A) @ self._wrench  # (nv, 6)
+        return tau - self._carried @ tau[self._dofs]
 
 
 def drive_shortfalls(scene: Physics, q: np.ndarray, tau: np.ndarray) -> list[DriveShortfall]:

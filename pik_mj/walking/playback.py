@@ -3,7 +3,8 @@
 The robot stands in its :class:`pik_mj.sim.Scene` (made with
 :meth:`~pik_mj.sim.Scene.from_robot`: a floor, a servo on every hinge joint; the
 walks use :data:`WALK_CONTACT`); the physics starts at rest in the pattern's
-first configuration. At every physics step each joint's servo exerts the torque
+first configuration, which the servos hold for a lead time before the pattern
+plays. At every physics step each joint's servo exerts the torque
 of :class:`~pik_mj.walking.drive.JointDrive`: position and velocity feedback
 towards the pattern (linear between its ticks) plus the pattern's own joint
 torques (inverse dynamics with the ground reaction on the support soles,
@@ -375,6 +376,7 @@ def play_walk_pattern(
     scene: Scene,
     *,
     settle_time: float = 1.0,
+    lead_time: float = 0.1,
     torque_feedforward: bool = True,
     gains: str | None = None,
     stabilize: bool = True,
@@ -388,6 +390,11 @@ def play_walk_pattern(
         scene: The robot's scene (:meth:`pik_mj.sim.Scene.from_robot`; its servo
             actuators, time step and contacts are the playback's).
         settle_time: Time the last targets are held after the pattern [s].
+        lead_time: Time the first tick is held before the pattern starts [s]: the
+            robot, put at rest in that pose, settles on its soles with the
+            servos on, so that the first sample measures the forces they hold
+            it with (the feet's force sensors, which include the feet's own
+            inertia, read the contact forces from then on).
         torque_feedforward: Add the pattern's joint torques
             (:func:`feedforward_torques`) to the servo law
             (:class:`~pik_mj.walking.drive.JointDrive`).
@@ -429,11 +436,20 @@ def play_walk_pattern(
     t_samples = np.arange(N) * pattern.dt
     run = _Measurements(pattern, scene, N)
 
+    def control(s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The drive's torques (clipped, wanted) ``s`` ticks into the pattern."""
+        q_ref, qd_ref, tau_ff = ref.at(s)
+        if stabilizer is not None:
+            q_ref = q_ref + _stabilize(stabilizer, falls.R_ref, pattern, data, s, len(drive.joints))
+        return drive.torques(data, q_ref, qd_ref, tau_ff)
+
     scene.set_pose(pattern.q[0])
-    t0 = data.time
     wall0 = time.perf_counter()
-    standing = float(data.xpos[run.root_id, 2])
-    falls = _Falls(pattern, scene, fall_ratio, standing, N)
+    falls = _Falls(pattern, scene, fall_ratio, float(data.xpos[run.root_id, 2]), N)
+    t0 = data.time + timestep * round(lead_time / timestep)
+    while data.time < t0 - 0.5 * timestep:  # settle on the soles, the servos holding tick 0
+        drive.apply(data, control(0.0)[0])
+        scene.step(1)
     n_done = N
     joint_err = 0.0
     for k in range(N):
@@ -461,12 +477,7 @@ def play_walk_pattern(
             break
         t_next = t0 + t_samples[k + 1]
         while data.time < t_next - 0.5 * timestep:
-            s = (data.time - t0) / pattern.dt
-            q_ref, qd_ref, tau_ff = ref.at(s)
-            if stabilizer is not None:
-                offsets = _stabilize(stabilizer, falls.R_ref, pattern, data, s, len(drive.joints))
-                q_ref = q_ref + offsets
-            tau, wanted = drive.torques(data, q_ref, qd_ref, tau_ff)
+            tau, wanted = control((data.time - t0) / pattern.dt)
             saturation.add(wanted, tau)
             drive.apply(data, tau)
             scene.step(1)

@@ -27,11 +27,12 @@ inverse dynamics for the wrench the ground must apply to the floating base, and
 the ZMP of that wrench (:func:`pik_mj.dynamics.zmp_of_motion`), against the
 support polygon of the soles' polygons (:mod:`pik_mj.walking.support`). Where it
 leaves the polygon (the cart-table model leaves out the limbs' own momentum), the
-CoM is corrected once and every tick solved again (Kajita's two-stage preview
+CoM is corrected and every tick solved again (Kajita's two-stage preview
 control): the preview controller run on the ZMP error
 :math:`e = p^{ref} - p^{ID}` from rest gives :math:`\\Delta c`, and the CoM
 reference becomes :math:`c + \\Delta c`, whose cart-table ZMP moves by what the
-motion missed.
+motion missed; repeated on the corrected motion's error while its ZMP still
+leaves the polygon, at most :data:`MAX_CORRECTIONS` times.
 """
 
 from __future__ import annotations
@@ -61,6 +62,7 @@ from pik_mj.walking.preview import PreviewController
 from pik_mj.walking.support import support_margin
 
 __all__ = [
+    "MAX_CORRECTIONS",
     "SELF_COLLISION_ORANGE",
     "SELF_COLLISION_YELLOW",
     "WalkPattern",
@@ -71,6 +73,8 @@ __all__ = [
     "foot_force_sensors",
 ]
 
+MAX_CORRECTIONS = 3
+"""Most passes of the two-stage correction (module docstring)."""
 SELF_COLLISION_YELLOW = 0.05
 """[m] Robot geoms nearer than this get a self-collision row (irteus' yellow zone)."""
 SELF_COLLISION_ORANGE = 0.005
@@ -105,8 +109,9 @@ class WalkPattern:
         force_sensors: Each leg's foot force/torque sensor (site name), for the
             legs that have one (:func:`foot_force_sensors`).
         self_collision_pairs: Geom pairs kept apart at level 0.
-        zmp_corrected: The CoM was corrected by the ZMP error of a first pass
-            (module docstring); ``com_ref`` and ``plan`` are the corrected ones.
+        zmp_corrections: How many times the CoM was corrected by the ZMP error of
+            the previous pass (module docstring); ``com_ref`` and ``plan`` are the
+            corrected ones.
     """
 
     t: np.ndarray
@@ -130,7 +135,7 @@ class WalkPattern:
     soles: dict[str, Sole]
     force_sensors: dict[str, str]
     self_collision_pairs: int = 0
-    zmp_corrected: bool = False
+    zmp_corrections: int = 0
 
     @property
     def duration(self) -> float:
@@ -385,6 +390,7 @@ def calc_walk_pattern(
     ik_rthre: float = 1e-3,
     qp_solver: object = "daqp",
     callback: Callable[[int, Robot], None] | None = None,
+    max_corrections: int = MAX_CORRECTIONS,
 ) -> WalkPattern:
     """Whole-body walking pattern from a footstep list (irteus manual:
     ``:calc-walk-pattern-from-footstep-list``).
@@ -424,6 +430,8 @@ def calc_walk_pattern(
             ``"daqp"`` by default: OSQP's approximate solutions leave a
             tick-to-tick jitter that the ZMP's second differences amplify.
         callback: Called as ``callback(k, robot)`` after tick k.
+        max_corrections: Most passes of the two-stage correction (module
+            docstring; 0: none).
 
     Returns:
         The :class:`WalkPattern`.
@@ -456,8 +464,9 @@ def calc_walk_pattern(
         robot.model, ticks.q, plan.dt, plan.ground_z, root_body=robot.root_body
     )
     outlines = {lb: sole.outline for lb, sole in soles.items()}
-    corrected = bool(support_margin(plan, zmp_computed, outlines).min() <= 0.0)
-    if corrected:
+    corrections = 0
+    while corrections < max_corrections and support_margin(plan, zmp_computed, outlines).min() <= 0:
+        corrections += 1
         plan = corrected_plan(plan, zmp_computed)
         robot.configuration.update(start)
         robot.configuration.update(bent_knees(robot, params.all_limbs))
@@ -487,7 +496,7 @@ def calc_walk_pattern(
         soles=soles,
         force_sensors=foot_force_sensors(robot, soles),
         self_collision_pairs=tasks.pairs,
-        zmp_corrected=corrected,
+        zmp_corrections=corrections,
     )
 
 

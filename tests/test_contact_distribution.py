@@ -1,0 +1,152 @@
+"""The contact wrench distribution in closed form where no limit is active, the
+QP where one is (:func:`pik_mj.dynamics.contact_wrenches`), and the torque
+plan built on it (:func:`pik_mj.sim.effort.plan_torques`) against independent
+references: the QP itself, ``holding_torques`` pose by pose, and the mass
+matrix."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+import qpsolvers
+
+from pik_mj import Robot, Scene, balance
+from pik_mj import dynamics as dy
+from pik_mj.dynamics import distribution
+from pik_mj.exceptions import InvalidInput
+from pik_mj.sim.motion import MotionReference, velocity_limits
+from pik_mj.sim.path import Waypoint, Waypoints
+from pik_mj.sim.static import point_contacts
+from pik_mj.sim.torques import ContactSupport, holding_torques
+
+WEIGHT = 500.0  # [N]
+
+
+def _qp_calls(monkeypatch) -> list[int]:
+    """Counts the calls to the QP solver (the real one, called through)."""
+    calls: list[int] = []
+    solve = qpsolvers.solve_qp
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return solve(*args, **kwargs)
+
+    monkeypatch.setattr(distribution.qpsolvers, "solve_qp", counted)
+    return calls
+
+
+def _contacts(rng: np.random.Generator, kind: str) -> list[balance.ContactConstraint]:
+    """Four point contacts of a foot pair on z = 0, or two flat soles."""
+    if kind == "points":
+        corners = [(0.1, 0.15), (-0.1, 0.15), (0.1, -0.15), (-0.1, -0.15)]
+        return [
+            balance.contact_from_normal(
+                np.array([x, y, 0.0]) + rng.normal(0, 0.01, 3) * [1, 1, 0], np.array([0, 0, 1.0])
+            )
+            for x, y in corners
+        ]
+    return [
+        balance.contact_from_normal(np.array([0.0, y, 0.0]), np.array([0, 0, 1.0]), 0.1, 0.05)
+        for y in (0.1, -0.1)
+    ]
+
+
+@pytest.mark.parametrize("kind", ["points", "soles"])
+def test_the_closed_form_is_the_qp_s_solution_where_no_limit_is_active(kind, monkeypatch):
+    """Random totals: a weight over the support with small pushes (every limit
+    inactive) are solved without the QP, and equal its solution within 1e-9 of
+    the weight; a push beyond friction or a CoP outside the feet goes to the QP
+    (the closed form's forces would leave a pyramid) and gives the QP's forces."""
+    rng = np.random.default_rng(3)
+    calls = _qp_calls(monkeypatch)
+    inside = 0
+    for trial in range(40):
+        contacts = _contacts(rng, kind)
+        f = np.array([*rng.normal(0, 0.05 if trial % 2 else 0.6, 2) * WEIGHT, WEIGHT])
+        c = np.array([*rng.normal(0, 0.03 if trial % 2 else 0.2, 2), 0.9])  # where f acts
+        total = np.concatenate([f, np.cross(c, f)])
+        before = len(calls)
+        auto = dy.contact_wrenches(contacts, total)
+        closed = len(calls) == before
+        qp = dy.contact_wrenches(contacts, total, solver="qp")
+        assert (auto is None) == (qp is None)
+        if auto is None:
+            continue
+        np.testing.assert_allclose(auto, qp, rtol=0, atol=1e-9 * WEIGHT)
+        inside += closed
+        np.testing.assert_allclose(
+            dy.wrench_map([k.p_WC for k in contacts]) @ auto[:, :3].reshape(-1)
+            + np.concatenate([np.zeros(3), auto[:, 3:].sum(axis=0)]),
+            total,
+            atol=1e-9 * WEIGHT,
+        )
+    assert 10 <= inside < 40  # both branches were taken
+
+
+def test_contacts_on_one_line_go_to_the_qp(monkeypatch):
+    """Two point contacts cannot apply a moment about their line: the closed
+    form misses the total, the QP says there is no equilibrium."""
+    calls = _qp_calls(monkeypatch)
+    pts = [np.array([0.0, y, 0.0]) for y in (0.1, -0.1)]
+    contacts = [balance.contact_from_normal(p, np.array([0, 0, 1.0])) for p in pts]
+    f = np.array([0, 0, WEIGHT])
+    assert dy.contact_wrenches(contacts, np.concatenate([f, np.cross([0.05, 0, 1], f)])) is None
+    assert calls
+    with pytest.raises(InvalidInput, match="solver"):
+        dy.contact_wrenches(contacts, np.zeros(6), solver="lp")
+    with pytest.raises(InvalidInput, match="ContactConstraint"):
+        dy.contact_wrenches(["foot"], np.zeros(6))
+
+
+def _reach(robot: Robot) -> Waypoints:
+    """The right arm forward in 4 iterates from the standing pose."""
+    q0 = robot.configuration.q.copy()
+    path = Waypoints(q0, "reach")
+    j = robot.model.joint(robot.limb("rarm").joints[0])
+    for k in range(1, 5):
+        q = q0.copy()
+        q[j.qposadr[0]] -= 0.2 * k
+        path.items.append(Waypoint(q, "reach", k))
+    return path
+
+
+def test_the_plan_s_knots_match_holding_torques_and_the_mass_matrix():
+    """At every knot of a reach's plan on the sample humanoid (the pose and
+    ``q'`` rebuilt from the timing): ``τ_s`` equals gravity less the contact
+    forces the QP finds, each through its point's Jacobian, and equals
+    ``holding_torques`` of the knot's pose (1e-9 N·m); the inertia
+    term equals ``P M q'`` with ``M q'`` from ``mj_mulM`` (1e-9); and every term's
+    free-joint rows are carried by the contacts (below 1e-9)."""
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    path = _reach(robot)
+    lower, upper = velocity_limits(scene)
+    ref = MotionReference(scene, path, lower, upper, speed=0.2)
+    plan, timing, rm = ref.torques, ref.timing, robot.model
+    assert len(plan.sigma) >= 5 and not plan.shortfalls
+    m, nv = scene.model, rm.nv
+    data = mujoco.MjData(m)
+    Mv, J = np.zeros(m.nv), np.zeros((3, m.nv))
+    for k, sigma in enumerate(plan.sigma):
+        (i,), (alpha,) = timing.piece(np.array([sigma]))
+        q = ref.q[i].copy()
+        v = np.zeros(m.nv)
+        if i < len(ref.q) - 1:
+            mujoco.mj_differentiatePos(rm, v[:nv], 1.0, ref.q[i], ref.q[i + 1])
+            mujoco.mj_integratePos(rm, q, v[:nv].copy(), alpha)
+            v[:nv] /= timing.steps[i]
+        qpos = scene.qpos_of(q)
+        held = dy.joint_torques(m, data, qpos)
+        contacts = [c for c in scene.touching(qpos) if not c.self_contact]
+        support = ContactSupport(scene, data, contacts)
+        forces = dy.contact_wrenches(point_contacts(contacts), support.wrench(held), solver="qp")
+        for c, f in zip(contacts, forces, strict=True):
+            mujoco.mj_jac(m, data, J, None, c.position, m.geom(c.robot_geom).bodyid[0])
+            held -= J.T @ f[:3]
+        np.testing.assert_allclose(plan.rest[k], held[:nv], atol=1e-9)
+        np.testing.assert_allclose(holding_torques(scene, q), held, atol=1e-9)
+        mujoco.mj_mulM(m, data, Mv, v)
+        np.testing.assert_allclose(plan.inertia[k], support.carry(Mv)[:nv], atol=1e-9)
+        for term in (plan.rest, plan.inertia, plan.velocity, plan.damping):
+            assert np.max(np.abs(term[k][:6])) < 1e-9
