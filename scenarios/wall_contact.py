@@ -20,7 +20,8 @@ reads off until then and on at the end.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import mujoco
@@ -71,6 +72,12 @@ LEAN = 0.35  # the CoM's target past the toes: this fraction of the way to the w
 LEAN_MET = 0.5  # the lean is met within this share of its way past the toes
 FLAT_JOINTS = 5  # an arm sets its hand's position and palm normal (5 numbers) with 5 joints
 TOUCHING = 1e-3  # [m] hand-wall distance at which the palm is on the wall
+# Solves that bring a hand touching at a point onto the wall (its orientation free, its
+# geometry's reach towards the wall is known only after the solve): each moves the
+# hand frame's target into the wall by the gap MuJoCo measures.
+ONTO_WALL = 3
+PALM_ONTO = "hand onto the wall"
+LEAN_ONTO = "lean on the wall, onto it"
 # The first trust radius of 1: the palm's solve then ends with the forearm clear of
 # the wall by the lean's clearance, so that the lean's avoidance holds from its start.
 STEPS = TrustRegion(radius=1.0)
@@ -210,12 +217,20 @@ def run(
     # First the palm to the wall, the CoM over the feet (a lean before the hand is
     # there would fall into the wall), then the lean with the wall's support.
     palm_to_wall(stage, support, path)
+    support, _ = onto_wall(
+        stage, support, lambda s, label: palm_to_wall(stage, s, path, label), PALM_ONTO
+    )
     scfr_task, lean = lean_on_wall(stage, support, path)
+    support, again = onto_wall(
+        stage, support, lambda s, label: lean_on_wall(stage, s, path, label), LEAN_ONTO
+    )
+    if again is not None:
+        scfr_task, lean = again
     trace = play(stage, support.hand, path, speed) if speed else None
     # The final pose in physics; the palm on the wall is an intended contact.
     stage.hold_final_pose(hold)
     result = stage.result
-    result.main = "lean on the wall"
+    result.main = list(result.solves)[-1]
     result.figures = figures(robot, support, scfr_task, lean)
     check(result)
     if trace is not None:
@@ -258,12 +273,14 @@ def body_avoidance(robot: Robot) -> CollisionAvoidanceTask:
     )
 
 
-def palm_to_wall(stage: Stage, support: WallSupport, path: Waypoints) -> SolveResult:
+def palm_to_wall(
+    stage: Stage, support: WallSupport, path: Waypoints, label: str = "hand to the wall"
+) -> SolveResult:
     """The right palm flat on the wall, rotation about its normal free; the arm kept
     off the body."""
     return stage.solve(
         fullbody_inverse_kinematics,
-        "hand to the wall",
+        label,
         [(support.p_hand, support.R_hand)],
         path=path,
         total=100,
@@ -278,7 +295,7 @@ def palm_to_wall(stage: Stage, support: WallSupport, path: Waypoints) -> SolveRe
 
 
 def lean_on_wall(
-    stage: Stage, support: WallSupport, path: Waypoints
+    stage: Stage, support: WallSupport, path: Waypoints, label: str = "lean on the wall"
 ) -> tuple[ScfrTask, SolveResult]:
     """The palm kept on the wall, every joint free, the CoM in the SCFR of the three
     contacts (level 1) and leaning past the toes (a lower level, met within
@@ -298,7 +315,7 @@ def lean_on_wall(
     )
     res = stage.solve(
         fullbody_inverse_kinematics,
-        "lean on the wall",
+        label,
         [(support.p_hand, support.R_hand)],
         path=path,
         total=100,
@@ -315,6 +332,31 @@ def lean_on_wall(
         trust_region=STEPS,
     )
     return scfr_task, res
+
+
+def hand_gap(robot: Robot, hand: Hand) -> float:
+    """The hand's distance [m] to the wall (MuJoCo's ``mj_geomDistance`` over its
+    collision geoms) in the robot's configuration."""
+    m = robot.model
+    return min_distance(m, robot.data, hand.geoms(m), [m.geom("wall").id], 0.1)
+
+
+def onto_wall(
+    stage: Stage, support: WallSupport, solve: Callable[[WallSupport, str], Any], label: str
+) -> tuple[WallSupport, Any]:
+    """A hand touching at a point (not ``flat``) brought onto the wall: while its
+    geometry ends more than ``TOUCHING / 2`` off it (at most :data:`ONTO_WALL`
+    times), the hand frame's target moves into the wall by that gap and
+    ``solve(support, label)`` solves again from there. Returns the support with its
+    last target and the last solve's return (None: none was needed)."""
+    out = None
+    for _ in range(ONTO_WALL):
+        gap = hand_gap(stage.robot, support.hand)
+        if support.flat or gap <= TOUCHING / 2:
+            break
+        support = replace(support, p_hand=support.p_hand - gap * support.n_wall)
+        out = solve(support, label)
+    return support, out
 
 
 class WallTouch:
@@ -376,6 +418,7 @@ def figures(
         "palm_target_m": support.p_palm,
         "palm_flat": support.flat,
         "hand_error_m": float(np.linalg.norm(hand.translation() - support.p_hand)),
+        "hand_wall_gap_m": hand_gap(robot, support.hand),
         "palm_normal_misalignment_rad": float(np.arccos(np.clip(palm @ -n_wall, -1, 1))),
         "com_m": com,
         "com_scfr_margin_m": float(region.signed_distance(com[:2])),
@@ -392,7 +435,9 @@ def figures(
 def check(result: ScenarioResult) -> None:
     """The scenario's checks on its solves and figures."""
     f = result.figures
-    for label in ("hand to the wall", "lean on the wall"):
+    for label in ("hand to the wall", PALM_ONTO, "lean on the wall", LEAN_ONTO):
+        if label not in result.solves:
+            continue
         res = result.solves[label]
         result.check(f"{label}: converged", res.converged, f"{res.iterations} iterations")
     if f["palm_flat"]:

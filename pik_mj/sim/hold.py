@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike
 
 from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
+from pik_mj.sim.balancing import balance_feedback, stance
 from pik_mj.sim.criteria import HoldCriteria, check_options
 from pik_mj.sim.falls import Fall
 from pik_mj.sim.measures import HoldSample, Tracked
@@ -69,6 +70,9 @@ class HoldReport:
         wall_time: Wall-clock time of the hold [s].
         fall: The first sign of the fall, with its figure and time (None: no fall).
         tilt: Largest tilt of the trunk (root body) from its start [rad].
+        balance: The balance feedback's figures (:mod:`pik_mj.sim.balancing`:
+            on or off, the ankle servos' and the tipping stiffness); None for a
+            robot that does not stand on two driven ankles.
     """
 
     passed: bool
@@ -92,6 +96,7 @@ class HoldReport:
     wall_time: float
     fall: Fall | None = None
     tilt: float = 0.0
+    balance: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (non-finite margins become None)."""
@@ -117,6 +122,7 @@ class HoldReport:
             "wall_time": self.wall_time,
             "fall": None if self.fall is None else self.fall.to_dict(),
             "tilt": self.tilt,
+            "balance": self.balance,
         }
 
 
@@ -195,6 +201,7 @@ def hold(
     record_every: int = RECORD_EVERY,
     margin_every: int = MARGIN_EVERY,
     feedforward: bool = True,
+    balance: bool = True,
 ) -> HoldReport:
     """Hold ``q`` with the scene's servos and step the physics for ``duration``.
 
@@ -233,6 +240,9 @@ def hold(
             no equilibrium. When a joint needs more than its drive gives
             (:func:`drive_shortfalls`), the pose is not stepped: the report
             fails, naming the joint, its torque and the drive's bound.
+        balance: Turn the stance ankles' servo targets against the trunk's
+            inclination where the robot cannot stand on its ankle servos alone
+            (:mod:`pik_mj.sim.balancing`); False: the servos alone.
 
     Returns:
         A :class:`HoldReport`.
@@ -252,6 +262,8 @@ def hold(
     if short:
         why = "the servos cannot hold this pose: " + "; ".join(s.describe() for s in short)
         return _not_held(scene, q, duration, criteria, allowed, why)
+    figures = stance(scene, q)
+    feedback = balance_feedback(scene, q, figures) if balance else None
     run = track(
         scene,
         HeldPose(scene, q, tau),
@@ -263,15 +275,22 @@ def hold(
         every=every,
         record_every=record_every,
         margin_every=margin_every,
+        feedback=feedback,
     )
-    return _held(scene, run, criteria, allowed, duration)
+    balanced = None if figures is None else figures.to_dict(feedback is not None)
+    return _held(scene, run, criteria, allowed, duration, balanced)
 
 
 def _held(
-    scene: Physics, run: Tracked, criteria: HoldCriteria, allowed: list[str], duration: float
+    scene: Physics,
+    run: Tracked,
+    criteria: HoldCriteria,
+    allowed: list[str],
+    duration: float,
+    balance: dict[str, Any] | None,
 ) -> HoldReport:
-    """The report of a hold that ran (``run``), its failures diagnosed
-    (:func:`pik_mj.sim.stability.diagnose`)."""
+    """The report of a hold that ran (``run``) with the ``balance`` feedback's
+    figures, its failures diagnosed (:func:`pik_mj.sim.stability.diagnose`)."""
     failures = run.failures(criteria) + diagnose(scene, run, criteria)
     return HoldReport(
         passed=not failures,
@@ -295,6 +314,7 @@ def _held(
         wall_time=run.wall_time,
         fall=run.fall,
         tilt=run.tilt,
+        balance=balance,
     )
 
 
@@ -308,6 +328,7 @@ def hold_many(
     record_every: int = RECORD_EVERY,
     margin_every: int = MARGIN_EVERY,
     feedforward: bool = True,
+    balance: bool = True,
 ) -> list[HoldReport]:
     """:func:`hold` of each configuration of ``qs``, stepped together: each chunk
     of steps is one ``mujoco.rollout`` of every hold still going, on ``nthread``
@@ -323,7 +344,7 @@ def hold_many(
         criteria: Pass/fail thresholds (default :class:`HoldCriteria`).
         nthread: Rollout threads (default: one per CPU of this process, at most
             one per configuration; 0: the calling thread).
-        record_every, margin_every, feedforward: As :func:`hold`.
+        record_every, margin_every, feedforward, balance: As :func:`hold`.
 
     Returns:
         One :class:`HoldReport` per configuration, in order.
@@ -338,6 +359,7 @@ def hold_many(
     allowed = scene.allowed(criteria.allowed)
     reports: list[HoldReport | None] = [None] * len(qs)
     held: list[tuple[int, HeldPose]] = []
+    stances = []
     for i, q in enumerate(qs):
         q = scene.qpos_of(q)[: scene.robot_nq]
         tau = holding_torques(scene, q) if feedforward else None
@@ -347,15 +369,21 @@ def hold_many(
             reports[i] = _not_held(scene, q, duration, criteria, allowed, why)
         else:
             held.append((i, HeldPose(scene, q, tau)))
+            stances.append(stance(scene, q))
+    feedback = [
+        balance_feedback(scene, r.q, f) if balance else None
+        for (_, r), f in zip(held, stances, strict=True)
+    ]
     if nthread is None:
         nthread = min(len(held), len(os.sched_getaffinity(0)))
     runs = track_many(
         scene, [r for _, r in held], duration, criteria=criteria, allowed=allowed,
         nthread=nthread if nthread > 1 else 0, record_every=record_every,
-        margin_every=margin_every,
+        margin_every=margin_every, feedback=feedback,
     )  # fmt: skip
-    for (i, _), run in zip(held, runs, strict=True):
-        reports[i] = _held(scene, run, criteria, allowed, duration)
+    for (i, _), run, f, fb in zip(held, runs, stances, feedback, strict=True):
+        balanced = None if f is None else f.to_dict(fb is not None)
+        reports[i] = _held(scene, run, criteria, allowed, duration, balanced)
     return [r for r in reports if r is not None]
 
 

@@ -47,6 +47,7 @@ from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
+from pik_mj.sim.balancing import balance_feedback, stance
 from pik_mj.sim.clearance import Clearance, min_distance
 from pik_mj.sim.criteria import HoldCriteria, check_options
 from pik_mj.sim.falls import Fall
@@ -136,6 +137,9 @@ class MotionReport:
         wall_time: Wall-clock time [s] of the physics.
         fall: The first sign of the fall, with its figure and time (None: no fall).
         tilt: Largest tilt of the trunk (root body) from its reference [rad].
+        balance: The balance feedback's figures (:mod:`pik_mj.sim.balancing`:
+            on or off, the ankle servos' and the tipping stiffness); None for a
+            robot that does not stand on two driven ankles.
     """
 
     passed: bool
@@ -165,6 +169,7 @@ class MotionReport:
     wall_time: float = 0.0
     fall: Fall | None = None
     tilt: float = 0.0
+    balance: dict[str, Any] | None = None
 
     @property
     def max_frame_error(self) -> float:
@@ -205,6 +210,7 @@ class MotionReport:
             "fell": self.fell,
             "fall": None if self.fall is None else self.fall.to_dict(),
             "max_tilt_rad": self.tilt,
+            "balance": self.balance,
             "thresholds": dict(self.thresholds),
             "steps": self.steps,
             "timestep": self.timestep,
@@ -226,6 +232,7 @@ class MotionReport:
             f"{margin}; tilt {math.degrees(self.tilt):.1f}°, "
             f"{'FELL' if self.fell else 'no fall'}, "
             f"{len(self.unexpected_contacts)} unexpected contacts"
+            + ("; balance feedback on" if self.balance and self.balance["feedback"] else "")
             + (f"; {'; '.join(self.failures)}" if self.failures else "")
         )
 
@@ -332,6 +339,7 @@ def play(
     feedforward: bool = True,
     start: MotionReport | PhysicsState | None = None,
     planned: Sequence[tuple[str, str]] = (),
+    balance: bool = True,
 ) -> MotionReport:
     """Play ``path`` in the scene's physics (module docstring and
     :mod:`pik_mj.sim.reference`).
@@ -369,6 +377,10 @@ def play(
         planned: More planned contacts ``(robot geom, other geom)``, e.g. a hand
             closing on a handle it overlaps at the grasp (a pair penetrating
             at a waypoint is not planned by itself).
+        balance: Turn the stance ankles' servo targets against the trunk's
+            inclination where the robot cannot stand on its ankle servos alone
+            (:mod:`pik_mj.sim.balancing`, decided at the first waypoint);
+            False: the servos alone.
 
     Returns:
         A :class:`MotionReport`.
@@ -412,11 +424,13 @@ def play(
             f.describe() for f in reference.shortfalls
         )
         return _not_played(scene, path, reference, float(speed), float(settle), t0, why)
+    figures = stance(scene, path.items[0].q)
+    feedback = balance_feedback(scene, path.items[0].q, figures) if balance else None
     run = track(
         scene, reference, duration, criteria=criteria, allowed=allowed,
         planned_pairs={frozenset(p) for p in pairs}, external=external,
         callbacks=as_callbacks(callback), every=every, record_every=record_every,
-        margin_every=margin_every, frames=frames,
+        margin_every=margin_every, frames=frames, feedback=feedback,
     )  # fmt: skip
     failures = run.failures(criteria, drift="root drift from the reference")
     failures += diagnose(scene, run, criteria)
@@ -448,4 +462,5 @@ def play(
         wall_time=time.perf_counter() - t_wall,
         fall=run.fall,
         tilt=run.tilt,
+        balance=None if figures is None else figures.to_dict(feedback is not None),
     )

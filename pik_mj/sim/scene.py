@@ -286,6 +286,7 @@ class Scene(Physics):
         record_every: int = RECORD_EVERY,
         margin_every: int = MARGIN_EVERY,
         feedforward: bool = True,
+        balance: bool = True,
     ) -> HoldReport:
         """Hold ``q`` with the servos for ``duration`` [s] of physics
         (:func:`pik_mj.sim.hold.hold`)."""
@@ -300,6 +301,7 @@ class Scene(Physics):
             record_every=record_every,
             margin_every=margin_every,
             feedforward=feedforward,
+            balance=balance,
         )
 
     def hold_many(
@@ -313,7 +315,7 @@ class Scene(Physics):
     ) -> list[HoldReport]:
         """Hold each configuration of ``qs`` for ``duration`` [s], all stepped
         together on ``nthread`` threads (:func:`pik_mj.sim.hold.hold_many`;
-        options: ``record_every``, ``margin_every``, ``feedforward``)."""
+        options: ``record_every``, ``margin_every``, ``feedforward``, ``balance``)."""
         return hold_many(self, qs, duration, criteria=criteria, nthread=nthread, **options)
 
     # ------------------------------------------------------------------- play
@@ -328,7 +330,7 @@ class Scene(Physics):
         """Play ``path`` (a solve's iterates, :class:`pik_mj.sim.Waypoints`) in
         physics, the servos tracking it (:func:`pik_mj.sim.motion.play`; options:
         ``max_velocity``, ``settle``, ``criteria``, ``external``, ``callback``,
-        ``every``, ``record_every``, ``margin_every``, ``feedforward``)."""
+        ``every``, ``record_every``, ``margin_every``, ``feedforward``, ``balance``)."""
         return play(
             self, path, speed=DEFAULT_SPEED if speed is None else speed, start=start, **options
         )

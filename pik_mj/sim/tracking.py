@@ -20,7 +20,9 @@ the run at the check after it (``stop_on_fall``).
 :class:`~pik_mj.sim.measures.HoldSample` of the scene's data every ``every``
 steps: the chunks then end at every ``every``-th step too, while the record
 keeps its rows at every ``record_every``-th step, so a run with callbacks has
-the figures of the same run without. ``every=1`` is the slow path, a Python
+the figures of the same run without (the balance feedback, where a robot needs
+it, :mod:`pik_mj.sim.balancing`, updates at every ``period``-th step whatever
+the chunks). ``every=1`` is the slow path, a Python
 call per step, for a callback that needs every step; ``record_every=1`` gives
 the checks every step (what the benchmarks compare the sampled figures with).
 """
@@ -35,13 +37,14 @@ import numpy as np
 
 from pik_mj.callbacks import Callback
 from pik_mj.frames import Frame
+from pik_mj.sim.balancing import BalanceFeedback, BalanceLoop
 from pik_mj.sim.criteria import HoldCriteria, slip_verdict_geoms
 from pik_mj.sim.falls import fall_measures, first_fall
 from pik_mj.sim.figures import RunningFigures, figures
 from pik_mj.sim.measures import HoldSample, Reference, Tracked
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.sampling import Record, Sampler
-from pik_mj.sim.stepping import Stepper
+from pik_mj.sim.stepping import FULL, Stepper
 
 __all__ = [
     "FALL_CHECK_EVERY",
@@ -84,6 +87,8 @@ class Run:
         margin_every: Steps between CoM margin evaluations.
         record_every: Steps between the record's rows (and the last step).
         frames: Task frames whose distance to the reference is recorded.
+        feedback: The balance feedback on the servos' controls
+            (:mod:`pik_mj.sim.balancing`; the chunks end at its updates), or None.
     """
 
     def __init__(
@@ -99,8 +104,10 @@ class Run:
         margin_every: int = MARGIN_EVERY,
         frames: Sequence[Frame] = (),
         record_every: int = RECORD_EVERY,
+        feedback: BalanceFeedback | None = None,
     ):
         self.scene, self.reference, self.criteria = scene, reference, criteria
+        self.balance = None if feedback is None else BalanceLoop(feedback, scene.model)
         self.sampler = Sampler(
             scene,
             allowed=allowed,
@@ -132,6 +139,8 @@ class Run:
         self.limits = criteria.fall_limits(scene, scene.com_height(d), scene.root_height(d))
         self.start = np.empty(mujoco.mj_stateSize(scene.model, _INTEGRATION))
         mujoco.mj_getState(scene.model, d, self.start, _INTEGRATION)
+        self.state = np.empty(mujoco.mj_stateSize(scene.model, FULL))  # the last step's
+        mujoco.mj_getState(scene.model, d, self.state, FULL)
         self._last = self.sampler.read(
             self.record, d.qpos, self.t0, reference.data, reference.waypoint, True
         )
@@ -148,6 +157,8 @@ class Run:
         dt = self.scene.model.opt.timestep
         t = (self.steps + np.arange(min(n, self.n_steps - self.steps))) * dt
         ctrl = self.reference.controls(t)
+        if self.balance is not None:
+            ctrl = self.balance.controls(ctrl, self.steps, self.state, self.reference.data)
         if not xfrc:
             return ctrl
         m, d = self.scene.model, self._last
@@ -171,6 +182,8 @@ class Run:
             n += max(FALL_CHECK_EVERY - (len(self.record) - self._checked) - 1, 0) * r
             if self.steps < self.settle_step:
                 n = min(n, self.settle_step - self.steps)
+        if self.balance is not None:
+            n = self.balance.chunk(self.steps, n)
         return min(n, self.n_steps - self.steps)
 
     def take(self, trajectory: np.ndarray) -> None:
@@ -178,6 +191,7 @@ class Run:
         ``mjSTATE_FULLPHYSICS``): its rows at every ``record_every``-th step and
         its last state."""
         r, n = self.record_every, len(trajectory)
+        self.state = trajectory[-1]
         ends = list(range(r - self.steps % r, n + 1, r))
         if not ends or ends[-1] != n:
             ends.append(n)
@@ -270,12 +284,14 @@ def track(
     record_every: int = RECORD_EVERY,
     margin_every: int = MARGIN_EVERY,
     frames: Sequence[Frame] = (),
+    feedback: BalanceFeedback | None = None,
 ) -> Tracked:
     """Step the physics for ``duration`` [s] while the servos track ``reference``
     (module docstring), in chunks that end at a fall check (at every
     ``every``-th step with callbacks; at every row with external wrenches); the
     record's rows every ``record_every`` steps; the scene's data ends in the
-    last state.
+    last state; with ``feedback``, the balance feedback acts on the servos'
+    controls (:mod:`pik_mj.sim.balancing`).
 
     A contact is unexpected unless its robot geom is in ``allowed`` (touching
     the environment anywhere), or the pair is in ``planned_pairs`` (environment
@@ -287,7 +303,7 @@ def track(
     run = Run(
         scene, reference, duration, criteria=criteria, allowed=allowed,
         planned_pairs=planned_pairs, external=external, margin_every=margin_every, frames=frames,
-        record_every=record_every,
+        record_every=record_every, feedback=feedback,
     )  # fmt: skip
     xfrc = bool(external)
     stepper = Stepper(scene.model, xfrc=xfrc)
@@ -346,11 +362,13 @@ def track_many(
     nthread: int = 0,
     record_every: int = RECORD_EVERY,
     margin_every: int = MARGIN_EVERY,
+    feedback: Sequence[BalanceFeedback | None] | None = None,
 ) -> list[Tracked]:
     """:func:`track` of each reference (no external wrenches, no callbacks), all
     stepped together: each chunk is one rollout of every run still going, on
     ``nthread`` threads (one ``MjData`` each); a run that fell leaves the next
-    chunks. The scene's data ends in the last reference's start.
+    chunks; ``feedback``: each reference's balance feedback (or None). The
+    scene's data ends in the last reference's start.
 
     Raises:
         SimulationUnstable: MuJoCo reported an invalid state.
@@ -364,8 +382,9 @@ def track_many(
             allowed=allowed,
             margin_every=margin_every,
             record_every=record_every,
+            feedback=f,
         )
-        for r in references
+        for r, f in zip(references, feedback or [None] * len(references), strict=True)
     ]
     stepper = Stepper(scene.model, nthread=nthread)
     states = [stepper.state(_start(scene, run)) for run in runs]
