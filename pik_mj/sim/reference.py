@@ -46,11 +46,13 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
+from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.effort import plan_torques
 from pik_mj.sim.path import Waypoints
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.servos import ServoLaw
 from pik_mj.sim.timing import Timing
+from pik_mj.sim.zmp import stretch_for_balance
 
 __all__ = [
     "IRTEUS_MAX_VELOCITY",
@@ -203,12 +205,18 @@ class MotionReference:
         labels = [w.segment for w in path.items]
         self.timing = Timing(steps.max(axis=1) if n > 1 else np.zeros(0), labels)
         self.nominal = self.timing.nominal
+        self.path = BlendedPath(rm, self.q, self._dv, self.timing)
         self.torques = (
             plan_torques(scene, self.q, self._dv, self.timing, external, self._ramp)
             if feedforward
             else None
         )
         self.shortfalls = [] if self.torques is None else self.torques.shortfalls
+        self.balance_stretch = (
+            stretch_for_balance(scene, self.path, self.timing, external, self._ramp)
+            if feedforward and not self.shortfalls
+            else {}
+        )
         self.duration = self.timing.duration
         self.times = self.timing.waypoint_times()
         self._start = start
@@ -255,16 +263,14 @@ class MotionReference:
         times = np.asarray(times, dtype=float)
         sigma, _, _ = timing.progress(times)
         loads = self.loads(times)
-        pieces, alphas = timing.piece(sigma)
         waypoints = np.searchsorted(self.times, times, side="right") - 1
-        last = len(self.q) - 1
-        for i, alpha, load, waypoint in zip(
-            pieces.tolist(), alphas.tolist(), loads.tolist(), waypoints.tolist(), strict=True
+        bases, deltas, _, _ = self.path.offsets(sigma)
+        for base, delta, load, waypoint in zip(
+            bases.tolist(), deltas, loads.tolist(), waypoints.tolist(), strict=True
         ):
             self.load, self.waypoint = load, waypoint
-            q = self.q[i].copy()
-            if i < last and timing.steps[i] > 0:
-                mujoco.mj_integratePos(rm, q, self._dv[i], alpha)
+            q = self.q[base].copy()
+            mujoco.mj_integratePos(rm, q, delta, 1.0)
             if scene.grasps:  # the grasped objects follow the hand
                 self.data.qpos[:] = scene.qpos_of(q)
             else:  # the waypoints were checked (planned_contacts): no check per step
@@ -279,15 +285,10 @@ class MotionReference:
         actuators' as :meth:`begin` found them."""
         timing, law = self.timing, self._servos
         sigma, rate, accel = timing.progress(t)
-        i, alpha = timing.piece(sigma)
-        n = len(self.q)
-        step = np.minimum(i, max(n - 2, 0))
-        T = timing.steps[step] if n > 1 else np.zeros(len(t))
-        moving = (i < n - 1) & (T > 0)
-        dv = self._dv[step] if n > 1 else np.zeros((len(t), self._rm.nv))
-        q = self.q[i].copy()
-        q[:, law.qadr] += np.where(moving, alpha, 0.0)[:, None] * dv[:, law.dof]
-        qd = dv * np.where(moving, rate / np.where(moving, T, 1.0), 0.0)[:, None]
+        base, delta, slope, _ = self.path.offsets(sigma)
+        q = self.q[base].copy()
+        q[:, law.qadr] += delta[:, law.dof]
+        qd = slope * rate[:, None]
         tau = None if self.torques is None else self.torques.at(sigma, rate, accel)
         ctrl = np.tile(self._ctrl, (len(t), 1))
         ctrl[:, law.ids] = law.controls(q, qd, tau)
