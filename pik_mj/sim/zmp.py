@@ -141,7 +141,8 @@ def plan_zmp(
     free = [j for j in range(rm.njnt) if int(rm.jnt_type[j]) == _FREE]
     if not free:
         return None
-    dof, body = int(rm.jnt_dofadr[free[0]]), int(rm.jnt_bodyid[free[0]])
+    dof = int(rm.jnt_dofadr[free[0]])
+    body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
     data = mujoco.MjData(m)
     S = float(timing.nominal[-1])
     kept, parts, origin, edges = [], [], [], []
