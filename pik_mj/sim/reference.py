@@ -29,6 +29,13 @@ whose torques pass a share of the bounds is slowed down, a path whose poses
 need more than the drives give even at rest is not played and the joints are
 named (:func:`pik_mj.sim.effort.plan_torques`).
 
+**Geometry and balance.** Within a segment the path turns at its interior
+waypoints through parabolic blends (:class:`~pik_mj.sim.blends.BlendedPath`):
+the joints' rates turn continuously, not at once. A segment whose planned
+zero-moment point (inverse dynamics of the floating base along the reference)
+would leave the support polygon's reserve is slowed down
+(:func:`pik_mj.sim.zmp.stretch_for_balance`).
+
 **Tracking.** The scene's position servos ``τ = k_p (u - q) - k_v q̇`` get the
 target ``u = q_{ref} + (k_v / k_p)\, \dot q_{ref} + τ_{ff} / k_p`` (the damping
 then acts on the velocity error; :class:`~pik_mj.sim.servos.ServoLaw`) with
@@ -169,6 +176,8 @@ class MotionReference:
         torques: The :class:`~pik_mj.sim.effort.TorquePlan` (None without feed-forward).
         shortfalls: Joints whose drives cannot hold the path at rest (then it
             cannot be played).
+        path: The :class:`~pik_mj.sim.blends.BlendedPath` played.
+        balance_stretch: Segments slowed down for the ZMP, ``{segment index: c}``.
         data: Kinematics of the reference now.
         waypoint: Index of the last waypoint passed.
         load: Scale of the external wrenches now.

@@ -43,14 +43,15 @@ import numpy as np
 
 from pik_mj.dynamics import external_torques, inverse_dynamics
 from pik_mj.sim.blends import BlendedPath
+from pik_mj.sim.effort import KNOT_SPACING
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 from pik_mj.sim.torques import weight_torques
 
 __all__ = [
     "GROUND_SLOPE",
-    "KNOT_SPACING",
     "MAX_STRETCH",
+    "SAME_SUPPORT",
     "ZMP_RESERVE",
     "ZmpPlan",
     "plan_zmp",
@@ -60,14 +61,15 @@ __all__ = [
 ZMP_RESERVE = 0.5
 """Share ``ρ_z`` of a knot's rest margin (the CoM's) its moving ZMP keeps."""
 
-KNOT_SPACING = 0.025
-"""Nominal time [s] between the knots of the ZMP plan (at most)."""
-
 MAX_STRETCH = 10.0
 """Largest factor by which a segment is slowed down for its balance."""
 
 GROUND_SLOPE = math.pi / 4
 """Largest angle [rad] of a contact normal to up for the contact to support."""
+
+SAME_SUPPORT = 1e-4
+"""Distance [m] within which a knot's contact points are those of the knot
+before: its support polygon is reused."""
 
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
 
@@ -116,8 +118,8 @@ class ZmpPlan:
 
 
 def _knots(path: BlendedPath, timing: Timing) -> np.ndarray:
-    """Knot nominal times: every :data:`KNOT_SPACING`, the waypoints and the
-    blends' ends (just inside each blend)."""
+    """Knot nominal times: every :data:`~pik_mj.sim.effort.KNOT_SPACING`, the
+    waypoints and the blends' ends (just inside each blend)."""
     nominal, b = timing.nominal, path.half_width
     S = float(nominal[-1])
     grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
@@ -136,7 +138,8 @@ def plan_zmp(
     """The :class:`ZmpPlan` of ``path`` (``ramp``: the external wrenches grow
     with the path's progress ``σ / S``), or None when the robot has no free
     joint. Knots without ground contacts (or whose support is a point or a
-    segment, or carried with ``F_3 ≤ 0``) are left out."""
+    segment, or carried with ``F_3 ≤ 0``) are left out; a knot whose contact
+    points are within :data:`SAME_SUPPORT` of the knot before's keeps its polygon."""
     m, rm = scene.model, scene.robot.model
     free = [j for j in range(rm.njnt) if int(rm.jnt_type[j]) == _FREE]
     if not free:
@@ -146,10 +149,15 @@ def plan_zmp(
     data = mujoco.MjData(m)
     S = float(timing.nominal[-1])
     kept, parts, origin, edges = [], [], [], []
+    seen, region = np.zeros((0, 3)), None
     for sigma in _knots(path, timing):
         q, dq, ddq = path.at(float(sigma))
         qpos = scene.qpos_of(q)
-        region, _ = scene.support(scene.touching(qpos), np.zeros(3), GROUND_SLOPE)
+        contacts = scene.touching(qpos)
+        points = np.array([c.position for c in contacts]).reshape(-1, 3)
+        if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
+            region, _ = scene.support(contacts, np.zeros(3), GROUND_SLOPE)
+            seen = points
         if region is None or region.halfplanes is None:
             continue
         v, a, zero = np.zeros(m.nv), np.zeros(m.nv), np.zeros(m.nv)
