@@ -179,8 +179,9 @@ def test_fewer_knots_keep_the_plan_and_the_motion_s_figures(monkeypatch):
     """The reach of the sample humanoid, the iterates of a solved reach and the
     arm raised too fast for its 3 N·m shoulder (test_drives), planned on the
     refined knots and on every knot of the grid: the refined knots are a subset
-    (the reaches' at most 2/3); between them the plan stays within 2 KNOT_TOLERANCE of the largest rest torque of
-    the full one at every grid knot; the stretch is within 2 %; played, the
+    (the reaches' at most 2/3); between them the plan stays within 2
+    KNOT_TOLERANCE of the largest rest torque of the full one at every grid
+    knot; the stretch is within 2 %; played, the
     same verdict, drift within 0.5 mm, slip within 0.05 mm, tracking within
     10 %."""
     raised = _robot('actuatorfrcrange="-3 3"')
