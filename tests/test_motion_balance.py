@@ -52,7 +52,7 @@ def _blended(robot: Robot, path: Waypoints) -> tuple[BlendedPath, Timing, np.nda
 def test_the_blends_turn_the_rate_continuously_and_pass_near_the_waypoints():
     """``q'`` and ``q''`` are the finite differences of ``q(σ)``; ``q'`` has no
     jump at the interior waypoints (where the straight path's rate turns); a
-    blend passes ``b |v_w - v_{w-1}| / 4`` from its waypoint; the segment
+    blend passes ``3 b (v_w - v_{w-1}) / 16`` from its waypoint; the segment
     boundary is passed exactly; no joint's rate exceeds its rates on the two
     steps."""
     robot = Robot.from_model("sample_humanoid")
@@ -82,7 +82,7 @@ def test_the_blends_turn_the_rate_continuously_and_pass_near_the_waypoints():
         turn = rates[w] - rates[w - 1]
         assert np.abs(turn).max() > 0.1  # the straight path turns here
         assert b == pytest.approx(0.5 * min(timing.steps[w - 1], timing.steps[w]))
-        assert np.allclose(gap, b * turn / 4, atol=1e-9)
+        assert np.allclose(gap, 3 * b * turn / 16, atol=1e-9)
         for s in np.linspace(timing.nominal[w] - b, timing.nominal[w] + b, 11):
             rate = blended.at(s)[1]
             assert np.all(np.abs(rate) <= np.maximum(abs(rates[w - 1]), abs(rates[w])) + 1e-9)

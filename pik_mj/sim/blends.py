@@ -1,30 +1,32 @@
 r"""The geometry of a played path: :class:`BlendedPath`, the waypoints joined
-by straight steps in joint space with parabolic blends at the interior
-waypoints of each segment.
+by straight steps in joint space with smooth blends at the interior waypoints
+of each segment.
 
 Between waypoints ``q_i`` and ``q_{i+1}`` (nominal times ``σ_i``, step time
 ``T_i``, tangent step ``Δq_i``, ``mj_differentiatePos``) the path is straight
 at the rate ``v_i = Δq_i / T_i``. Where a segment's path turns at an interior
-waypoint ``w`` it is played through a parabolic blend of half-width
+waypoint ``w`` it is played through a blend of half-width
+``b_w = ½ min(T_{w-1}, T_w)`` whose rate turns from ``v_{w-1}`` to ``v_w`` along
+the smoothstep ``s(x) = 3x² - 2x³``:
 
 .. math::
 
-    b_w = \tfrac12 \min(T_{w-1}, T_w), \qquad
-    q(σ) = q_w \oplus \Big(v_{w-1} (u - b_w) + \frac{v_w - v_{w-1}}{4 b_w} u^2\Big),
-    \quad u = σ - σ_w + b_w \in [0, 2 b_w]
+    q(σ) = q_w \oplus \Big(v_{w-1} (u - b_w) + 2 b_w\, Δv_w \big(x^3 - \tfrac{x^4}{2}\big)\Big),
+    \quad q' = v_{w-1} + Δv_w\, s(x), \quad q'' = \frac{Δv_w}{2 b_w}\, 6 x (1 - x)
 
-so ``q' = dq/dσ`` turns continuously from ``v_{w-1}`` to ``v_w`` at the constant
-curvature ``q'' = (v_w - v_{w-1}) / 2 b_w`` instead of turning at once (an
-impulse of the joints' acceleration that the servos would have to absorb). The
-blend is the quadratic Bézier curve with control points
-``q_w ⊕ (-b_w v_{w-1})``, ``q_w``, ``q_w ⊕ b_w v_w``: it stays in the convex hull
-of three points of the straight path within half a step of ``q_w`` (so, to first
-order, does whatever the solve kept linear in ``q`` there: the feet, the CoM
-inside its polygon) and passes within ``b_w |v_w - v_{w-1}| / 4`` of ``q_w``;
-each joint's rate stays between its rates on the two steps, so within the
-velocity limits that timed them. Segment boundaries (where the motion is at
-rest, :class:`~pik_mj.sim.timing.Timing`) and waypoints next to a step of zero
-time are passed exactly.
+with ``u = σ - σ_w + b_w \in [0, 2 b_w]``, ``x = u / 2 b_w`` and
+``Δv_w = v_w - v_{w-1}``: ``q'`` and ``q''`` are continuous (no impulse of the
+joints' acceleration for the servos to absorb, no jump of the torques the
+path needs). The blend is the quartic Bézier curve with control points
+``q_w ⊕ (-b_w v_{w-1})``, ``q_w ⊕ (-b_w v_{w-1} / 2)``, ``q_w``,
+``q_w ⊕ b_w v_w / 2``, ``q_w ⊕ b_w v_w``: it stays in the convex hull of points
+of the straight path within half a step of ``q_w`` (so, to first order, does
+whatever the solve kept linear in ``q`` there: the feet, the CoM inside its
+polygon) and passes ``3 b_w Δv_w / 16`` from ``q_w``; each joint's rate stays
+between its rates on the two steps, so within the velocity limits that timed
+them. Segment boundaries (where the motion is at rest,
+:class:`~pik_mj.sim.timing.Timing`) and waypoints next to a step of zero time
+are passed exactly.
 """
 
 from __future__ import annotations
@@ -96,10 +98,11 @@ class BlendedPath:
             bw = b[c][:, None]
             v_in, v_out = self.rates[c - 1], self.rates[c]
             u = off[mask][:, None] + bw  # σ - σ_w + b_w in [0, 2 b_w]
-            curvature = (v_out - v_in) / (2.0 * bw)
+            turn, x = v_out - v_in, u / (2.0 * bw)
             w[mask] = c
-            delta[mask] = v_in * (u - bw) + 0.5 * curvature * u**2
-            d1[mask], d2[mask] = v_in + curvature * u, curvature
+            delta[mask] = v_in * (u - bw) + 2.0 * bw * turn * (x**3 - 0.5 * x**4)
+            d1[mask] = v_in + turn * (3.0 * x**2 - 2.0 * x**3)
+            d2[mask] = turn / (2.0 * bw) * 6.0 * x * (1.0 - x)
         return w, delta, d1, d2
 
     def at(self, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

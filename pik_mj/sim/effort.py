@@ -6,23 +6,22 @@ At knots ``σ_k`` of the path's nominal time (of the grid every
 the segments' ends, and the grid's knots between them where the plan linear
 between its knots would miss the torques by more than :data:`KNOT_TOLERANCE`,
 found by bisection) the reference is ``q(σ)``, ``q̇ = q' σ̇`` and
-``q̈ = q' σ̈ + q'' σ̇²`` with ``q' = dq/dσ`` and ``q'' = d²q/dσ²`` (the path's
-blends, :class:`~pik_mj.sim.blends.BlendedPath`), so the torques the servo
-joints need are
+``q̈ = q' σ̈`` with ``q' = dq/dσ`` (the blends' curvature ``q'' σ̇²`` at the
+path's interior waypoints, :class:`~pik_mj.sim.blends.BlendedPath`, smooth and
+bounded, is left to the servos' feedback), so the torques the servo joints
+need are
 
 .. math::
 
-    τ = τ_s + P\,\big(M(q)\, q'\, \ddot σ + (c(q, q') + M(q)\, q'')\, \dot σ^2
-        + D q'\, \dot σ\big)
+    τ = τ_s + P\,\big(M(q)\, q'\, \ddot σ + c(q, q')\, \dot σ^2 + D q'\, \dot σ\big)
 
 ``τ_s`` the torques at rest (:func:`pik_mj.sim.torques.holding_torques`: gravity,
 the least-norm contact forces within their friction pyramids, the external
-wrenches), ``M q'``, the velocity product ``c`` with the blends' ``M q''``
-and the joints' damping ``D q'`` from MuJoCo's inverse dynamics (``mj_inverse``
-at ``q̈ = q'`` and at ``q̇ = ±q', q̈ = q''``), and ``P`` the map that lets the
-contacts carry the free joint's part of a generalized force (the least-norm
-contact forces that apply it, without their limits: the moving part is small
-beside the weight). With the
+wrenches), ``M q'``, the velocity product ``c`` and the joints' damping ``D q'``
+from MuJoCo's inverse dynamics (``mj_inverse`` at ``q̈ = q'`` and at
+``q̇ = ±q'``), and ``P`` the map that lets the contacts carry the free joint's
+part of a generalized force (the least-norm contact forces that apply it,
+without their limits: the moving part is small beside the weight). With the
 drive's bounds ``[τ_min, τ_max]`` at the knot's pose
 (:func:`pik_mj.sim.drives.servo_bounds`: force and control ranges, the gains
 of a position actuator near a range end, the joint giving way a little):
@@ -90,7 +89,7 @@ class TorquePlan:
         sigma: Knot nominal times [s] (k,).
         rest: ``τ_s`` (k, nv) [N·m or N] on the robot's dofs.
         inertia: ``P M q'`` (k, nv) [N·m·s²]: per unit ``σ̈``.
-        velocity: ``P (c(q, q') + M q'')`` (k, nv) [N·m·s²]: per unit ``σ̇²``.
+        velocity: ``P c(q, q')`` (k, nv) [N·m·s²]: per unit ``σ̇²``.
         damping: ``P D q'`` (k, nv) [N·m·s]: per unit ``σ̇``.
         shortfalls: Joints whose drive cannot hold a knot's pose at rest (the
             worst knot of each); empty when the path can be played.
@@ -150,24 +149,25 @@ class _Knots:
         grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
         return np.unique(np.concatenate([grid, nominal]))
 
-    def pose(self, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``q(σ)``, ``q' = dq/dσ`` and ``q'' = d²q/dσ²`` of the played path
-        (:class:`~pik_mj.sim.blends.BlendedPath`; zero rates at the end)."""
-        return self.path.at(sigma)
+    def pose(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+        """``q(σ)`` and ``q' = dq/dσ`` of the played path
+        (:class:`~pik_mj.sim.blends.BlendedPath`; zero at the end)."""
+        q, slope, _ = self.path.at(sigma)
+        return q, slope
 
     def parts(
-        self, q: np.ndarray, dq: np.ndarray, ddq: np.ndarray, load: Sequence[External]
+        self, q: np.ndarray, dq: np.ndarray, load: Sequence[External]
     ) -> tuple[np.ndarray, ...] | None:
-        """``τ_s``, ``P M q'``, ``P (c(q, q') + M q'')``, ``P D q'`` (nv of the
-        robot) at a knot, or None without an equilibrium."""
+        """``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (nv of the robot) at a
+        knot, or None without an equilibrium."""
         scene, d, nv = self.scene, self.data, self.rm.nv
         m = scene.model
         qpos = scene.qpos_of(q)
-        v, a = np.zeros(m.nv), np.zeros(m.nv)
-        v[:nv], a[:nv] = dq, ddq
+        v = np.zeros(m.nv)
+        v[:nv] = dq
         zero = np.zeros(m.nv)
         g, accel, plus, minus = inverse_dynamics(
-            m, d, qpos, np.array([zero, zero, v, -v]), np.array([zero, v, a, a])
+            m, d, qpos, np.array([zero, zero, v, -v]), np.array([zero, v, zero, zero])
         )
         support = ContactSupport(scene, d, scene.touching(qpos))
         rest = support.hold(g - external_torques(m, d, load) - weight_torques(scene, d))
@@ -289,8 +289,8 @@ def plan_torques(
     def evaluate(sigma: float) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
         s = sigma / S if (ramp and S > 0) else 1.0
         load = [(f, s * np.asarray(F, float), s * np.asarray(M, float)) for f, F, M in external]
-        qk, dq, ddq = knots.pose(sigma)
-        return qk, knots.parts(qk, dq, ddq, load)
+        qk, dq = knots.pose(sigma)
+        return qk, knots.parts(qk, dq, load)
 
     found = _refined(grid, knots, evaluate)
     kept, parts, poses = [], [], []
