@@ -12,7 +12,7 @@ import pytest
 import qpsolvers
 from test_drives import _arm_out, _robot
 
-from pik_mj import Robot, Scene, balance
+from pik_mj import Robot, Scene, balance, fullbody_inverse_kinematics
 from pik_mj import dynamics as dy
 from pik_mj.dynamics import distribution
 from pik_mj.exceptions import InvalidInput
@@ -160,12 +160,28 @@ def _every_knot(monkeypatch) -> None:
     monkeypatch.setattr(effort, "KNOT_TOLERANCE", -1.0)
 
 
+def _solved_reach(robot: Robot) -> Waypoints:
+    """The iterates of a full-body reach, as a sweep's case plays them (steps
+    that shrink and turn as the solve converges)."""
+    robot.reset_pose()
+    path = Waypoints(robot, "reach")
+    target = (np.array([0.5, -0.1, 0.6]), np.array([1.0, 0, 0, 0]))  # low, in front
+    fullbody_inverse_kinematics(
+        robot, [target], limbs=["rarm"], rotation_axis=[None], fix_feet=("rleg", "lleg"),
+        revert_if_fail=False, callback=[path],
+    )  # fmt: skip
+    robot.reset_pose()
+    assert len(path.q) > 10
+    return path
+
+
 def test_fewer_knots_keep_the_plan_and_the_motion_s_figures(monkeypatch):
-    """The reach of the sample humanoid and the arm raised too fast for its
-    3 N·m shoulder (test_drives), planned on the refined knots and on every knot
-    of the grid: the refined knots are a subset (the reach's at most 2/3); between
-    them the plan stays within 2 KNOT_TOLERANCE of the largest rest torque of
-    the full one at every grid knot; the stretch is within 2 %; played, the
+    """The reach of the sample humanoid, the iterates of a solved reach and the
+    arm raised too fast for its 3 N·m shoulder (test_drives), planned on the
+    refined knots and on every knot of the grid: the refined knots are a subset
+    (the reaches' at most 2/3); between them the plan stays within 2
+    KNOT_TOLERANCE of the largest rest torque of the full one at every grid
+    knot; the stretch is within 2 %; played, the
     same verdict, drift within 0.5 mm, slip within 0.05 mm, tracking within
     10 %."""
     raised = _robot('actuatorfrcrange="-3 3"')
@@ -179,6 +195,7 @@ def test_fewer_knots_keep_the_plan_and_the_motion_s_figures(monkeypatch):
         if robot is raised:
             path.items.append(Waypoint(_arm_out(robot), "raise", 1))
         cases.append((Scene.from_robot(robot), path, speed))
+    cases.append((cases[0][0], _solved_reach(cases[0][0].robot), 0.2))
     runs, tolerance = {}, effort.KNOT_TOLERANCE
     for label in ("refined", "every"):
         if label == "every":

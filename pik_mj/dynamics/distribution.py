@@ -14,7 +14,7 @@ import numpy as np
 import qpsolvers
 
 from pik_mj import inputs
-from pik_mj.balance.contacts import ContactConstraint, wrench_constraints
+from pik_mj.balance.contacts import ContactConstraint, contact_from_normal, wrench_constraints
 from pik_mj.dynamics.floating_base import root_wrench
 from pik_mj.dynamics.inverse import ExternalSpec, frame_jacobian, joint_torques
 from pik_mj.exceptions import InvalidInput, PikError
@@ -201,9 +201,17 @@ class ContactDistribution:
     Args:
         contacts: The contacts.
         moment_weight: ``ρ`` [1/m²] (:func:`contact_wrenches`).
+        points: The contacts' points ``p_i`` (n, 3) [m] in place of their
+            ``p_WC`` (see :meth:`of_points`).
     """
 
-    def __init__(self, contacts: Sequence[ContactConstraint], moment_weight: float = 100.0):
+    def __init__(
+        self,
+        contacts: Sequence[ContactConstraint],
+        moment_weight: float = 100.0,
+        *,
+        points: np.ndarray | None = None,
+    ):
         if not (np.isfinite(moment_weight) and moment_weight > 0):
             raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
         cols, weights, moments, limits = [], [], [], []
@@ -225,7 +233,7 @@ class ContactDistribution:
         A = np.zeros((6, n))
         if n:
             forces = (starts[:, None] + np.arange(3)).reshape(-1)
-            A[:, forces] = wrench_map([c.p_WC for c in contacts])
+            A[:, forces] = wrench_map([c.p_WC for c in contacts] if points is None else points)
         for start in moments:
             A[3:, start : start + 3] = np.eye(3)
         self.A, self.n, self.cols, self.weights = A, n, cols, np.array(weights)
@@ -236,6 +244,21 @@ class ContactDistribution:
             self.G[r : r + len(C), start : start + C.shape[1]] = -C
             r += len(C)
         self._map: np.ndarray | bool | None = False
+
+    @classmethod
+    def of_points(
+        cls, points: np.ndarray, normals: np.ndarray, mu: np.ndarray, moment_weight: float = 100.0
+    ) -> ContactDistribution:
+        """Point contacts at ``points`` (n, 3) [m] pushed along ``normals`` (n, 3),
+        with friction ``mu`` (n,), inside their inscribed pyramids
+        (:func:`pik_mj.balance.contact_from_normal`). A contact's limits depend
+        on its normal and friction only: the constraints are shared by every
+        contact with the same ones, wherever it is."""
+        contacts = [
+            _at_origin(*np.asarray(n, float).tolist(), float(f))
+            for n, f in zip(normals, mu, strict=True)
+        ]
+        return cls(contacts, moment_weight, points=np.asarray(points, float).reshape(-1, 3))
 
     @property
     def least_norm_map(self) -> np.ndarray | None:
@@ -290,18 +313,34 @@ def wrench_map(points: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
     return A.reshape(6, -1)
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=1024)
+def _at_origin(nx: float, ny: float, nz: float, mu: float) -> ContactConstraint:
+    """A point contact at the origin with the normal ``(nx, ny, nz)`` and friction ``mu``."""
+    return contact_from_normal(np.zeros(3), np.array([nx, ny, nz]), mu=mu)
+
+
+_LIMITS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
 def _limits(contact: ContactConstraint) -> tuple[np.ndarray, np.ndarray]:
-    """``C, d`` of :func:`pik_mj.balance.wrench_constraints` (a contact is
-    immutable, cached by identity); a point contact's on its force alone (rows
-    that involve the moment dropped: they pin ``n = 0``)."""
-    C, d = wrench_constraints(contact)
-    if contact.half_x == 0.0 and contact.half_y == 0.0:
-        keep = ~np.any(C[:, 3:] != 0.0, axis=1)
-        C, d = C[keep, :3], d[keep]
-    C.flags.writeable = False
-    d.flags.writeable = False
-    return C, d
+    """``C, d`` of :func:`pik_mj.balance.wrench_constraints` (read-only); a
+    point contact's on its force alone (rows that involve the moment dropped:
+    they pin ``n = 0``). They depend on the contact's frame, sizes, friction
+    and force bounds, not on its position: cached by those values."""
+    c = contact
+    key = (c.R_WC.tobytes(), c.half_x, c.half_y, c.mu, c.fz_min, c.fz_max, c.torsion, c.pyramid)
+    found = _LIMITS.get(key)
+    if found is None:
+        C, d = wrench_constraints(contact)
+        if c.half_x == 0.0 and c.half_y == 0.0:
+            keep = ~np.any(C[:, 3:] != 0.0, axis=1)
+            C, d = C[keep, :3], d[keep]
+        C.flags.writeable = False
+        d.flags.writeable = False
+        if len(_LIMITS) >= 4096:
+            _LIMITS.clear()
+        found = _LIMITS[key] = (C, d)
+    return found
 
 
 def _cop(contact: ContactConstraint, w: np.ndarray) -> np.ndarray:

@@ -1,8 +1,11 @@
 r"""The torques a timed path needs, and the timing that keeps them within what
 the robot's drives deliver (:func:`plan_torques`).
 
-At knots ``σ_k`` of the path's nominal time (every :data:`KNOT_SPACING` and at
-each waypoint; :class:`~pik_mj.sim.timing.Timing`) the reference is ``q(σ)``,
+At knots ``σ_k`` of the path's nominal time (of the grid every
+:data:`KNOT_SPACING` and at each waypoint, :class:`~pik_mj.sim.timing.Timing`:
+the segments' ends, and the grid's knots between them where the plan linear
+between its knots would miss the torques by more than :data:`KNOT_TOLERANCE`,
+found by bisection) the reference is ``q(σ)``,
 ``q̇ = q' σ̇`` and ``q̈ = q' σ̈`` with ``q' = dq/dσ``, so the torques the servo
 joints need are
 
@@ -64,7 +67,7 @@ __all__ = [
 KNOT_SPACING = 0.05
 """Nominal time [s] between the knots of the torque plan (at most)."""
 
-KNOT_TOLERANCE = 0.01
+KNOT_TOLERANCE = 0.005
 """Share of the largest rest torque by which the plan linear between two knots
 may miss the feed-forward at the knot between them (:func:`_refined`)."""
 
@@ -135,7 +138,8 @@ class _Knots:
         self.actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], int)
 
     def sigmas(self) -> np.ndarray:
-        """Knot nominal times: the waypoints' and every :data:`KNOT_SPACING` between."""
+        """The grid of knot nominal times: the waypoints' and every
+        :data:`KNOT_SPACING` between (:func:`_refined` picks the knots)."""
         nominal = self.timing.nominal
         S = float(nominal[-1])
         grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
@@ -215,14 +219,16 @@ def _stretch(plan: TorquePlan, knots: _Knots, lo: np.ndarray, hi: np.ndarray) ->
 
 
 def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
-    """The knots of ``grid`` evaluated (``{index: evaluate(σ)}``): every
-    waypoint's, and between two evaluated knots ``a < b`` the middle one ``m``;
-    the knots strictly between ``a`` and ``b`` other than ``m`` are evaluated
-    (recursively on ``[a, m]`` and ``[m, b]``) only where the plan linear
-    between ``a`` and ``b`` misses ``m``'s feed-forward at the timing's rates
-    (:meth:`TorquePlan.at`) by more than :data:`KNOT_TOLERANCE` of the largest
-    rest torque at ``a`` and ``b`` on any servo joint, or where a knot has no
-    equilibrium."""
+    """The knots of ``grid`` evaluated (``{index: evaluate(σ)}``): the ends of
+    each segment (where its timing rests), and between two evaluated knots
+    ``a < b`` the middle one ``m``; the knots strictly between ``a`` and ``b``
+    other than ``m`` are evaluated (recursively on ``[a, m]`` and ``[m, b]``)
+    only where the plan linear between ``a`` and ``b`` misses ``m``'s
+    feed-forward at the timing's rates (:meth:`TorquePlan.at`) by more than
+    :data:`KNOT_TOLERANCE` of the largest rest torque at ``a`` and ``b`` on any
+    servo joint, or where a knot has no equilibrium. A path smooth at the
+    tolerance's scale is planned on a few knots; a turn at a waypoint, or a
+    torque that bends, gets the grid's knots around it."""
     done: dict[int, tuple] = {}
 
     def get(i: int) -> tuple:
@@ -232,7 +238,7 @@ def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
 
     dofs = knots.scene.servo_dofs
     _, rate, accel = knots.timing.progress(knots.timing.times_of(grid))
-    ends = np.searchsorted(grid, knots.timing.nominal)
+    ends = np.searchsorted(grid, np.unique(knots.timing.span))
     stack = [(int(a), int(b)) for a, b in itertools.pairwise(ends)]
     get(int(ends[0]))
     while stack:

@@ -13,7 +13,6 @@ from numpy.typing import ArrayLike
 from pik_mj.dynamics import ContactDistribution, joint_torques
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
-from pik_mj.sim.static import point_contacts
 from pik_mj.spatial import skew
 
 __all__ = ["ContactSupport", "drive_shortfalls", "holding_torques", "weight_torques"]
@@ -148,7 +147,9 @@ class ContactSupport:
             body = m.geom_bodyid[scene.geom_ids[c.robot_geom]]
             mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, c.position, body)
         self._J = J
-        self._distribution = ContactDistribution(point_contacts(env))
+        self._distribution = ContactDistribution.of_points(
+            [c.position for c in env], [c.normal for c in env], [c.friction for c in env]
+        )
         self._carried: np.ndarray | None = None
 
     def wrench(self, tau: np.ndarray) -> np.ndarray:
