@@ -30,7 +30,7 @@ need more than the drives give even at rest is not played and the joints are
 named (:func:`pik_mj.sim.effort.plan_torques`).
 
 **Geometry and balance.** Within a segment the path turns at its interior
-waypoints through parabolic blends (:class:`~pik_mj.sim.blends.BlendedPath`):
+waypoints through smooth blends (:class:`~pik_mj.sim.blends.BlendedPath`):
 the joints' rates turn continuously, not at once. A segment whose planned
 zero-moment point (inverse dynamics of the floating base along the reference)
 would leave the support polygon's reserve is slowed down
