@@ -87,7 +87,7 @@ class Stance:
     def to_dict(self, on: bool) -> dict[str, Any]:
         """JSON-ready figures, the feedback ``on`` or off."""
         return {
-            "feedback": bool(on),
+            "on": bool(on),
             "ankle_stiffness": self.ankle_stiffness,
             "tipping_stiffness": self.tipping_stiffness,
         }
