@@ -9,12 +9,19 @@ Progress("reach")]`` (the static checks run first, so the logger sees them).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from pik_mj.exceptions import InvalidInput
 
 Callback = Callable[[Any], None]
+
+CALL_EVERY = "call_every"
+"""The attribute by which a physics callback says how many steps apart it needs
+its calls (an int >= 1, e.g. a recorder's loggers: the viewer's rate); a
+callback without it is called every step, the slow path (a Python call per
+step)."""
 
 
 def as_callbacks(callback: Callback | Sequence[Callback] | None) -> list[Callback]:
@@ -40,3 +47,14 @@ def as_callbacks(callback: Callback | Sequence[Callback] | None) -> list[Callbac
                 f"the step's information), got {c!r} ({type(c).__name__})"
             )
     return out
+
+
+def call_stride(callbacks: Sequence[Callback], every: int | None = None) -> int:
+    """Steps between the calls of physics ``callbacks``: ``every`` when given,
+    else the greatest common divisor of their :data:`CALL_EVERY` (so each is
+    called at every multiple of its own; 1 if any has none, or without
+    callbacks)."""
+    if every is not None:
+        return every
+    strides = [getattr(c, CALL_EVERY, 1) for c in callbacks]
+    return math.gcd(*strides) if strides else 1

@@ -29,6 +29,7 @@ contacts of a scene play no part). For a static pose ``q̇ = q̈ = 0`` this is
 """
 
 from pik_mj.dynamics.distribution import (
+    ContactDistribution,
     SoleContact,
     StaticTorques,
     contact_wrenches,
@@ -59,6 +60,7 @@ from pik_mj.dynamics.statics import (
 
 __all__ = [
     "DEFAULT_MAX_TORQUE",
+    "ContactDistribution",
     "ExternalSpec",
     "SoleContact",
     "StaticTorques",

@@ -14,7 +14,7 @@ import numpy as np
 import qpsolvers
 
 from pik_mj import inputs
-from pik_mj.balance.contacts import ContactConstraint, wrench_constraints
+from pik_mj.balance.contacts import ContactConstraint, contact_from_normal, wrench_constraints
 from pik_mj.dynamics.floating_base import root_wrench
 from pik_mj.dynamics.inverse import ExternalSpec, frame_jacobian, joint_torques
 from pik_mj.exceptions import InvalidInput, PikError
@@ -188,33 +188,32 @@ def contact_wrenches(
         Wrenches ``(n, 6)`` [N, N·m], or None when no wrenches within the limits exist.
     """
     total = inputs.flat_vector(total, 6, "total")
-    if not (np.isfinite(moment_weight) and moment_weight > 0):
-        raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
-    if solver not in ("auto", "qp"):
-        raise InvalidInput(f"solver must be 'auto' or 'qp', got {solver!r}")
-    problem = _Distribution(contacts, moment_weight)
-    scale = float(np.linalg.norm(total[:3])) or 1.0
-    b = total / scale
-    h = problem.h / scale
-    x = problem.least_norm(b, h) if solver == "auto" else None
-    if x is None:
-        x = qpsolvers.solve_qp(
-            np.diag(problem.weights), np.zeros(problem.n), G=problem.G, h=h,
-            A=problem.A, b=b, solver="daqp",
-        )  # fmt: skip
-    if x is None:
-        return None
-    out = np.zeros((len(contacts), 6))
-    for i, (start, k) in enumerate(problem.cols):
-        out[i, :k] = scale * x[start : start + k]
-    return out
+    return ContactDistribution(contacts, moment_weight).solve(total, solver)
 
 
-class _Distribution:
-    """The unknowns, the map ``A`` to the total wrench, the weights and the limits
-    ``G x <= h`` (``G = -C``) of :func:`contact_wrenches`."""
+class ContactDistribution:
+    """The problem of :func:`contact_wrenches` for fixed contacts, solved for
+    any number of totals: the unknowns ``x`` (a force per point contact, a
+    force and a moment per flat one), the map ``A`` of ``x`` to the wrench about
+    the world origin, the weights ``W`` and the limits ``G x <= h``
+    (``G = -C``).
 
-    def __init__(self, contacts: Sequence[ContactConstraint], moment_weight: float):
+    Args:
+        contacts: The contacts.
+        moment_weight: ``ρ`` [1/m²] (:func:`contact_wrenches`).
+        points: The contacts' points ``p_i`` (n, 3) [m] in place of their
+            ``p_WC`` (see :meth:`of_points`).
+    """
+
+    def __init__(
+        self,
+        contacts: Sequence[ContactConstraint],
+        moment_weight: float = 100.0,
+        *,
+        points: np.ndarray | None = None,
+    ):
+        if not (np.isfinite(moment_weight) and moment_weight > 0):
+            raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
         cols, weights, moments, limits = [], [], [], []
         n = 0
         for i, c in enumerate(contacts):
@@ -234,31 +233,71 @@ class _Distribution:
         A = np.zeros((6, n))
         if n:
             forces = (starts[:, None] + np.arange(3)).reshape(-1)
-            A[:, forces] = wrench_map([c.p_WC for c in contacts])
+            A[:, forces] = wrench_map([c.p_WC for c in contacts] if points is None else points)
         for start in moments:
             A[3:, start : start + 3] = np.eye(3)
-        self.A = A
-        self.n, self.cols, self.weights = n, cols, np.array(weights)
+        self.A, self.n, self.cols, self.weights = A, n, cols, np.array(weights)
         self.G = np.zeros((sum(len(d) for _, _, d in limits), n))
         self.h = np.concatenate([d for _, _, d in limits]) if limits else np.zeros(0)
         r = 0
         for start, C, _ in limits:
             self.G[r : r + len(C), start : start + C.shape[1]] = -C
             r += len(C)
+        self._map: np.ndarray | bool | None = False
 
-    def least_norm(self, b: np.ndarray, h: np.ndarray) -> np.ndarray | None:
-        """``W⁻¹ Aᵀ (A W⁻¹ Aᵀ)⁻¹ b`` when it solves ``A x = b`` and keeps every
-        limit ``G x <= h``; else None."""
-        if not self.n:
+    @classmethod
+    def of_points(
+        cls, points: np.ndarray, normals: np.ndarray, mu: np.ndarray, moment_weight: float = 100.0
+    ) -> ContactDistribution:
+        """Point contacts at ``points`` (n, 3) [m] pushed along ``normals`` (n, 3),
+        with friction ``mu`` (n,), inside their inscribed pyramids
+        (:func:`pik_mj.balance.contact_from_normal`). A contact's limits depend
+        on its normal and friction only: the constraints are shared by every
+        contact with the same ones, wherever it is."""
+        contacts = [
+            _at_origin(*np.asarray(n, float).tolist(), float(f))
+            for n, f in zip(normals, mu, strict=True)
+        ]
+        return cls(contacts, moment_weight, points=np.asarray(points, float).reshape(-1, 3))
+
+    @property
+    def least_norm_map(self) -> np.ndarray | None:
+        """``L = W⁻¹ Aᵀ (A W⁻¹ Aᵀ)⁻¹`` (n, 6): the weighted least-norm ``x = L w``
+        with ``A x = w`` for every wrench ``w``; None where ``A`` has not full row
+        rank (``A L`` misses the identity by more than 1e-9: contacts on one line)."""
+        if self._map is False:
+            AW = self.A / self.weights if self.n else self.A
+            try:
+                L = AW.T @ np.linalg.inv(AW @ self.A.T)
+            except np.linalg.LinAlgError:
+                L = None
+            ok = L is not None and np.all(np.isfinite(L))
+            self._map = L if ok and np.max(np.abs(self.A @ L - np.eye(6))) <= 1e-9 else None
+        return self._map
+
+    def solve(self, total: np.ndarray, solver: Literal["auto", "qp"] = "auto") -> np.ndarray | None:
+        """:func:`contact_wrenches` of the wrench ``total`` (6,) [N, N·m]: the
+        wrenches (contacts, 6), or None."""
+        if solver not in ("auto", "qp"):
+            raise InvalidInput(f"solver must be 'auto' or 'qp', got {solver!r}")
+        scale = float(np.linalg.norm(total[:3])) or 1.0
+        b = total / scale
+        h = self.h / scale
+        L = self.least_norm_map if solver == "auto" else None
+        x = None if L is None else L @ b
+        if x is not None and not np.all(self.G @ x <= h):
+            x = None
+        if x is None:
+            x = qpsolvers.solve_qp(
+                np.diag(self.weights), np.zeros(self.n), G=self.G, h=h, A=self.A, b=b,
+                solver="daqp",
+            )  # fmt: skip
+        if x is None:
             return None
-        AW = self.A / self.weights
-        try:
-            x = AW.T @ np.linalg.solve(AW @ self.A.T, b)
-        except np.linalg.LinAlgError:
-            return None
-        if not (np.all(np.isfinite(x)) and np.max(np.abs(self.A @ x - b)) <= 1e-9):
-            return None
-        return x if np.all(self.G @ x <= h) else None
+        out = np.zeros((len(self.cols), 6))
+        for i, (start, k) in enumerate(self.cols):
+            out[i, :k] = scale * x[start : start + k]
+        return out
 
 
 def wrench_map(points: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
@@ -274,18 +313,34 @@ def wrench_map(points: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
     return A.reshape(6, -1)
 
 
-@functools.lru_cache(maxsize=4096)
+@functools.lru_cache(maxsize=1024)
+def _at_origin(nx: float, ny: float, nz: float, mu: float) -> ContactConstraint:
+    """A point contact at the origin with the normal ``(nx, ny, nz)`` and friction ``mu``."""
+    return contact_from_normal(np.zeros(3), np.array([nx, ny, nz]), mu=mu)
+
+
+_LIMITS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
 def _limits(contact: ContactConstraint) -> tuple[np.ndarray, np.ndarray]:
-    """``C, d`` of :func:`pik_mj.balance.wrench_constraints` (a contact is
-    immutable, cached by identity); a point contact's on its force alone (rows
-    that involve the moment dropped: they pin ``n = 0``)."""
-    C, d = wrench_constraints(contact)
-    if contact.half_x == 0.0 and contact.half_y == 0.0:
-        keep = ~np.any(C[:, 3:] != 0.0, axis=1)
-        C, d = C[keep, :3], d[keep]
-    C.flags.writeable = False
-    d.flags.writeable = False
-    return C, d
+    """``C, d`` of :func:`pik_mj.balance.wrench_constraints` (read-only); a
+    point contact's on its force alone (rows that involve the moment dropped:
+    they pin ``n = 0``). They depend on the contact's frame, sizes, friction
+    and force bounds, not on its position: cached by those values."""
+    c = contact
+    key = (c.R_WC.tobytes(), c.half_x, c.half_y, c.mu, c.fz_min, c.fz_max, c.torsion, c.pyramid)
+    found = _LIMITS.get(key)
+    if found is None:
+        C, d = wrench_constraints(contact)
+        if c.half_x == 0.0 and c.half_y == 0.0:
+            keep = ~np.any(C[:, 3:] != 0.0, axis=1)
+            C, d = C[keep, :3], d[keep]
+        C.flags.writeable = False
+        d.flags.writeable = False
+        if len(_LIMITS) >= 4096:
+            _LIMITS.clear()
+        found = _LIMITS[key] = (C, d)
+    return found
 
 
 def _cop(contact: ContactConstraint, w: np.ndarray) -> np.ndarray:

@@ -220,7 +220,8 @@ class Recorder(Canvas):
 
     def hold_logger(self, every: int = 10) -> HoldLogger:
         """A callback for ``scene.hold(..., callback=...)`` that logs every
-        ``every``-th sample on ``sim_time``. See
+        ``every``-th step on ``sim_time``, called at those steps only (the
+        physics runs in C between them). See
         :class:`~pik_mj.record.loggers.HoldLogger`."""
         return HoldLogger(self, every)
 
@@ -234,7 +235,7 @@ class Recorder(Canvas):
         image_every: float | None = 0.5,
     ) -> MotionLogger:
         """A callback for ``scene.play(..., callback=...)`` that logs every
-        ``every``-th sample on ``sim_time``: the physical robot, the IK
+        ``every``-th step on ``sim_time`` (called at those steps only): the physical robot, the IK
         reference beside it (``reference``), the tracking series, the sensors
         (``sensors``), the ``cameras`` (:class:`pik_mj.robot.camera.Camera`) as
         pinholes with an image every ``image_every`` seconds where MuJoCo can

@@ -1,8 +1,11 @@
 r"""The torques a timed path needs, and the timing that keeps them within what
 the robot's drives deliver (:func:`plan_torques`).
 
-At knots ``σ_k`` of the path's nominal time (every :data:`KNOT_SPACING` and at
-each waypoint; :class:`~pik_mj.sim.timing.Timing`) the reference is ``q(σ)``,
+At knots ``σ_k`` of the path's nominal time (of the grid every
+:data:`KNOT_SPACING` and at each waypoint, :class:`~pik_mj.sim.timing.Timing`:
+the segments' ends, and the grid's knots between them where the plan linear
+between its knots would miss the torques by more than :data:`KNOT_TOLERANCE`,
+found by bisection) the reference is ``q(σ)``,
 ``q̇ = q' σ̇`` and ``q̈ = q' σ̈`` with ``q' = dq/dσ``, so the torques the servo
 joints need are
 
@@ -38,6 +41,7 @@ linear in ``σ`` between knots): they go through the actuators' controls
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -51,10 +55,21 @@ from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 from pik_mj.sim.torques import ContactSupport, weight_torques
 
-__all__ = ["DRIVE_RESERVE", "KNOT_SPACING", "MAX_STRETCH", "TorquePlan", "plan_torques"]
+__all__ = [
+    "DRIVE_RESERVE",
+    "KNOT_SPACING",
+    "KNOT_TOLERANCE",
+    "MAX_STRETCH",
+    "TorquePlan",
+    "plan_torques",
+]
 
 KNOT_SPACING = 0.05
 """Nominal time [s] between the knots of the torque plan (at most)."""
+
+KNOT_TOLERANCE = 0.005
+"""Share of the largest rest torque by which the plan linear between two knots
+may miss the feed-forward at the knot between them (:func:`_refined`)."""
 
 DRIVE_RESERVE = 0.8
 """Share ``ρ`` of a drive's torque bounds a path's planned torques may use."""
@@ -123,7 +138,8 @@ class _Knots:
         self.actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], int)
 
     def sigmas(self) -> np.ndarray:
-        """Knot nominal times: the waypoints' and every :data:`KNOT_SPACING` between."""
+        """The grid of knot nominal times: the waypoints' and every
+        :data:`KNOT_SPACING` between (:func:`_refined` picks the knots)."""
         nominal = self.timing.nominal
         S = float(nominal[-1])
         grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
@@ -202,6 +218,57 @@ def _stretch(plan: TorquePlan, knots: _Knots, lo: np.ndarray, hi: np.ndarray) ->
         plan.stretched[int(k)] = float(timing.stretch[k])
 
 
+def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
+    """The knots of ``grid`` evaluated (``{index: evaluate(σ)}``): the ends of
+    each segment (where its timing rests), and between two evaluated knots
+    ``a < b`` the middle one ``m``; the knots strictly between ``a`` and ``b``
+    other than ``m`` are evaluated (recursively on ``[a, m]`` and ``[m, b]``)
+    only where the plan linear between ``a`` and ``b`` misses ``m``'s
+    feed-forward at the timing's rates (:meth:`TorquePlan.at`) by more than
+    :data:`KNOT_TOLERANCE` of the largest rest torque at ``a`` and ``b`` on any
+    servo joint, or where a knot has no equilibrium. A path smooth at the
+    tolerance's scale is planned on a few knots; a turn at a waypoint, or a
+    torque that bends, gets the grid's knots around it."""
+    done: dict[int, tuple] = {}
+
+    def get(i: int) -> tuple:
+        if i not in done:
+            done[i] = evaluate(float(grid[i]))
+        return done[i]
+
+    dofs = knots.scene.servo_dofs
+    _, rate, accel = knots.timing.progress(knots.timing.times_of(grid))
+    ends = np.searchsorted(grid, np.unique(knots.timing.span))
+    stack = [(int(a), int(b)) for a, b in itertools.pairwise(ends)]
+    get(int(ends[0]))
+    while stack:
+        a, b = stack.pop()
+        if b - a < 2:
+            get(b)
+            continue
+        m = (a + b) // 2
+        parts = [get(a)[1], get(m)[1], get(b)[1]]
+        if any(p is None for p in parts) or not _linear(
+            grid[[a, m, b]], parts, (rate[m], accel[m]), dofs
+        ):
+            stack += [(a, m), (m, b)]
+    return done
+
+
+def _linear(
+    sigma: np.ndarray, parts: list[tuple], rates: tuple[float, float], dofs: np.ndarray
+) -> bool:
+    """The plan linear between the knots ``σ_a``, ``σ_b`` gives ``σ_m``'s
+    feed-forward at ``(σ̇, σ̈)`` within :data:`KNOT_TOLERANCE` (:func:`_refined`)."""
+    a, m, b = parts
+    w = (sigma[1] - sigma[0]) / (sigma[2] - sigma[0])
+    rate, accel = rates
+    gains = (1.0, accel, rate**2, rate)
+    error = sum(g * ((1 - w) * a[i] + w * b[i] - m[i]) for i, g in enumerate(gains))
+    scale = max(np.abs(a[0][dofs]).max(initial=0.0), np.abs(b[0][dofs]).max(initial=0.0))
+    return bool(np.all(np.abs(error[dofs]) <= KNOT_TOLERANCE * scale))
+
+
 def plan_torques(
     scene: Physics,
     q: np.ndarray,
@@ -216,15 +283,21 @@ def plan_torques(
     wrenches grow with the path's progress ``σ / S``."""
     knots = _Knots(scene, q, dv, timing)
     S = float(timing.nominal[-1])
-    kept, parts, poses = [], [], []
-    for sigma in knots.sigmas():
+    grid = knots.sigmas()
+
+    def evaluate(sigma: float) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
         s = sigma / S if (ramp and S > 0) else 1.0
         load = [(f, s * np.asarray(F, float), s * np.asarray(M, float)) for f, F, M in external]
         qk, dq = knots.pose(sigma)
-        found = knots.parts(qk, dq, load)
-        if found is not None:
-            kept.append(sigma)
-            parts.append(found)
+        return qk, knots.parts(qk, dq, load)
+
+    found = _refined(grid, knots, evaluate)
+    kept, parts, poses = [], [], []
+    for i in sorted(found):
+        qk, part = found[i]
+        if part is not None:
+            kept.append(grid[i])
+            parts.append(part)
             poses.append(qk)
     nv = scene.robot.model.nv
     columns = [np.array([p[i] for p in parts]).reshape(-1, nv) for i in range(4)]

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pik_mj import inputs
-from pik_mj.callbacks import Callback, as_callbacks
+from pik_mj.callbacks import Callback, as_callbacks, call_stride
 from pik_mj.sim.balancing import balance_feedback, stance
 from pik_mj.sim.criteria import HoldCriteria, check_options
 from pik_mj.sim.falls import Fall
@@ -197,7 +197,7 @@ def hold(
     criteria: HoldCriteria | None = None,
     external: Sequence[External] = (),
     callback: Callback | Sequence[Callback] | None = None,
-    every: int = 1,
+    every: int | None = None,
     record_every: int = RECORD_EVERY,
     margin_every: int = MARGIN_EVERY,
     feedforward: bool = True,
@@ -228,7 +228,9 @@ def hold(
         callback: A callable or a list, each called with a :class:`HoldSample`
             at the start and every ``every`` steps (the checks sample as
             without callbacks: :mod:`pik_mj.sim.tracking`).
-        every: Steps between callback calls (>= 1).
+        every: Steps between callback calls (>= 1); None: what the callbacks
+            ask (:func:`pik_mj.callbacks.call_stride`: a recorder's logger its
+            own rate, any other callback every step).
         record_every: Steps between the checks' samples
             (the physics runs in C between them); 1: every step.
         margin_every: Steps between evaluations of the CoM margin (a convex hull
@@ -250,12 +252,13 @@ def hold(
     Raises:
         SimulationUnstable: MuJoCo reported an invalid state.
     """
+    callbacks = as_callbacks(callback)
+    every = call_stride(callbacks, every)
     criteria = check_options(
         criteria, duration, every=every, record_every=record_every, margin_every=margin_every
     )
     external = inputs.wrenches(external, "external")
     q = scene.qpos_of(q)[: scene.robot_nq]
-    callbacks = as_callbacks(callback)
     allowed = scene.allowed(criteria.allowed)
     tau = holding_torques(scene, q, external) if feedforward else None
     short = [] if tau is None else drive_shortfalls(scene, q, tau)

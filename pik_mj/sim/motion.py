@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pik_mj import inputs
-from pik_mj.callbacks import Callback, as_callbacks
+from pik_mj.callbacks import Callback, as_callbacks, call_stride
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
 from pik_mj.sim.balancing import balance_feedback, stance
@@ -337,7 +337,7 @@ def play(
     external: Sequence[External] = (),
     external_ramp: bool = False,
     callback: Callback | Sequence[Callback] | None = None,
-    every: int = 1,
+    every: int | None = None,
     record_every: int = RECORD_EVERY,
     margin_every: int = MARGIN_EVERY,
     feedforward: bool = True,
@@ -367,7 +367,8 @@ def play(
             :class:`~pik_mj.sim.measures.HoldSample` every ``every`` steps (its
             ``reference`` and ``waypoint`` are set; the checks sample as
             without callbacks: :mod:`pik_mj.sim.tracking`).
-        every: Steps between callback calls.
+        every: Steps between callback calls; None: what the callbacks ask
+            (:func:`pik_mj.callbacks.call_stride`).
         record_every: Steps between the checks' samples; 1:
             every step.
         margin_every: Steps between evaluations of the CoM margin.
@@ -411,6 +412,7 @@ def play(
         external_ramp=external_ramp, feedforward=feedforward, start=state,
     )  # fmt: skip
     duration = max(reference.duration + settle, scene.model.opt.timestep)
+    every = call_stride(as_callbacks(callback), every)
     criteria = check_options(
         MOTION_CRITERIA if criteria is None else criteria,
         duration,

@@ -282,7 +282,7 @@ class Scene(Physics):
         criteria: HoldCriteria | None = None,
         external: Sequence[External] = (),
         callback: Any = None,
-        every: int = 1,
+        every: int | None = None,
         record_every: int = RECORD_EVERY,
         margin_every: int = MARGIN_EVERY,
         feedforward: bool = True,

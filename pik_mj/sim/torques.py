@@ -10,10 +10,9 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj.dynamics import contact_wrenches, joint_torques, wrench_map
+from pik_mj.dynamics import ContactDistribution, joint_torques
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
-from pik_mj.sim.static import point_contacts
 from pik_mj.spatial import skew
 
 __all__ = ["ContactSupport", "drive_shortfalls", "holding_torques", "weight_torques"]
@@ -114,7 +113,8 @@ class ContactSupport:
 
     * :meth:`hold`: ``τ − J_cᵀ f`` with ``f`` the least-norm forces inside the
       friction pyramids with ``A f = w(τ)``
-      (:func:`pik_mj.dynamics.contact_wrenches`); None without them;
+      (:func:`pik_mj.dynamics.contact_wrenches`, :class:`~pik_mj.dynamics.ContactDistribution`);
+      None without them;
     * :meth:`carry`: ``P τ = τ − J_cᵀ A⁺ w(τ)``, the least-norm forces without
       their limits, linear in ``τ`` (the product ``J_cᵀ A⁺ T J_B^{-T}`` is
       formed once).
@@ -142,12 +142,14 @@ class ContactSupport:
         shift = np.eye(6)  # (f, n about p_WB) -> (f, n about the origin)
         shift[3:, :3] = skew(data.xpos[b])
         self._wrench = shift @ np.linalg.inv(J_B[:, self._dofs].T)  # (6, 6): τ_root -> w
-        points = np.array([c.position for c in env])
         J = np.zeros((3 * len(env), m.nv))
         for i, c in enumerate(env):
             body = m.geom_bodyid[scene.geom_ids[c.robot_geom]]
-            mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, points[i], body)
-        self._A, self._J = wrench_map(points), J
+            mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, c.position, body)
+        self._J = J
+        self._distribution = ContactDistribution.of_points(
+            [c.position for c in env], [c.normal for c in env], [c.friction for c in env]
+        )
         self._carried: np.ndarray | None = None
 
     def wrench(self, tau: np.ndarray) -> np.ndarray:
@@ -160,7 +162,7 @@ class ContactSupport:
         None when no such forces apply ``w(τ)``."""
         if not self.active:
             return tau
-        solved = contact_wrenches(point_contacts(self.env), self.wrench(tau))
+        solved = self._distribution.solve(self.wrench(tau))
         if solved is None:
             return None
         return tau - self._J.T @ solved[:, :3].reshape(-1)
@@ -170,7 +172,10 @@ class ContactSupport:
         if not self.active:
             return tau
         if self._carried is None:
-            self._carried = self._J.T @ np.linalg.pinv(self._A) @ self._wrench  # (nv, 6)
+            L = self._distribution.least_norm_map  # A⁺ where A has full row rank
+            if L is None:
+                L = np.linalg.pinv(self._distribution.A)
+            self._carried = self._J.T @ L @ self._wrench  # (nv, 6)
         return tau - self._carried @ tau[self._dofs]
 
 

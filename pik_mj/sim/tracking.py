@@ -22,7 +22,9 @@ steps: the chunks then end at every ``every``-th step too, while the record
 keeps its rows at every ``record_every``-th step, so a run with callbacks has
 the figures of the same run without (the balance feedback, where a robot needs
 it, :mod:`pik_mj.sim.balancing`, updates at every ``period``-th step whatever
-the chunks). ``every=1`` is the slow path, a Python
+the chunks). A hold or a motion calls its callbacks as far apart as they ask
+(:func:`pik_mj.callbacks.call_stride`: a recorder's loggers at the viewer's
+rate); ``every=1``, or a callback that does not say, is the slow path, a Python
 call per step, for a callback that needs every step; ``record_every=1`` gives
 the checks every step (what the benchmarks compare the sampled figures with).
 """

@@ -27,7 +27,7 @@ __all__ = ["HoldLogger", "MotionLogger", "check_every", "log_sensors"]
 
 
 def check_every(every: int) -> int:
-    """``every`` (samples between logged ones) as an int, or raise
+    """``every`` (steps between logged samples) as an int, or raise
     :class:`~pik_mj.exceptions.InvalidInput` unless it is an integer >= 1."""
     if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
         raise InvalidInput(f"every must be an integer >= 1, got {every!r}")
@@ -37,8 +37,14 @@ def check_every(every: int) -> int:
 class HoldLogger:
     """Logs a physics hold on ``sim_time`` (a ``scene.hold`` callback).
 
-    Made by :meth:`Recorder.hold_logger`. Every ``every``-th call (the first
-    one included) logs, from the :class:`~pik_mj.sim.HoldSample`: the body poses, the CoM,
+    Made by :meth:`Recorder.hold_logger`. It logs the run sampled at every
+    ``every``-th step (the viewer's rate), and says so to the simulation: its
+    :data:`~pik_mj.callbacks.CALL_EVERY` is ``every``, so a hold or a motion
+    given no ``every`` calls it at those steps only and steps in C between
+    them (with a callback that needs every step beside it, every step is a
+    call, the slow path, and the logger still logs every ``every``-th step).
+    The sample of a step (the first one, step 0, included) logs, from the
+    :class:`~pik_mj.sim.HoldSample`: the body poses, the CoM,
     the support polygon, the contact points and forces on the robot, and the
     series ``hold/drift``, ``hold/slip``, ``hold/margin`` [m] and
     ``hold/contact_force_z`` (total vertical contact force [N]). The first call
@@ -49,6 +55,7 @@ class HoldLogger:
 
     def __init__(self, recorder: RecorderSurface, every: int = 10) -> None:
         self.every = check_every(every)
+        self.call_every = self.every  # CALL_EVERY: the steps apart it needs its calls
         self.recorder = recorder
         self.calls = 0
         self._skipped: HoldSample | None = None
@@ -56,8 +63,8 @@ class HoldLogger:
     def __call__(self, sample: HoldSample) -> None:
         if self._starts(sample):
             self._begin(sample)
-        n, self.calls = self.calls, self.calls + 1
-        if n % self.every:
+        self.calls += 1
+        if sample.step % self.every:
             self._skipped = sample
             return
         self._skipped = None
@@ -147,9 +154,9 @@ def log_sensors(
 class MotionLogger(HoldLogger):
     """Logs a motion played in physics on ``sim_time`` (a ``scene.play`` callback).
 
-    Made by :meth:`Recorder.motion_logger`. Every ``every``-th call logs what
-    a :class:`HoldLogger` logs (body poses, CoM, support polygon, contacts),
-    and:
+    Made by :meth:`Recorder.motion_logger`. Every ``every``-th step (called
+    then only, as a :class:`HoldLogger`) it logs what a :class:`HoldLogger`
+    logs (body poses, CoM, support polygon, contacts), and:
 
     * the reference pose (the IK's iterates, interpolated) as a second,
       translucent robot at ``world/reference`` (``reference``);

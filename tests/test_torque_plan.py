@@ -10,11 +10,13 @@ import mujoco
 import numpy as np
 import pytest
 import qpsolvers
+from test_drives import _arm_out, _robot
 
-from pik_mj import Robot, Scene, balance
+from pik_mj import Robot, Scene, balance, fullbody_inverse_kinematics
 from pik_mj import dynamics as dy
 from pik_mj.dynamics import distribution
 from pik_mj.exceptions import InvalidInput
+from pik_mj.sim import effort
 from pik_mj.sim.motion import MotionReference, velocity_limits
 from pik_mj.sim.path import Waypoint, Waypoints
 from pik_mj.sim.static import point_contacts
@@ -150,3 +152,73 @@ def test_the_plan_s_knots_match_holding_torques_and_the_mass_matrix():
         np.testing.assert_allclose(plan.inertia[k], support.carry(Mv)[:nv], atol=1e-9)
         for term in (plan.rest, plan.inertia, plan.velocity, plan.damping):
             assert np.max(np.abs(term[k][:6])) < 1e-9
+
+
+def _every_knot(monkeypatch) -> None:
+    """The plan on every knot of the grid (no knot skipped: today's rule before
+    the refinement)."""
+    monkeypatch.setattr(effort, "KNOT_TOLERANCE", -1.0)
+
+
+def _solved_reach(robot: Robot) -> Waypoints:
+    """The iterates of a full-body reach, as a sweep's case plays them (steps
+    that shrink and turn as the solve converges)."""
+    robot.reset_pose()
+    path = Waypoints(robot, "reach")
+    target = (np.array([0.5, -0.1, 0.6]), np.array([1.0, 0, 0, 0]))  # low, in front
+    fullbody_inverse_kinematics(
+        robot, [target], limbs=["rarm"], rotation_axis=[None], fix_feet=("rleg", "lleg"),
+        revert_if_fail=False, callback=[path],
+    )  # fmt: skip
+    robot.reset_pose()
+    assert len(path.q) > 10
+    return path
+
+
+def test_fewer_knots_keep_the_plan_and_the_motion_s_figures(monkeypatch):
+    """The reach of the sample humanoid, the iterates of a solved reach and the
+    arm raised too fast for its 3 N·m shoulder (test_drives), planned on the
+    refined knots and on every knot of the grid: the refined knots are a subset
+    (the reaches' at most 2/3); between them the plan stays within 2
+    KNOT_TOLERANCE of the largest rest torque of the full one at every grid
+    knot; the stretch is within 2 %; played, the
+    same verdict, drift within 0.5 mm, slip within 0.05 mm, tracking within
+    10 %."""
+    raised = _robot('actuatorfrcrange="-3 3"')
+    cases = []
+    for robot, speed in ((Robot.from_model("sample_humanoid"), 0.2), (raised, 1.0)):
+        path = (
+            _reach(robot)
+            if robot is not raised
+            else Waypoints(robot.configuration.q.copy(), "raise")
+        )
+        if robot is raised:
+            path.items.append(Waypoint(_arm_out(robot), "raise", 1))
+        cases.append((Scene.from_robot(robot), path, speed))
+    cases.append((cases[0][0], _solved_reach(cases[0][0].robot), 0.2))
+    runs, tolerance = {}, effort.KNOT_TOLERANCE
+    for label in ("refined", "every"):
+        if label == "every":
+            _every_knot(monkeypatch)
+        runs[label] = []
+        for scene, path, speed in cases:
+            lower, upper = velocity_limits(scene)
+            ref = MotionReference(scene, path, lower, upper, speed=speed)
+            runs[label].append((ref, scene.play(path, speed=speed)))
+    for (ref, report), (full, full_report), (scene, _, _) in zip(
+        runs["refined"], runs["every"], cases, strict=True
+    ):
+        plan, every = ref.torques, full.torques
+        assert set(plan.sigma) <= set(every.sigma)
+        if scene.robot is not raised:  # the fast raise is not linear between its knots
+            assert len(plan.sigma) <= 2 / 3 * len(every.sigma)
+        np.testing.assert_allclose(ref.timing.stretch, full.timing.stretch, rtol=0.02)
+        _, rate, accel = full.timing.progress(full.timing.times_of(every.sigma))
+        dofs = scene.servo_dofs
+        scale = np.abs(every.rest[:, dofs]).max()
+        gap = np.abs(plan.at(every.sigma, rate, accel) - every.at(every.sigma, rate, accel))
+        assert gap[:, dofs].max() <= 2 * tolerance * scale
+        assert report.passed == full_report.passed
+        assert abs(report.drift - full_report.drift) < 5e-4
+        assert abs(report.slip - full_report.slip) < 5e-5
+        assert report.tracking_error == pytest.approx(full_report.tracking_error, rel=0.1)
