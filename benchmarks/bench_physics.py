@@ -16,6 +16,11 @@ saying so), built as a user builds it (``Robot.from_model``,
   ``--repeats`` plans);
 * the same two with ``record_every=1`` (every step sampled: the per-step path)
   and their figures beside the sampled ones;
+* **recorded** (the first robot, ``--recorded``): the 3 s hold with a
+  recorder's ``hold_logger()`` writing to a file, called at the logger's own
+  rate (its ``call_every``) and, beside a callback that declares no rate, at
+  every step (the slow path), against the hold unrecorded (CPU time; the
+  same logged samples either way);
 * **batch** (the first robot): ``--batch`` holds of the standing pose one by
   one (``scene.hold``) and together (``scene.hold_many`` on 1 and 2 threads),
   against ``--batch`` times the raw ``mj_step``; the verdicts and drifts of the
@@ -28,19 +33,23 @@ busy shared machine does not distort: the rollout steps in the calling thread)
 and the wall time; ``play - plan`` is the playback without its torque plan.
 The batch's times are wall times (``hold_many`` runs on threads).
 
-Run: ``MENAGERIE_ROOT=... python benchmarks/bench_physics.py [--repeats 5] [--batch 8]``
+Run: ``MENAGERIE_ROOT=... python benchmarks/bench_physics.py [--repeats 5] [--batch 8]
+[--recorded]``
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import tempfile
 import time
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from pik_mj import Robot, Scene
+from pik_mj.record import Recorder
 from pik_mj.robot.loading import menagerie_available, menagerie_models
 from pik_mj.sim import Waypoints
 from pik_mj.sim.motion import MotionReference, velocity_limits
@@ -128,6 +137,32 @@ def run_robot(name: str, repeats: int) -> dict:
     return row
 
 
+def run_recorded(name: str, repeats: int) -> dict:
+    """CPU time [s] of a recorded hold at the logger's rate and at every step,
+    and of the hold unrecorded (medians of ``repeats``)."""
+    robot = Robot.from_model(name)
+    scene = Scene.from_robot(robot)
+    q0 = robot.configuration.q.copy()
+    out: dict = {"robot": name}
+    with tempfile.TemporaryDirectory() as folder:
+        for label, extra in (("sampled", []), ("every step", [lambda sample: None])):
+            times = []
+            for k in range(repeats):
+                with Recorder.to_file(Path(folder) / f"{k}.rrd", "bench") as rec:
+                    rec.log_model_geometry(robot.model, robot_root_body=robot.root_body)
+                    log = rec.hold_logger()
+                    t = time.process_time()
+                    log.finish(scene.hold(q0, HOLD, callback=[log, *extra]))
+                    times.append(time.process_time() - t)
+                out["calls " + label] = log.calls
+            out[label] = float(np.median(times))
+    t = time.process_time()
+    for _ in range(repeats):
+        scene.hold(q0, HOLD)
+    out["unrecorded"] = (time.process_time() - t) / repeats
+    return out
+
+
 def run_batch(name: str, n: int) -> dict:
     """``n`` holds of ``name``'s standing pose one by one and by ``hold_many``."""
     robot = Robot.from_model(name)
@@ -178,6 +213,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--robots", nargs="*", default=list(ROBOTS))
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--batch", type=int, default=8, help="holds of the batch (0: none)")
+    parser.add_argument("--recorded", action="store_true", help="time a recorded hold")
     args = parser.parse_args(argv)
     rows, skipped = [], []
     for name in args.robots:
@@ -207,10 +243,19 @@ def main(argv: list[str] | None = None) -> dict:
             f"({b['many2'] / b['raw']:.2f}x); verdicts and drifts equal to the single holds': "
             f"{b['same1'] and b['same2']}"
         )
+    recorded = run_recorded(rows[0]["robot"], args.repeats) if rows and args.recorded else None
+    if recorded:
+        r = recorded
+        print(
+            f"\nrecorded {HOLD:g} s hold ({r['robot']}, CPU): at the logger's rate "
+            f"{r['sampled']:.3f} s ({r['calls sampled']} calls), at every step "
+            f"{r['every step']:.3f} s ({r['calls every step']} calls); unrecorded "
+            f"{r['unrecorded']:.3f} s"
+        )
     for name in skipped:
         print(f"{name:16} skipped: not under MENAGERIE_ROOT nor in the mujoco-menagerie cache")
     print(f"load average (1 min): {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    return {"rows": rows, "skipped": skipped, "batch": batch}
+    return {"rows": rows, "skipped": skipped, "batch": batch, "recorded": recorded}
 
 
 if __name__ == "__main__":

@@ -171,8 +171,8 @@ def contact_wrenches(
 
     is the QP's solution whenever it is within every limit (the objective is
     strictly convex): it is taken then (``solver="auto"``), and DAQP solves the
-    QP only where a limit is active, or where ``A`` is rank deficient (contacts
-    on one line) and ``w*`` misses ``w_total``.
+    QP only where a limit is active, or where ``A`` has not full row rank
+    (contacts on one line: :attr:`ContactDistribution.least_norm_map`).
     The least-norm split keeps forces away from the edges of the cones, where a
     feed-forward would push a foot to slip (an LP's solution sits on an edge).
 
