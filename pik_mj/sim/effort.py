@@ -5,9 +5,11 @@ At knots ``σ_k`` of the path's nominal time (of the grid every
 :data:`KNOT_SPACING` and at each waypoint, :class:`~pik_mj.sim.timing.Timing`:
 the segments' ends, and the grid's knots between them where the plan linear
 between its knots would miss the torques by more than :data:`KNOT_TOLERANCE`,
-found by bisection) the reference is ``q(σ)``,
-``q̇ = q' σ̇`` and ``q̈ = q' σ̈`` with ``q' = dq/dσ``, so the torques the servo
-joints need are
+found by bisection) the reference is ``q(σ)``, ``q̇ = q' σ̇`` and
+``q̈ = q' σ̈`` with ``q' = dq/dσ`` (the blends' curvature ``q'' σ̇²`` at the
+path's interior waypoints, :class:`~pik_mj.sim.blends.BlendedPath`, smooth and
+bounded, is left to the servos' feedback), so the torques the servo joints
+need are
 
 .. math::
 
@@ -50,6 +52,7 @@ import mujoco
 import numpy as np
 
 from pik_mj.dynamics import external_torques, inverse_dynamics
+from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
@@ -136,6 +139,7 @@ class _Knots:
         self.rm = scene.robot.model
         self.data = mujoco.MjData(scene.model)
         self.actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], int)
+        self.path = BlendedPath(self.rm, q, dv, timing)
 
     def sigmas(self) -> np.ndarray:
         """The grid of knot nominal times: the waypoints' and every
@@ -146,13 +150,10 @@ class _Knots:
         return np.unique(np.concatenate([grid, nominal]))
 
     def pose(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-        """``q(σ)`` and ``q' = dq/dσ`` (the step after ``σ``; zero at the end)."""
-        (i,), (alpha,) = self.timing.piece(np.array([sigma]))
-        q, steps = self.q[i].copy(), self.timing.steps
-        if i < len(steps) and steps[i] > 0:
-            mujoco.mj_integratePos(self.rm, q, self.dv[i], alpha)
-            return q, self.dv[i] / steps[i]
-        return q, np.zeros(self.rm.nv)
+        """``q(σ)`` and ``q' = dq/dσ`` of the played path
+        (:class:`~pik_mj.sim.blends.BlendedPath`; zero at the end)."""
+        q, slope, _ = self.path.at(sigma)
+        return q, slope
 
     def parts(
         self, q: np.ndarray, dq: np.ndarray, load: Sequence[External]

@@ -29,6 +29,13 @@ whose torques pass a share of the bounds is slowed down, a path whose poses
 need more than the drives give even at rest is not played and the joints are
 named (:func:`pik_mj.sim.effort.plan_torques`).
 
+**Geometry and balance.** Within a segment the path turns at its interior
+waypoints through smooth blends (:class:`~pik_mj.sim.blends.BlendedPath`):
+the joints' rates turn continuously, not at once. A segment whose planned
+zero-moment point (inverse dynamics of the floating base along the reference)
+would leave the support polygon's reserve is slowed down
+(:func:`pik_mj.sim.zmp.stretch_for_balance`).
+
 **Tracking.** The scene's position servos ``τ = k_p (u - q) - k_v q̇`` get the
 target ``u = q_{ref} + (k_v / k_p)\, \dot q_{ref} + τ_{ff} / k_p`` (the damping
 then acts on the velocity error; :class:`~pik_mj.sim.servos.ServoLaw`) with
@@ -46,11 +53,13 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
+from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.effort import plan_torques
 from pik_mj.sim.path import Waypoints
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.servos import ServoLaw
 from pik_mj.sim.timing import Timing
+from pik_mj.sim.zmp import stretch_for_balance
 
 __all__ = [
     "IRTEUS_MAX_VELOCITY",
@@ -167,6 +176,8 @@ class MotionReference:
         torques: The :class:`~pik_mj.sim.effort.TorquePlan` (None without feed-forward).
         shortfalls: Joints whose drives cannot hold the path at rest (then it
             cannot be played).
+        path: The :class:`~pik_mj.sim.blends.BlendedPath` played.
+        balance_stretch: Segments slowed down for the ZMP, ``{segment index: c}``.
         data: Kinematics of the reference now.
         waypoint: Index of the last waypoint passed.
         load: Scale of the external wrenches now.
@@ -203,12 +214,18 @@ class MotionReference:
         labels = [w.segment for w in path.items]
         self.timing = Timing(steps.max(axis=1) if n > 1 else np.zeros(0), labels)
         self.nominal = self.timing.nominal
+        self.path = BlendedPath(rm, self.q, self._dv, self.timing)
         self.torques = (
             plan_torques(scene, self.q, self._dv, self.timing, external, self._ramp)
             if feedforward
             else None
         )
         self.shortfalls = [] if self.torques is None else self.torques.shortfalls
+        self.balance_stretch = (
+            stretch_for_balance(scene, self.path, self.timing, external, self._ramp)
+            if feedforward and not self.shortfalls
+            else {}
+        )
         self.duration = self.timing.duration
         self.times = self.timing.waypoint_times()
         self._start = start
@@ -255,16 +272,14 @@ class MotionReference:
         times = np.asarray(times, dtype=float)
         sigma, _, _ = timing.progress(times)
         loads = self.loads(times)
-        pieces, alphas = timing.piece(sigma)
         waypoints = np.searchsorted(self.times, times, side="right") - 1
-        last = len(self.q) - 1
-        for i, alpha, load, waypoint in zip(
-            pieces.tolist(), alphas.tolist(), loads.tolist(), waypoints.tolist(), strict=True
+        bases, deltas, _, _ = self.path.offsets(sigma)
+        for base, delta, load, waypoint in zip(
+            bases.tolist(), deltas, loads.tolist(), waypoints.tolist(), strict=True
         ):
             self.load, self.waypoint = load, waypoint
-            q = self.q[i].copy()
-            if i < last and timing.steps[i] > 0:
-                mujoco.mj_integratePos(rm, q, self._dv[i], alpha)
+            q = self.q[base].copy()
+            mujoco.mj_integratePos(rm, q, delta, 1.0)
             if scene.grasps:  # the grasped objects follow the hand
                 self.data.qpos[:] = scene.qpos_of(q)
             else:  # the waypoints were checked (planned_contacts): no check per step
@@ -279,15 +294,10 @@ class MotionReference:
         actuators' as :meth:`begin` found them."""
         timing, law = self.timing, self._servos
         sigma, rate, accel = timing.progress(t)
-        i, alpha = timing.piece(sigma)
-        n = len(self.q)
-        step = np.minimum(i, max(n - 2, 0))
-        T = timing.steps[step] if n > 1 else np.zeros(len(t))
-        moving = (i < n - 1) & (T > 0)
-        dv = self._dv[step] if n > 1 else np.zeros((len(t), self._rm.nv))
-        q = self.q[i].copy()
-        q[:, law.qadr] += np.where(moving, alpha, 0.0)[:, None] * dv[:, law.dof]
-        qd = dv * np.where(moving, rate / np.where(moving, T, 1.0), 0.0)[:, None]
+        base, delta, slope, _ = self.path.offsets(sigma)
+        q = self.q[base].copy()
+        q[:, law.qadr] += delta[:, law.dof]
+        qd = slope * rate[:, None]
         tau = None if self.torques is None else self.torques.at(sigma, rate, accel)
         ctrl = np.tile(self._ctrl, (len(t), 1))
         ctrl[:, law.ids] = law.controls(q, qd, tau)

@@ -15,16 +15,17 @@ with the minimum-jerk time scaling
 
 which starts and ends at rest with zero acceleration. With ``c_k = 1`` its peak
 rate ``dσ/dt = 15 S_k / 8 D_k = 1`` keeps every joint within its velocity
-limit; a stretch ``c_k > 1`` (what the drives need, :mod:`pik_mj.sim.reference`)
-slows the whole segment down. Between waypoints ``i`` and ``i + 1``,
+limit; a stretch ``c_k > 1`` (what the drives and the balance need,
+:mod:`pik_mj.sim.reference`) slows the whole segment down. Between waypoints
+``i`` and ``i + 1`` the straight path is
 
 .. math::
 
     q(t) = q_i \oplus α\, Δq_i, \quad α = \frac{σ(t) - σ_i}{T_i}, \qquad
     \dot q = \frac{Δq_i}{T_i}\, \dot σ, \qquad \ddot q = \frac{Δq_i}{T_i}\, \ddot σ
 
-(the path's kinks at interior waypoints, where ``Δq_i`` turns, are left to
-the servos).
+(:meth:`Timing.piece`); the path played turns at the interior waypoints
+through blends (:class:`~pik_mj.sim.blends.BlendedPath`).
 """
 
 from __future__ import annotations

@@ -1,0 +1,223 @@
+r"""The zero-moment point a timed path needs, and the timing that keeps it inside
+the support polygon (:func:`stretch_for_balance`).
+
+Along the played path (:class:`~pik_mj.sim.blends.BlendedPath`) the robot's
+floating base needs the generalized force ``Q`` (its free joint's rows of the
+inverse dynamics) from the contacts; at a knot ``σ`` with rates ``(σ̇, σ̈)``
+
+.. math::
+
+    Q = Q_s + Q_a\, \ddot σ + Q_v\, \dot σ^2 + Q_d\, \dot σ
+
+``Q_s`` at rest (gravity less the external wrenches and the grasped objects'
+weights, :func:`pik_mj.sim.torques.weight_torques`), ``Q_a`` at ``q̈ = q'``,
+``Q_v`` at ``q̇ = q', q̈ = q''`` less rest, ``Q_d`` the joints' damping (MuJoCo's
+``mj_inverse``, as :mod:`pik_mj.sim.effort`). Its rows are the net contact
+force ``F`` (world) and the moment ``R_B (Q_4, Q_5, Q_6)`` about the root body's
+origin ``o``. In the frame of the ground contacts' support polygon (basis
+``e_1, e_2, n``, the plane at height ``h``; :meth:`~pik_mj.sim.physics.Physics.support`)
+the point of the plane about which that wrench has no tangential moment is
+
+.. math::
+
+    p_1 = o_1 - \frac{n_2 + (o_3 - h) F_1}{F_3}, \qquad
+    p_2 = o_2 - \frac{(o_3 - h) F_2 - n_1}{F_3}
+
+the zero-moment point (ZMP; at rest the CoM's projection). A segment is slowed
+down (its duration stretched by ``c``: ``σ̇ / c``, ``σ̈ / c²``, bisection as for
+the drives) until every knot's ZMP keeps at least :data:`ZMP_RESERVE` of its
+rest margin ``d_s`` to the polygon's edges, ``d(p) ≥ ρ_z d_s`` (where the
+rest ZMP is already outside, ``d(p) ≥ d_s``: no farther out). The motion may
+use the rest of the margin; the servos and the contacts' compliance need the
+reserve.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from pik_mj.dynamics import external_torques, inverse_dynamics
+from pik_mj.sim.blends import BlendedPath
+from pik_mj.sim.effort import KNOT_SPACING
+from pik_mj.sim.physics import External, Physics
+from pik_mj.sim.timing import Timing
+from pik_mj.sim.torques import weight_torques
+
+__all__ = [
+    "GROUND_SLOPE",
+    "MAX_STRETCH",
+    "SAME_SUPPORT",
+    "ZMP_RESERVE",
+    "ZmpPlan",
+    "plan_zmp",
+    "stretch_for_balance",
+]
+
+ZMP_RESERVE = 0.5
+"""Share ``ρ_z`` of a knot's rest margin (the CoM's) its moving ZMP keeps."""
+
+MAX_STRETCH = 10.0
+"""Largest factor by which a segment is slowed down for its balance."""
+
+GROUND_SLOPE = math.pi / 4
+"""Largest angle [rad] of a contact normal to up for the contact to support."""
+
+SAME_SUPPORT = 1e-4
+"""Distance [m] within which a knot's contact points are those of the knot
+before: its support polygon is reused."""
+
+_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+
+
+@dataclass
+class ZmpPlan:
+    """The floating base's wrench at knots (module docstring).
+
+    Attributes:
+        sigma: Knot nominal times [s] (k,).
+        parts: ``Q_s, Q_a, Q_v, Q_d`` (4, k, 6) in the support polygon's frame:
+            force ``(F_1, F_2, F_3)`` [N], moment ``(n_1, n_2, n_3)`` [N·m] about ``o``.
+        origin: ``(o_1, o_2, o_3 - h)`` (k, 3) [m] of each knot.
+        edges: ``(A, b)`` per knot: the polygon's half-planes ``A p + b ≥ 0``.
+        rest_margin: ``d_s`` (k,) [m].
+    """
+
+    sigma: np.ndarray
+    parts: np.ndarray
+    origin: np.ndarray
+    edges: list[tuple[np.ndarray, np.ndarray]]
+    rest_margin: np.ndarray
+
+    def points(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
+        """The ZMPs (k, 2) [m] in the polygons' planes at ``(σ̇, σ̈)`` (k,) each."""
+        s, a, v, d = self.parts
+        Q = s + a * accel[:, None] + v * (rate**2)[:, None] + d * rate[:, None]
+        F, n, o = Q[:, :3], Q[:, 3:], self.origin
+        return np.column_stack(
+            [
+                o[:, 0] - (n[:, 1] + o[:, 2] * F[:, 0]) / F[:, 2],
+                o[:, 1] - (o[:, 2] * F[:, 1] - n[:, 0]) / F[:, 2],
+            ]
+        )
+
+    def margins(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
+        """Signed distance (k,) [m] of each knot's ZMP to its polygon's edges."""
+        p = self.points(rate, accel)
+        return np.array([np.min(A @ pk + b) for (A, b), pk in zip(self.edges, p, strict=True)])
+
+    def fits(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
+        """Per knot: the ZMP keeps :data:`ZMP_RESERVE` of the rest margin (module docstring)."""
+        d_s = self.rest_margin
+        need = np.where(d_s > 0, ZMP_RESERVE * d_s, d_s)
+        return self.margins(rate, accel) >= need - 1e-9
+
+
+def _knots(path: BlendedPath, timing: Timing) -> np.ndarray:
+    """Knot nominal times: every :data:`~pik_mj.sim.effort.KNOT_SPACING`, the
+    waypoints and the blends' ends (just inside each blend)."""
+    nominal, b = timing.nominal, path.half_width
+    S = float(nominal[-1])
+    grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
+    inner = 0.999 * b[b > 0]
+    ends = np.concatenate([nominal[b > 0] - inner, nominal[b > 0] + inner])
+    return np.unique(np.concatenate([grid, nominal, ends]))
+
+
+def plan_zmp(
+    scene: Physics,
+    path: BlendedPath,
+    timing: Timing,
+    external: Sequence[External] = (),
+    ramp: bool = False,
+) -> ZmpPlan | None:
+    """The :class:`ZmpPlan` of ``path`` (``ramp``: the external wrenches grow
+    with the path's progress ``σ / S``), or None when the robot has no free
+    joint. Knots without ground contacts (or whose support is a point or a
+    segment, or carried with ``F_3 ≤ 0``) are left out; a knot whose contact
+    points are within :data:`SAME_SUPPORT` of the knot before's keeps its polygon."""
+    m, rm = scene.model, scene.robot.model
+    free = [j for j in range(rm.njnt) if int(rm.jnt_type[j]) == _FREE]
+    if not free:
+        return None
+    dof = int(rm.jnt_dofadr[free[0]])
+    body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
+    data = mujoco.MjData(m)
+    S = float(timing.nominal[-1])
+    kept, parts, origin, edges = [], [], [], []
+    seen, region = np.zeros((0, 3)), None
+    for sigma in _knots(path, timing):
+        q, dq, ddq = path.at(float(sigma))
+        qpos = scene.qpos_of(q)
+        contacts = scene.touching(qpos)
+        points = np.array([c.position for c in contacts]).reshape(-1, 3)
+        if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
+            region, _ = scene.support(contacts, np.zeros(3), GROUND_SLOPE)
+            seen = points
+        if region is None or region.halfplanes is None:
+            continue
+        v, a, zero = np.zeros(m.nv), np.zeros(m.nv), np.zeros(m.nv)
+        v[: rm.nv], a[: rm.nv] = dq, ddq
+        g, accel, plus, minus = inverse_dynamics(
+            m, data, qpos, np.array([zero, zero, v, -v]), np.array([zero, v, a, a])
+        )
+        s = sigma / S if (ramp and S > 0) else 1.0
+        load = [(f, s * np.asarray(F, float), s * np.asarray(M, float)) for f, F, M in external]
+        Q_s = g - external_torques(m, data, load) - weight_torques(scene, data)
+        R_B = data.xmat[body].reshape(3, 3)
+        Q = [Q_s, accel - g, 0.5 * (plus + minus) - g, 0.5 * (plus - minus)]
+        R = region.R
+        wrench = [
+            np.concatenate([R.T @ x[dof : dof + 3], R.T @ (R_B @ x[dof + 3 : dof + 6])]) for x in Q
+        ]
+        if wrench[0][2] <= 0:
+            continue
+        o = R.T @ data.xpos[body] - np.array([0.0, 0.0, region.height])
+        A, b = np.asarray(region.halfplanes.A), np.asarray(region.halfplanes.b)
+        kept.append(sigma)
+        parts.append(wrench)
+        origin.append(o)
+        edges.append((A, b))
+    if not kept:
+        return None
+    plan = ZmpPlan(
+        np.array(kept), np.transpose(np.array(parts), (1, 0, 2)), np.array(origin), edges,
+        np.zeros(len(kept)),
+    )  # fmt: skip
+    zero = np.zeros(len(kept))
+    plan.rest_margin = plan.margins(zero, zero)
+    return plan
+
+
+def stretch_for_balance(
+    scene: Physics,
+    path: BlendedPath,
+    timing: Timing,
+    external: Sequence[External] = (),
+    ramp: bool = False,
+) -> dict[int, float]:
+    """Slow down each segment of ``timing`` whose knots' ZMP leaves the reserve
+    (module docstring; ``timing.stretch`` is updated). Returns the segments
+    stretched, ``{segment index: c}``."""
+    plan = plan_zmp(scene, path, timing, external, ramp)
+    if plan is None:
+        return {}
+    t = timing.times_of(plan.sigma)
+    _, rate, accel = timing.progress(t)
+    segment = timing.segment_of(t)
+    ok = plan.fits(rate, accel)
+    out = {}
+    for k in np.unique(segment[~ok]):
+        mine = segment == k
+        low, high = 1.0, MAX_STRETCH
+        for _ in range(30):
+            c = 0.5 * (low + high)
+            fits = plan.fits(np.where(mine, rate / c, rate), np.where(mine, accel / c**2, accel))
+            low, high = (low, c) if np.all(fits[mine]) else (c, high)
+        timing.stretch[k] *= high
+        out[int(k)] = float(timing.stretch[k])
+    return out
