@@ -78,7 +78,7 @@ def test_weak_ankles_stand_with_the_feedback_and_drift_away_without(weak):
     q = robot.configuration.q
     held = scene.hold(q, 3.0)
     alone = scene.hold(q, 3.0, balance=False)
-    assert held.balance["feedback"] and not alone.balance["feedback"]
+    assert held.balance_feedback["on"] and not alone.balance_feedback["on"]
     assert held.passed, held.failures
     assert held.drift < 0.005 and held.tilt < 0.01
     assert not alone.passed
@@ -113,7 +113,7 @@ def test_a_motion_of_weak_ankles_needs_the_feedback(weak):
     path = np.array([q0, q1])
     played = scene.play(path, speed=0.5, settle=3.0)
     alone = scene.play(path, speed=0.5, settle=3.0, balance=False)
-    assert played.balance["feedback"]
+    assert played.balance_feedback["on"]
     assert played.passed, played.failures
     assert played.drift < 0.005
     assert not alone.passed
@@ -129,8 +129,8 @@ def test_stiff_ankles_play_without_the_feedback():
     assert not figures.needs_feedback
     assert balance_feedback(scene, q) is None
     held = scene.hold(q, 1.0)
-    assert held.passed and held.balance == {
-        "feedback": False,
+    assert held.passed and held.balance_feedback == {
+        "on": False,
         "ankle_stiffness": pytest.approx(2 * STIFF_ANKLE),
         "tipping_stiffness": pytest.approx(figures.tipping_stiffness),
     }

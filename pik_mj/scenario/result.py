@@ -357,6 +357,7 @@ def balance_summary(balance: Mapping[str, Any]) -> str:
         f"{_mm(static['margin'])}; hold {hold['simulated']:.2f} s: drift "
         f"{hold['drift'] * 1e3:.1f} mm, slip {hold['slip'] * 1e3:.2f} mm, min margin "
         f"{_mm(hold['min_margin'])}"
+        + ("; balance feedback on" if (hold.get("balance_feedback") or {}).get("on") else "")
         + (f"; {'; '.join(hold['failures'])}" if hold["failures"] else "")
         + "".join(f"; {describe_violation(v)}" for v in limits)
     )

@@ -30,6 +30,7 @@ stiffness.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 from typing import Any
 
@@ -86,7 +87,7 @@ class Stance:
     def to_dict(self, on: bool) -> dict[str, Any]:
         """JSON-ready figures, the feedback ``on`` or off."""
         return {
-            "feedback": bool(on),
+            "on": bool(on),
             "ankle_stiffness": self.ankle_stiffness,
             "tipping_stiffness": self.tipping_stiffness,
         }
@@ -163,27 +164,54 @@ class BalanceLoop:
         return self.feedback.apply(controls, self._offsets)
 
 
-def _ankles(scene: Physics, data: mujoco.MjData) -> dict[str, list[int]]:
-    """Each leg's ankle joints (ids, :func:`~pik_mj.sim.stabilizer.ankle_joints`
-    in the pose of ``data``) that a position actuator drives."""
-    robot = scene.robot
-    legs = {leg: robot.limbs[leg].joints for leg in LEGS if leg in robot.limbs}
-    driven = position_actuators(scene.model, range(scene.model.njnt))
-    ankles = ankle_joints(scene.model, data, legs)
-    return {leg: [j for j in ids if j in driven] for leg, ids in ankles.items()}
+@dataclass(frozen=True)
+class _Ankles:
+    """A scene's driven ankle joints, found once (:func:`_ankles`).
+
+    Attributes:
+        legs: Each leg's ankle joints (ids) that a position actuator drives.
+        driven: ``{joint id: (actuator id, kp, kv)}`` of those joints.
+        data: Scratch data of the scene's model (the kinematics of a pose).
+    """
+
+    legs: dict[str, list[int]]
+    driven: dict[int, tuple[int, float, float]]
+    data: mujoco.MjData
+
+
+_FOUND: weakref.WeakKeyDictionary[Physics, _Ankles] = weakref.WeakKeyDictionary()
+
+
+def _ankles(scene: Physics, q: np.ndarray) -> _Ankles:
+    """The scene's :class:`_Ankles`: each leg's ankle joints
+    (:func:`~pik_mj.sim.stabilizer.ankle_joints`, in the first configuration
+    ``q`` asked about) that a position actuator drives; the data left at the
+    kinematics of ``q``."""
+    found = _FOUND.get(scene)
+    if found is None:
+        m, robot = scene.model, scene.robot
+        data = scene.kinematics(q)
+        legs = {leg: robot.limbs[leg].joints for leg in LEGS if leg in robot.limbs}
+        driven = position_actuators(m, range(m.njnt))
+        ankles = {
+            leg: [j for j in ids if j in driven] for leg, ids in ankle_joints(m, data, legs).items()
+        }
+        ids = [j for joints in ankles.values() for j in joints]
+        found = _FOUND[scene] = _Ankles(ankles, {j: driven[j] for j in ids}, data)
+    else:
+        scene.kinematics(q, found.data)
+    return found
 
 
 def stance(scene: Physics, q: np.ndarray) -> Stance | None:
     """The robot's :class:`Stance` in the configuration ``q`` (module docstring);
     None for a robot without a floating base or without two driven ankles."""
-    m = scene.model
     if scene.robot.free_qposadr is None:
         return None
-    data = scene.kinematics(q)
-    ankles = _ankles(scene, data)
+    found = _ankles(scene, q)
+    ankles, data = found.legs, found.data
     if len(ankles) < 2 or not all(ankles.values()):
         return None
-    driven = position_actuators(m, [j for ids in ankles.values() for j in ids])
     up = scene.up()
     a, b = (np.mean([data.xanchor[j] for j in ids], axis=0) for ids in ankles.values())
     across = np.cross(up, np.cross(a - b, up))
@@ -191,11 +219,13 @@ def stance(scene: Physics, q: np.ndarray) -> Stance | None:
         return None
     across /= np.linalg.norm(across)
     k = sum(
-        driven[j][1] * float(data.xaxis[j] @ across) ** 2 for ids in ankles.values() for j in ids
+        found.driven[j][1] * float(data.xaxis[j] @ across) ** 2
+        for ids in ankles.values()
+        for j in ids
     )
     pivot = np.mean([data.xanchor[j] for ids in ankles.values() for j in ids], axis=0)
     h = float((scene.com(data) - pivot) @ up)
-    mgh = (scene.mass + scene.carried_mass) * float(np.linalg.norm(m.opt.gravity)) * h
+    mgh = (scene.mass + scene.carried_mass) * float(np.linalg.norm(scene.model.opt.gravity)) * h
     return Stance(ankle_stiffness=float(k), tipping_stiffness=mgh)
 
 
@@ -209,15 +239,13 @@ def balance_feedback(
     if figures is None or not figures.needs_feedback:
         return None
     m = scene.model
-    data = scene.kinematics(q)
-    ankles = _ankles(scene, data)
-    joints = [j for ids in ankles.values() for j in ids]
+    found = _ankles(scene, q)
+    joints = [j for ids in found.legs.values() for j in ids]
     names = [m.joint(j).name for j in joints]
-    legs = {leg: [m.joint(j).name for j in ids] for leg, ids in ankles.items()}
-    driven = position_actuators(m, joints)
-    actuators = np.array([driven[j][0] for j in joints], dtype=int)
+    legs = {leg: [m.joint(j).name for j in ids] for leg, ids in found.legs.items()}
+    actuators = np.array([found.driven[j][0] for j in joints], dtype=int)
     gear = m.actuator_gear[actuators, 0]
     scale = -m.actuator_biasprm[actuators, 1] * gear / m.actuator_gainprm[actuators, 0]
-    stabilizer = tilt_stabilizer(m, data.qpos, scene.root_body, names, legs)
+    stabilizer = tilt_stabilizer(m, found.data.qpos, scene.root_body, names, legs)
     period = max(1, round(FEEDBACK_PERIOD / float(m.opt.timestep)))
     return BalanceFeedback(stabilizer, actuators, scale, tuple(legs), period, figures)

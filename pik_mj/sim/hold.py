@@ -70,7 +70,7 @@ class HoldReport:
         wall_time: Wall-clock time of the hold [s].
         fall: The first sign of the fall, with its figure and time (None: no fall).
         tilt: Largest tilt of the trunk (root body) from its start [rad].
-        balance: The balance feedback's figures (:mod:`pik_mj.sim.balancing`:
+        balance_feedback: The balance feedback's figures (:mod:`pik_mj.sim.balancing`:
             on or off, the ankle servos' and the tipping stiffness); None for a
             robot that does not stand on two driven ankles.
     """
@@ -96,7 +96,7 @@ class HoldReport:
     wall_time: float
     fall: Fall | None = None
     tilt: float = 0.0
-    balance: dict[str, Any] | None = None
+    balance_feedback: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (non-finite margins become None)."""
@@ -122,7 +122,7 @@ class HoldReport:
             "wall_time": self.wall_time,
             "fall": None if self.fall is None else self.fall.to_dict(),
             "tilt": self.tilt,
-            "balance": self.balance,
+            "balance_feedback": self.balance_feedback,
         }
 
 
@@ -317,7 +317,7 @@ def _held(
         wall_time=run.wall_time,
         fall=run.fall,
         tilt=run.tilt,
-        balance=balance,
+        balance_feedback=balance,
     )
 
 

@@ -137,7 +137,7 @@ class MotionReport:
         wall_time: Wall-clock time [s] of the physics.
         fall: The first sign of the fall, with its figure and time (None: no fall).
         tilt: Largest tilt of the trunk (root body) from its reference [rad].
-        balance: The balance feedback's figures (:mod:`pik_mj.sim.balancing`:
+        balance_feedback: The balance feedback's figures (:mod:`pik_mj.sim.balancing`:
             on or off, the ankle servos' and the tipping stiffness); None for a
             robot that does not stand on two driven ankles.
     """
@@ -169,7 +169,7 @@ class MotionReport:
     wall_time: float = 0.0
     fall: Fall | None = None
     tilt: float = 0.0
-    balance: dict[str, Any] | None = None
+    balance_feedback: dict[str, Any] | None = None
 
     @property
     def max_frame_error(self) -> float:
@@ -210,7 +210,7 @@ class MotionReport:
             "fell": self.fell,
             "fall": None if self.fall is None else self.fall.to_dict(),
             "max_tilt_rad": self.tilt,
-            "balance": self.balance,
+            "balance_feedback": self.balance_feedback,
             "thresholds": dict(self.thresholds),
             "steps": self.steps,
             "timestep": self.timestep,
@@ -232,7 +232,11 @@ class MotionReport:
             f"{margin}; tilt {math.degrees(self.tilt):.1f}°, "
             f"{'FELL' if self.fell else 'no fall'}, "
             f"{len(self.unexpected_contacts)} unexpected contacts"
-            + ("; balance feedback on" if self.balance and self.balance["feedback"] else "")
+            + (
+                "; balance feedback on"
+                if self.balance_feedback and self.balance_feedback["on"]
+                else ""
+            )
             + (f"; {'; '.join(self.failures)}" if self.failures else "")
         )
 
@@ -464,5 +468,5 @@ def play(
         wall_time=time.perf_counter() - t_wall,
         fall=run.fall,
         tilt=run.tilt,
-        balance=None if figures is None else figures.to_dict(feedback is not None),
+        balance_feedback=None if figures is None else figures.to_dict(feedback is not None),
     )
