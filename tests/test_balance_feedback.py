@@ -16,7 +16,7 @@ from mesh_sole_humanoid import mesh_sole_humanoid
 
 from pik_mj.robot import Robot
 from pik_mj.sim import Scene
-from pik_mj.sim.balancing import FEEDBACK_PERIOD, balance_feedback, stance
+from pik_mj.sim.balancing import FEEDBACK_PERIOD, SERVOS_ALONE, balance_feedback, stance
 
 WEAK_ANKLE = 40.0
 """[N·m/rad] per ankle joint: 2 × 40 = 80 < m g h ≈ 124 of the 22 kg humanoid."""
@@ -83,6 +83,17 @@ def test_weak_ankles_stand_with_the_feedback_and_drift_away_without(weak):
     assert held.drift < 0.005 and held.tilt < 0.01
     assert not alone.passed
     assert alone.drift > 0.04 and alone.tilt > 0.1
+    assert not any(SERVOS_ALONE in f for f in alone.failures)
+
+
+def test_a_diagnosis_with_the_feedback_on_says_it_is_of_the_servos_alone(weak):
+    """Without the feed-forward the servos sag and the hold drifts even with the
+    feedback; the growing mode its report names is the servos' alone, and it says so."""
+    robot, scene = weak
+    sagged = scene.hold(robot.configuration.q, 3.0, feedforward=False)
+    assert sagged.balance_feedback["on"] and not sagged.passed
+    modes = [f for f in sagged.failures if "grows x2" in f]
+    assert modes and all(f.endswith(SERVOS_ALONE) for f in modes)
 
 
 def test_the_feedback_is_the_same_whatever_the_chunks(weak):

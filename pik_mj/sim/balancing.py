@@ -44,6 +44,7 @@ from pik_mj.sim.stabilizer import TiltStabilizer, ankle_joints, tilt_stabilizer
 __all__ = [
     "FEEDBACK_PERIOD",
     "LEGS",
+    "SERVOS_ALONE",
     "BalanceFeedback",
     "BalanceLoop",
     "Stance",
@@ -53,6 +54,10 @@ __all__ = [
 
 FEEDBACK_PERIOD = 0.01
 """Period [s] of the balance feedback: the physics steps in C between its updates."""
+
+SERVOS_ALONE = " (linearized with the servos alone: the balance feedback left out)"
+"""What a diagnosis of a run with the feedback on adds (:mod:`pik_mj.sim.stability`
+linearizes the robot under its servos' controls held)."""
 
 LEGS = ("rleg", "lleg")
 """The limbs whose ankles carry the robot."""

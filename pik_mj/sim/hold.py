@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 
 from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks, call_stride
-from pik_mj.sim.balancing import balance_feedback, stance
+from pik_mj.sim.balancing import SERVOS_ALONE, balance_feedback, stance
 from pik_mj.sim.criteria import HoldCriteria, check_options
 from pik_mj.sim.falls import Fall
 from pik_mj.sim.measures import HoldSample, Tracked
@@ -294,7 +294,10 @@ def _held(
 ) -> HoldReport:
     """The report of a hold that ran (``run``) with the ``balance`` feedback's
     figures, its failures diagnosed (:func:`pik_mj.sim.stability.diagnose`)."""
-    failures = run.failures(criteria) + diagnose(scene, run, criteria)
+    why = diagnose(scene, run, criteria)
+    if balance and balance["on"]:
+        why = [w + SERVOS_ALONE for w in why]
+    failures = run.failures(criteria) + why
     return HoldReport(
         passed=not failures,
         failures=failures,

@@ -47,7 +47,7 @@ from pik_mj import inputs
 from pik_mj.callbacks import Callback, as_callbacks, call_stride
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
-from pik_mj.sim.balancing import balance_feedback, stance
+from pik_mj.sim.balancing import SERVOS_ALONE, balance_feedback, stance
 from pik_mj.sim.clearance import Clearance, min_distance
 from pik_mj.sim.criteria import HoldCriteria, check_options
 from pik_mj.sim.falls import Fall
@@ -439,7 +439,7 @@ def play(
         margin_every=margin_every, frames=frames, feedback=feedback,
     )  # fmt: skip
     failures = run.failures(criteria, drift="root drift from the reference")
-    failures += diagnose(scene, run, criteria)
+    failures += [w + (SERVOS_ALONE if feedback else "") for w in diagnose(scene, run, criteria)]
     return MotionReport(
         passed=not failures,
         failures=failures,
