@@ -118,7 +118,8 @@ def test_the_plan_s_zmp_is_the_inverse_dynamics_one():
     """At every knot of a zigzag of the sample humanoid's arm the plan's ZMP at
     rates ``(σ̇, σ̈)`` is the one of MuJoCo's inverse dynamics at ``q̇ = q' σ̇``,
     ``q̈ = q' σ̈ + q'' σ̇²`` (found another way); at rest it is the CoM's
-    projection."""
+    projection. A knot fits while its ZMP keeps half its rest margin; one not
+    balanced at rest always fits."""
     robot = Robot.from_model("sample_humanoid")
     scene = Scene.from_robot(robot)
     path = _zigzag(robot)
@@ -141,6 +142,16 @@ def test_the_plan_s_zmp_is_the_inverse_dynamics_one():
         mujoco.mj_comPos(scene.model, d)
         com = d.subtree_com[scene.model.body(robot.root_body).id]
         assert np.allclose(R[:2, :2] @ rest[j], com[:2], atol=1e-6)
+    # the criterion: half the rest margin kept; knots not balanced at rest not judged
+    zero = np.zeros(k)
+    assert np.all(plan.rest_margin > 0) and np.all(plan.fits(zero, zero))
+    fast = np.full(k, 40.0)
+    margins = plan.margins(zero + 1.0, fast)
+    expected = margins >= zmp.ZMP_RESERVE * plan.rest_margin - 1e-9
+    assert not np.all(expected)
+    np.testing.assert_array_equal(plan.fits(zero + 1.0, fast), expected)
+    plan.rest_margin = -plan.rest_margin
+    assert np.all(plan.fits(zero + 1.0, fast))
 
 
 def _bench():

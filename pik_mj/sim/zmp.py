@@ -26,10 +26,11 @@ the point of the plane about which that wrench has no tangential moment is
 the zero-moment point (ZMP; at rest the CoM's projection). A segment is slowed
 down (its duration stretched by ``c``: ``σ̇ / c``, ``σ̈ / c²``, bisection as for
 the drives) until every knot's ZMP keeps at least :data:`ZMP_RESERVE` of its
-rest margin ``d_s`` to the polygon's edges, ``d(p) ≥ ρ_z d_s`` (where the
-rest ZMP is already outside, ``d(p) ≥ d_s``: no farther out). The motion may
+rest margin ``d_s`` to the polygon's edges, ``d(p) ≥ ρ_z d_s``. The motion may
 use the rest of the margin; the servos and the contacts' compliance need the
-reserve.
+reserve. A knot whose rest ZMP is not inside (``d_s ≤ 0``: another contact,
+a hand on a wall, carries the robot there, or it cannot stand at all, which
+the static check and the hold report) is not the ZMP's to judge.
 """
 
 from __future__ import annotations
@@ -111,10 +112,10 @@ class ZmpPlan:
         return np.array([np.min(A @ pk + b) for (A, b), pk in zip(self.edges, p, strict=True)])
 
     def fits(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
-        """Per knot: the ZMP keeps :data:`ZMP_RESERVE` of the rest margin (module docstring)."""
+        """Per knot: the ZMP keeps :data:`ZMP_RESERVE` of a positive rest margin
+        (module docstring; True where the rest margin is not positive)."""
         d_s = self.rest_margin
-        need = np.where(d_s > 0, ZMP_RESERVE * d_s, d_s)
-        return self.margins(rate, accel) >= need - 1e-9
+        return (d_s <= 0) | (self.margins(rate, accel) >= ZMP_RESERVE * d_s - 1e-9)
 
 
 def _knots(path: BlendedPath, timing: Timing) -> np.ndarray:
