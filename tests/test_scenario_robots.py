@@ -48,13 +48,7 @@ MOTION_FAILING: dict[tuple[str, str], str] = {
 """The pairs whose motion fails (``bench_robots.py --scenarios`` plays it), with why:
 the matrix runs them without it."""
 
-SLOW_FAILING: dict[tuple[str, str], str] = {
-    ("cocktail_shaker", "booster_t1"): "T1's 4-joint arms do not reach across the middle "
-    "line (its left shoulder roll stops at its -1.74 rad limit 1.2 mm short of the start), "
-    "and with the start moved 0.12 arm lengths left the right hand, 0.16 arm lengths along "
-    "the left hand's forward grip axis, is beyond the right arm: 3 of 32 steps converge "
-    "(70 s)",
-}
+SLOW_FAILING: dict[tuple[str, str], str] = {}
 """Failing pairs too slow to run in the suite (``bench_robots.py --scenarios`` runs them)."""
 
 
