@@ -40,12 +40,10 @@ FAILING: dict[tuple[str, str], str] = {}
 """The pairs that run and fail their checks, with why."""
 
 MOTION_FAILING: dict[tuple[str, str], str] = {
-    ("kettle", "booster_t1"): "the lift's motion: the weld closing the hand on the kettle "
-    "kicks T1, whose hips (kp 75) give 0.14 rad; the balance feedback keeps it up, but its "
-    "root swings 43 mm from the reference (20 mm allowed) before settling within 3 mm",
-    ("wall_contact", "booster_t1"): "the motion: the hand arriving on the wall pushes T1 "
-    "back; the balance feedback keeps it up, but its root swings 55 mm from the reference "
-    "(20 mm allowed) before settling within 4 mm",
+    ("wall_contact", "booster_t1"): "the motion: the palm's solve passes T1's hand 82 mm "
+    "into the wall and back; the wall stops the hand and pushes T1 back; the balance "
+    "feedback keeps it up, but its root swings 55 mm from the reference (20 mm allowed) "
+    "before settling within 4 mm",
 }
 """The pairs whose motion fails (``bench_robots.py --scenarios`` plays it), with why:
 the matrix runs them without it."""
