@@ -12,7 +12,12 @@ shaker axis, rotation about that axis free. The irteus example's shaker axis is 
 hand's z; here it is the left hand's grip axis (:class:`pik_mj.scenario.Hand`: along a
 bar held in the hand). A right arm of fewer than 5 joints (Unitree H1's and Booster
 T1's have 4) holds the shaker's end by position alone: its grip is left free and its
-misalignment reported, not checked. Every iteration is checked statically in
+misalignment reported, not checked. The shaker is at least as long as keeps the hands
+``ORANGE`` apart (:meth:`Shaker.clearance`). Where the arms do not reach across the
+middle by the shaker's length (Booster T1's arms barely reach the middle plane), the
+start and the swing come from where the arms reach (:func:`placement`): both hands go
+to the shaker at once, at a sampled pose where both reach it, and the shake swings
+as far as the hands reach across. Every iteration is checked statically in
 the robot's scene. The iterates are a motion by nature (a time-varying target):
 they are played in physics (``scene.play``), the steps of the shake one
 segment (travelled without stopping between steps); the final pose is held.
@@ -20,10 +25,13 @@ segment (travelled without stopping between steps); the final pose is held.
 
 from __future__ import annotations
 
+import itertools
+from dataclasses import dataclass
 from typing import Any
 
 import mink
 import numpy as np
+from scipy.spatial import cKDTree
 
 from pik_mj import (
     CollisionAvoidanceTask,
@@ -48,6 +56,7 @@ from pik_mj.scenario import (
     report,
     run_options,
 )
+from pik_mj.scenario.reach import sample_arm
 from pik_mj.tasks.collision import GeomPair
 
 NAME = "cocktail_shaker"
@@ -55,6 +64,9 @@ SHAKER = 0.16  # [arm lengths] between the hands along the shaker axis
 START = (0.66, 0.0, -0.16)  # [arm lengths] the left hand's start from the shoulders
 SWING = (0.16, 0.08)  # [arm lengths] the shake's half swings, forward and sideways
 ARMS = ("larm", "rarm")  # the leader, the follower
+SAMPLES = 20000  # configurations sampled per arm (:func:`placement`)
+SEED = 0  # of the samples
+REACH = 0.02  # [arm lengths] a sampled right hand this near the shaker's end reaches it
 
 
 AXIS_JOINTS = 5
@@ -91,8 +103,27 @@ class Shaker:
 
     def __init__(self, stature: Stature, robot: Robot) -> None:
         self.left, self.right = (stature.hands[a] for a in ARMS)
-        self.length = SHAKER * stature.arm_lengths["larm"]
+        self.length = max(SHAKER * stature.arm_lengths["larm"], self.clearance(robot))
         self.holds_axis = len(robot.limb("rarm").joints) >= AXIS_JOINTS
+
+    def clearance(self, robot: Robot) -> float:
+        """The hands' distance along the shaker axis [m] that keeps them ``ORANGE``
+        apart: how far each hand's geoms reach along the axis from its frame (the
+        corners of their bounding boxes, MuJoCo's ``geom_aabb``, at the start pose),
+        summed, plus ``ORANGE``."""
+        m, d = robot.model, robot.data
+        signs = np.array(list(itertools.product((-1, 1), repeat=3)))
+        reach = 0.0
+        for hand in (self.left, self.right):
+            X_WH = hand.pose(robot)
+            a = hand.axis(X_WH, hand.grip)
+            corners = [
+                d.geom_xpos[g]
+                + (m.geom_aabb[g][:3] + signs * m.geom_aabb[g][3:]) @ d.geom_xmat[g].reshape(3, 3).T
+                for g in hand.geoms(m)
+            ]
+            reach += float(np.max(np.abs((np.vstack(corners) - X_WH.translation()) @ a)))
+        return reach + ORANGE
 
     @property
     def axis(self) -> str:
@@ -131,20 +162,12 @@ def run(
     start = shoulders + L * stature.direction(START)
     path = Waypoints(robot, "left hand to start")
     avoid = arms_apart(robot, shaker)
-    stage.solve(
-        inverse_kinematics,
-        "left hand to start",
-        (start, IDENTITY),
-        path=path,
-        total=50,
-        limbs="larm",
-        move_targets=shaker.left.frame,
-        rotation_axis=None,
-        collision_avoidance=avoid,
-    )
+    place = placement(robot, stature, shaker, start, shoulders)
+    start = place.start
+    to_start(stage, path, avoid, shaker, place)
     swing = [
-        L * stature.direction([SWING[0], 0.0, 0.0]),
-        L * stature.direction([0.0, SWING[1], 0.0]),
+        place.scale * L * stature.direction([SWING[0], 0.0, 0.0]),
+        place.scale * L * stature.direction([0.0, SWING[1], 0.0]),
     ]
     errors = [shake(stage, path, avoid, shaker, start, swing, k) for k in range(steps)]
     if speed:
@@ -155,8 +178,86 @@ def run(
     result.main = list(result.solves)[-1]
     result.figures = figures(result, steps, errors)
     result.figures["right_grip_held_along_the_axis"] = shaker.holds_axis
+    result.figures["shaker_length_m"] = shaker.length
+    result.figures["hands_reach_across_middle_m"] = place.across
+    result.figures["swing_scale"] = place.scale
     check(result, steps)
     return result
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where the shake starts and how far it swings (:func:`placement`).
+
+    Attributes:
+        start: The left hand's start [m], world.
+        scale: The share of ``SWING`` the shake swings.
+        manual: The start is the manual's (the left hand goes there alone); else
+            both hands go to the shaker at once.
+        across: How far [m] the hands reach across the middle plane (the lesser of
+            the two arms').
+    """
+
+    start: np.ndarray
+    scale: float
+    manual: bool
+    across: float
+
+
+def placement(
+    robot: Robot, stature: Stature, shaker: Shaker, start: np.ndarray, middle: np.ndarray
+) -> Placement:
+    """The shake's start and swing, from where the arms reach (each arm's hand frame
+    at ``SAMPLES`` configurations drawn within its joint ranges,
+    :func:`pik_mj.scenario.reach.sample_arm`).
+
+    The manual's start ``start`` lies on the middle plane between the shoulders
+    (``middle`` [m], their midpoint): the hands hold the shaker there if each reaches
+    across that plane by the shaker's length, ``a = min(-min_l y, max_r y) >= length``
+    (``y`` the hands' sampled offsets [m] along the robot's left). Else the shake
+    swings ``a / length`` of ``SWING`` (none where a hand does not reach the plane)
+    and starts at the sampled left-hand position nearest ``start`` whose shaker end
+    (``length`` along its grip axis) is within ``REACH`` arm lengths of a sampled
+    right-hand position (the nearest end, if none is).
+    """
+    rng = np.random.default_rng(SEED)
+    left, right = (sample_arm(robot, h, SAMPLES, rng) for h in (shaker.left, shaker.right))
+    y = stature.direction([0.0, 1.0, 0.0])
+    across = float(min(-np.min((left.p - middle) @ y), np.max((right.p - middle) @ y)))
+    if across >= shaker.length:
+        return Placement(start, 1.0, True, across)
+    ends = left.p + shaker.length * left.R @ Hand.vector(shaker.left.grip)
+    gap, _ = cKDTree(right.p).query(ends)
+    near = np.flatnonzero(gap <= REACH * stature.arm_lengths["larm"])
+    if near.size == 0:
+        near = np.array([int(np.argmin(gap))])
+    k = near[np.argmin(np.linalg.norm(left.p[near] - start, axis=1))]
+    return Placement(left.p[k], float(np.clip(across / shaker.length, 0.0, 1.0)), False, across)
+
+
+def to_start(
+    stage: Stage, path: Waypoints, avoid: CollisionAvoidanceTask, shaker: Shaker, place: Placement
+) -> None:
+    """The solve to the shake's start: at the manual's start the left hand alone (its
+    position, its arm's joints); at a start from the arms' reach (:func:`placement`)
+    both hands at once, the right one on :meth:`Shaker.right_target`."""
+    if place.manual:
+        targets: Any = (place.start, IDENTITY)
+        aim: dict[str, Any] = {"limbs": "larm", "move_targets": shaker.left.frame}
+        aim["rotation_axis"] = None
+    else:
+        targets = [(place.start, IDENTITY), shaker.right_target]
+        aim = {"limbs": list(ARMS), "move_targets": [shaker.left.frame, shaker.right.frame]}
+        aim["rotation_axis"] = [None, shaker.axis if shaker.holds_axis else None]
+    stage.solve(
+        inverse_kinematics,
+        "left hand to start",
+        targets,
+        path=path,
+        total=50,
+        collision_avoidance=avoid,
+        **aim,
+    )
 
 
 def arms_apart(robot: Robot, shaker: Shaker) -> CollisionAvoidanceTask:

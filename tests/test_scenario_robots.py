@@ -40,23 +40,15 @@ FAILING: dict[tuple[str, str], str] = {}
 """The pairs that run and fail their checks, with why."""
 
 MOTION_FAILING: dict[tuple[str, str], str] = {
-    ("kettle", "booster_t1"): "the lift's motion: the weld closing the hand on the kettle "
-    "kicks T1, whose hips (kp 75) give 0.14 rad; the balance feedback keeps it up, but its "
-    "root swings 43 mm from the reference (20 mm allowed) before settling within 3 mm",
-    ("wall_contact", "booster_t1"): "the motion: the hand arriving on the wall pushes T1 "
-    "back; the balance feedback keeps it up, but its root swings 55 mm from the reference "
-    "(20 mm allowed) before settling within 4 mm",
+    ("wall_contact", "booster_t1"): "the motion: the palm's solve passes T1's hand 82 mm "
+    "into the wall and back; the wall stops the hand and pushes T1 back; the balance "
+    "feedback keeps it up, but its root swings 55 mm from the reference (20 mm allowed) "
+    "before settling within 4 mm",
 }
 """The pairs whose motion fails (``bench_robots.py --scenarios`` plays it), with why:
 the matrix runs them without it."""
 
-SLOW_FAILING: dict[tuple[str, str], str] = {
-    ("cocktail_shaker", "booster_t1"): "T1's 4-joint arms do not reach across the middle "
-    "line (its left shoulder roll stops at its -1.74 rad limit 1.2 mm short of the start), "
-    "and with the start moved 0.12 arm lengths left the right hand, 0.16 arm lengths along "
-    "the left hand's forward grip axis, is beyond the right arm: 3 of 32 steps converge "
-    "(70 s)",
-}
+SLOW_FAILING: dict[tuple[str, str], str] = {}
 """Failing pairs too slow to run in the suite (``bench_robots.py --scenarios`` runs them)."""
 
 

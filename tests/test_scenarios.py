@@ -18,6 +18,7 @@ from pik_mj import Recorder, Robot, Scene, UnknownName
 from pik_mj.balance import support_polygon
 from pik_mj.cli import load_scenario, read_pose_file
 from pik_mj.scenario import RobotRefused, ScenarioResult, Stature, jsonable
+from pik_mj.scenario.reach import sample_arm
 from pik_mj.sim import validate_pose
 
 
@@ -228,3 +229,53 @@ def test_cocktail_shaker_on_a_shorter_right_arm(tmp_path, joints, holds_axis):
     whole = Robot.from_model("sample_humanoid")
     assert len(whole.limb("rarm").joints) >= shaker.AXIS_JOINTS
     assert shaker.Shaker(Stature.of(whole), whole).holds_axis
+
+
+def test_sampled_arm_poses_are_the_robots_kinematics():
+    """Each sampled configuration of an arm lies within its joint ranges and, set on
+    the robot, puts the hand frame where the sample says (the robot's own frame
+    transform); sampling leaves the robot as it stands."""
+    robot = Robot.from_model("sample_humanoid")
+    hand = Stature.of(robot).hands["larm"]
+    q0 = robot.angle_vector()
+    samples = sample_arm(robot, hand, 40, np.random.default_rng(1))
+    np.testing.assert_array_equal(robot.angle_vector(), q0)
+    lo, hi = robot.joint_limits(samples.joints)
+    assert samples.q.shape == (40, len(samples.joints)) == (40, len(robot.limb("larm").joints))
+    assert np.all((samples.q >= lo) & (samples.q <= hi))
+    assert np.ptp(samples.p, axis=0).min() > 0.1  # spread over the arm's reach
+    for k in (0, 17, 39):
+        robot.set_angle_vector(samples.q[k], samples.joints)
+        X_WH = hand.pose(robot)
+        np.testing.assert_allclose(X_WH.translation(), samples.p[k], atol=1e-9)
+        np.testing.assert_allclose(X_WH.rotation().as_matrix(), samples.R[k], atol=1e-9)
+
+
+def test_cocktail_shaker_placed_from_the_arms_reach():
+    """The sample humanoid's hands reach well across its middle plane: the manual's
+    start, the whole swing, a shaker long enough for its box hands (half length
+    0.045 m along the grip axis, ``ORANGE`` apart). With both shoulders unable to
+    turn the arms inwards (roll and yaw ranges cut at 0), the hands do not reach the
+    middle plane: the start is a sampled left-hand position (within the arm's length
+    of its shoulder), not the manual's, and the shake does not swing."""
+    shaker = load_scenario("cocktail_shaker")
+    robot = Robot.from_model("sample_humanoid")
+    stature = Stature.of(robot)
+    held = shaker.Shaker(stature, robot)
+    box = robot.model.geom("larm_hand").size[0]
+    assert held.clearance(robot) == pytest.approx(2 * box + shaker.ORANGE, abs=1e-4)
+    L = stature.arm_lengths["larm"]
+    assert held.length == pytest.approx(max(shaker.SHAKER * L, 2 * box + shaker.ORANGE), abs=1e-4)
+    middle = np.mean([stature.shoulders[a] for a in shaker.ARMS], axis=0)
+    start = middle + L * stature.direction(shaker.START)
+    place = shaker.placement(robot, stature, held, start, middle)
+    assert place.manual and place.scale == 1.0 and place.start is start
+    assert place.across >= held.length
+    inwards = {"larm_shoulder_r": (0.0, 2.6), "rarm_shoulder_r": (-2.6, 0.0)}
+    inwards |= {"larm_shoulder_y": (0.0, 1.6), "rarm_shoulder_y": (-1.6, 0.0)}
+    for joint, limits in inwards.items():
+        robot.model.joint(joint).range[:] = limits
+    place = shaker.placement(robot, stature, held, start, middle)
+    assert not place.manual and place.across < 0 and place.scale == 0.0
+    assert np.linalg.norm(place.start - start) > 0.1 * L
+    assert np.linalg.norm(place.start - stature.shoulders["larm"]) <= L

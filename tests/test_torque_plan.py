@@ -222,3 +222,25 @@ def test_fewer_knots_keep_the_plan_and_the_motion_s_figures(monkeypatch):
         assert abs(report.drift - full_report.drift) < 5e-4
         assert abs(report.slip - full_report.slip) < 5e-5
         assert report.tracking_error == pytest.approx(full_report.tracking_error, rel=0.1)
+
+
+def test_a_grasped_object_resting_on_a_surface_does_not_carry_the_robot():
+    """The kettle grasped where it stands on the counter: its weight is on the hand
+    (the weld carries it), and its contacts with the counter do not hold the robot up,
+    so the holding torques are those of the same scene with the kettle-counter
+    contacts excluded by MuJoCo (``exclude``), to 1e-9 N·m, while a least-norm share
+    of the robot's weight on the counter would change the legs' torques by N·m."""
+    robot = Robot.from_model("sample_humanoid", environment="room", at="spot_counter_front")
+    q = robot.configuration.q.copy()
+    held = Scene.from_robot(robot, grasps=[("rarm_end", "kettle")])
+    apart = Scene.from_robot(
+        robot, grasps=[("rarm_end", "kettle")], exclude=[("kettle", "counter")]
+    )
+    touching = held.touching(held.qpos_of(q))
+    assert any(c.other_body == "counter" for c in touching if c.robot_geom.startswith("kettle"))
+    assert not any(c.other_body == "counter" for c in apart.touching(apart.qpos_of(q)))
+    tau = holding_torques(held, q)
+    np.testing.assert_allclose(tau, holding_torques(apart, q), atol=1e-9)
+    # the feet carry the robot and the kettle: the free joint's rows are ~0
+    root = robot.model.jnt_dofadr[robot.model.body_jntadr[robot.root_body_id]]
+    np.testing.assert_allclose(tau[root : root + 6], 0.0, atol=1e-6)

@@ -47,7 +47,10 @@ def holding_torques(
     (:func:`pik_mj.dynamics.contact_wrenches`; an equilibrium LP's forces are
     any feasible point, often on a cone's edge, which would push the feet to
     slip). A grasped object's weight ``m_o g`` acts at its CoM ``c_o`` on the
-    grasping frame's body (the weld carries it in the physics). A robot
+    grasping frame's body (the weld carries it in the physics); its own contacts
+    with the environment (a kettle still on the counter at the lift's start) are
+    not among the ``p_i``: the hand carries the object, the object does not carry
+    the robot. A robot
     without a free joint is held by its fixed base: no contact forces. The rows
     on the servo joints are the feed-forward of the servos; the free-joint rows
     are ~0.
@@ -100,7 +103,9 @@ def weight_torques(scene: Physics, data: mujoco.MjData) -> np.ndarray:
 
 class ContactSupport:
     r"""The robot's environment contacts (within the scene's
-    ``contact_tolerance``, self-contacts left out) at the pose current in
+    ``contact_tolerance``, self-contacts and the grasped objects' contacts left
+    out: the weld carries an object's weight to the hand, :func:`weight_torques`,
+    so its contacts carry nothing of the robot) at the pose current in
     ``data`` (its kinematics), as maps of generalized forces: what is left of
     ``τ`` (nv,) once the contacts apply the wrench of its free-joint rows.
 
@@ -129,7 +134,12 @@ class ContactSupport:
 
     def __init__(self, scene: Physics, data: mujoco.MjData, contacts: Sequence[ContactInfo]):
         m = scene.model
-        env = [c for c in contacts if not c.self_contact]
+        held = {body for _, body in scene.held_objects}
+        env = [
+            c
+            for c in contacts
+            if not c.self_contact and m.geom_bodyid[scene.geom_ids[c.robot_geom]] not in held
+        ]
         b = scene.robot.root_body_id
         j = int(m.body_jntadr[b])
         self.env = env
