@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import gc
 import signal
 import subprocess
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -42,5 +44,17 @@ def small_disk() -> Iterator[Path]:
     try:
         yield mount
     finally:
-        subprocess.run(["umount", str(mount)], check=False)
+        unmount(mount)
         mount.rmdir()
+
+
+def unmount(mount: Path, tries: int = 20) -> None:
+    """Unmount ``mount``; while it is busy (a file the test's libraries have not
+    closed yet, e.g. a memory-mapped table awaiting collection) collect garbage and
+    retry, then detach it lazily (``umount -l``: gone once the last file closes)."""
+    for _ in range(tries):
+        if subprocess.run(["umount", str(mount)], capture_output=True).returncode == 0:
+            return
+        gc.collect()
+        time.sleep(0.05)
+    subprocess.run(["umount", "-l", str(mount)], check=False)

@@ -379,21 +379,24 @@ def test_unexpected_contact_fails_the_hold(wall_pose):
 
 
 # --------------------------------------------------------- guard
-def test_absurd_velocity_raises(scene, reset_q):
+def test_absurd_velocity_raises(scene, reset_q, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to ./MUJOCO_LOG.TXT
     scene.set_pose(reset_q)
     scene.data.qvel[:] = 1e12
     with pytest.raises(SimulationUnstable, match="BADQVEL"):
         scene.step()
 
 
-def test_nan_position_raises(scene, reset_q):
+def test_nan_position_raises(scene, reset_q, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to ./MUJOCO_LOG.TXT
     scene.set_pose(reset_q)
     scene.data.qpos[scene.model.joint("rleg_knee_p").qposadr[0]] = np.nan
     with pytest.raises(SimulationUnstable, match="rleg_knee_p"):
         scene.step()
 
 
-def test_diverging_servos_raise_during_hold(reset_q):
+def test_diverging_servos_raise_during_hold(reset_q, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to ./MUJOCO_LOG.TXT
     # kp 1e8 on joints of ~0.01 kg m² at dt = 0.002: omega dt ~ 200, explicit
     # stiffness diverges within a few steps.
     scene = humanoid_scene(kp=1e8, kv=0.0)

@@ -108,7 +108,14 @@ class BlendedPath:
     def at(self, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``q(σ)`` (nq,), ``q'`` (nv,) [rad/s] and ``q''`` (nv,) [rad/s²] at one
         nominal time ``σ`` [s]."""
-        (w,), (delta,), (d1,), (d2,) = self.offsets(np.array([sigma]))
+        (q,), (d1,), (d2,) = self.many(np.array([sigma]))
+        return q, d1, d2
+
+    def many(self, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`at` at each of the nominal times ``σ`` (k,) [s]: ``q`` (k, nq),
+        ``q'`` and ``q''`` (k, nv)."""
+        w, delta, d1, d2 = self.offsets(sigma)
         q = self.q[w].copy()
-        mujoco.mj_integratePos(self.model, q, delta, 1.0)
+        for qk, dk in zip(q, delta, strict=True):
+            mujoco.mj_integratePos(self.model, qk, dk, 1.0)
         return q, d1, d2

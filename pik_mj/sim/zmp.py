@@ -151,8 +151,8 @@ def plan_zmp(
     S = float(timing.nominal[-1])
     kept, parts, origin, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
-    for sigma in _knots(path, timing):
-        q, dq, ddq = path.at(float(sigma))
+    knots = _knots(path, timing)
+    for sigma, q, dq, ddq in zip(knots, *path.many(knots), strict=True):
         qpos = scene.qpos_of(q)
         contacts = scene.touching(qpos)
         points = np.array([c.position for c in contacts]).reshape(-1, 3)
