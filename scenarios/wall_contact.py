@@ -65,6 +65,7 @@ from pik_mj.tasks.collision import collision_pairs
 
 NAME = "wall_contact"
 ARM = "rarm"
+OTHER_ARM = "larm"
 FEET = ("rleg", "lleg")
 ROBOT = RobotOption("sample_humanoid", (ARM, *FEET), floating_base=True)
 HAND_ABOVE_SHOULDER = 0.1  # [arm lengths] the palm's centre above the shoulder
@@ -239,11 +240,13 @@ def run(
 
 
 def wall_avoidance(robot: Robot, hand: Hand) -> list[CollisionAvoidanceTask]:
-    """The robot but its hand kept off the wall: the arm and the head 2 cm off it (a
-    forearm dragged along the wall sticks to it and pulls the robot off its reference),
-    the other bodies 1 cm (the hips come near the wall as the robot leans)."""
+    """The robot but its hand kept off the wall: both arms and the head 2 cm off it (a
+    forearm dragged along the wall sticks to it and pulls the robot off its reference;
+    the other arm, held by its servos, sags towards the wall as the robot leans), the
+    other bodies 1 cm (the hips come near the wall as the robot leans)."""
     m, d = robot.model, robot.data
     upper = [b for b in robot.bodies(ARM) if b != hand.body]
+    upper += robot.bodies(OTHER_ARM) if OTHER_ARM in robot.limbs else []
     upper += robot.bodies("head") if "head" in robot.limbs else []
     rest = [b for b in robot.bodies() if b not in upper and b != hand.body]
     return [
@@ -257,6 +260,27 @@ def wall_avoidance(robot: Robot, hand: Hand) -> list[CollisionAvoidanceTask]:
             orange=0.01,
             name="body off the wall",
         ),
+    ]
+
+
+def hand_off_wall(robot: Robot, support: WallSupport) -> list[CollisionAvoidanceTask]:
+    """A hand touching at a point (not ``flat``) onto the wall, not through it: its
+    geoms' pairs with the wall kept at a distance >= 0 (orange 0), the steps slowed
+    within the yellow distance, so that the path played reaches the wall without
+    passing into it. None for a flat palm (its orientation set, its face onto the wall)."""
+    if support.flat:
+        return []
+    m = robot.model
+    pairs = [(m.geom(g).name, "wall") for g in support.hand.geoms(m) if m.geom(g).name]
+    return [
+        CollisionAvoidanceTask(
+            robot.configuration,
+            pairs,
+            yellow=0.06,
+            orange=0.0,
+            check=False,
+            name="hand onto the wall",
+        )
     ]
 
 
@@ -277,7 +301,8 @@ def palm_to_wall(
     stage: Stage, support: WallSupport, path: Waypoints, label: str = "hand to the wall"
 ) -> SolveResult:
     """The right palm flat on the wall, rotation about its normal free; the arm kept
-    off the body."""
+    off the body, a hand touching at a point kept from passing into the wall
+    (:func:`hand_off_wall`)."""
     return stage.solve(
         fullbody_inverse_kinematics,
         label,
@@ -287,7 +312,7 @@ def palm_to_wall(
         limbs=[ARM],
         move_targets=[support.hand.frame],
         rotation_axis=support.rotation_axis,
-        collision_avoidance=[body_avoidance(stage.robot)],
+        collision_avoidance=[body_avoidance(stage.robot), *hand_off_wall(stage.robot, support)],
         avoid_world=PALM_ON_WALL,
         stop=100,
         trust_region=STEPS,
