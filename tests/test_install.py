@@ -15,9 +15,10 @@ import pik_mj.scenarios
 import pytest
 
 SOURCE = Path(__file__).resolve().parents[1]
-HOLD = ["--hold", "0.3"]
-#: Quicker runs of every scenario (shorter holds and walks): the point is that
-#: each one runs from the install; tests/test_run_recording.py checks the figures.
+HOLD = ["--hold", "0.3", "--speed", "0"]
+#: Quicker runs of every scenario (shorter holds and walks, the full-body
+#: scenarios' motions not played): the point is that each one runs from the
+#: install; tests/test_run_recording.py plays them and checks the figures.
 FAST = {
     "cocktail_shaker": ["--steps", "4", *HOLD],
     "walk_forward": ["--steps", "1", "--dt", "0.05"],
