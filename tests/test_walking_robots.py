@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -25,7 +26,8 @@ from pik_mj.robot import Robot
 from pik_mj.robot.ground import robot_soles
 from pik_mj.sim import Scene
 from pik_mj.walking.drive import CARRY_RATIO, LIMIT_ANGLE, joint_drive, torque_limits
-from pik_mj.walking.gait import plan_gait
+from pik_mj.walking.footsteps import straight_steps
+from pik_mj.walking.gait import Footstep, GaitParameters, plan_gait
 from pik_mj.walking.playback import WALK_CONTACT, play_walk_pattern
 from pik_mj.walking.robot_gait import (
     FOOT_CLEARANCE,
@@ -343,6 +345,28 @@ def test_unitree_h1_walks_on_rolling_soles(h1_walk, h1):
     if kind == "go_pos":
         for leg, foot in feet_from_robot(robot, soles).items():
             assert foot.yaw - start[leg].yaw == pytest.approx(GO_POS[2], abs=2e-3)
+
+
+def test_initial_stand_delays_the_plan_by_its_time():
+    """``initial_stand_time`` T_0: the first T_0 stand on the initial feet with the ZMP
+    reference at their middle, then the feet, ZMP reference and support labels are
+    those of the plan without it, T_0 later; negative T_0 is refused."""
+    feet = {"rleg": ((0.0, -0.1, 0.0), 0.0), "lleg": ((0.0, 0.1, 0.0), 0.0)}
+    start = {lb: Footstep(lb, np.array(p), yaw) for lb, (p, yaw) in feet.items()}
+    steps = straight_steps(2, 0.1, start, foot_separation=0.2)
+    base = GaitParameters(step_time=0.5, dt=0.02)
+    plain = plan_gait(feet, steps, base, com_height=0.8)
+    late = plan_gait(feet, steps, replace(base, initial_stand_time=0.3), com_height=0.8)
+    n = 15  # 0.3 s
+    assert len(late.t) == len(plain.t) + n
+    np.testing.assert_allclose(late.zmp_ref[:n], np.zeros((n, 2)), atol=1e-12)
+    np.testing.assert_allclose(late.zmp_ref[n:], plain.zmp_ref, atol=1e-12)
+    for lb in feet:
+        np.testing.assert_allclose(late.feet_p[lb][n:], plain.feet_p[lb], atol=1e-12)
+    assert list(late.support[n:]) == list(plain.support)
+    assert set(late.support[:n]) == {"double"}
+    with pytest.raises(InvalidInput, match="initial_stand_time"):
+        replace(base, initial_stand_time=-0.1)
 
 
 def test_single_support_limit_is_where_the_pendulum_takes_the_com_out_of_reach():

@@ -65,6 +65,7 @@ from pik_mj.walking.gait import Footstep, GaitParameters
 from pik_mj.walking.rolling_gait import (
     ROLL_DOUBLE_SUPPORT,
     ROLL_SWAY,
+    bounded_reach,
     rolling_values,
     sole_zmp_offsets,
 )
@@ -504,7 +505,9 @@ def sideways_reach(
     support; a robot whose legs cannot (no roll joint between hip and sole
     that keeps the sole flat while the leg leans) reaches a few millimetres.
     With ``rolling_soles`` each sole's roll about its long axis is asked flat
-    below the CoM, not with the feet (:mod:`pik_mj.walking.walk_tasks`).
+    below the CoM, not with the feet (:mod:`pik_mj.walking.walk_tasks`), and the
+    reach is what the soles' bounded roll allows
+    (:func:`~pik_mj.walking.rolling_gait.bounded_reach`).
     """
     configuration = robot.configuration
     q0 = configuration.q.copy()
@@ -534,7 +537,11 @@ def sideways_reach(
                 [posture_task(configuration, 1e-2)],
             ]
             solve(configuration, levels, stop=60, revert_if_fail=False, qp_solver="daqp")
-            reached.append(float(abs((robot.com() - start) @ lateral)))
+            reach = float(abs((robot.com() - start) @ lateral))
+            if rolling_soles:
+                rotations = [sole.pose(model, data)[1] for sole in soles.values()]
+                reach = bounded_reach(reach, rotations, min(s.size[1] for s in soles.values()))
+            reached.append(reach)
     finally:
         configuration.update(q0)
     return min(reached)

@@ -54,7 +54,9 @@ from pik_mj.walking.drive import torque_limits
 __all__ = [
     "ANKLE_TORQUE_RATIO",
     "ROLL_DOUBLE_SUPPORT",
+    "ROLL_LIFT",
     "ROLL_SWAY",
+    "bounded_reach",
     "rolling_values",
     "sole_zmp_offsets",
 ]
@@ -63,6 +65,9 @@ ROLL_SWAY = 0.3
 """ρ_s: the steady CoM sway over the sideways reach with rolling soles."""
 ROLL_DOUBLE_SUPPORT = 0.2
 """ρ_ds: double support over step time (the irteus manual's default ratio)."""
+ROLL_LIFT = 1e-3
+"""[m] The most a rolled sole's polygon may rise at one side (within the softness of
+MuJoCo's contacts, so that the whole polygon still carries the robot)."""
 ANKLE_TORQUE_RATIO = 0.75
 """ρ_τ: the share of an ankle's torque limit the ZMP reference may ask of it."""
 
@@ -102,6 +107,25 @@ def rolling_values(
         "stride": kappa * flat["stride"],
         "step_height": kappa * flat["step_height"],
     }
+
+
+def bounded_reach(reach: float, soles_R: list[np.ndarray], width: float) -> float:
+    """The sideways reach [m] of the CoM with the soles' roll bounded: ``reach`` [m]
+    found with the soles rolled by :math:`\\psi` (the largest of ``soles_R``, each
+    sole frame's rotation (3, 3), roll :math:`\\operatorname{atan2}(R_{21}, R_{22})`),
+    scaled to the roll :math:`\\psi_{max}` that lifts a side of a sole ``width`` [m]
+    wide by :data:`ROLL_LIFT`. The pelvis roll :math:`\\phi` that moves the CoM
+    needs a sole roll of second order in it (module docstring of
+    :mod:`pik_mj.walking.walk_tasks`), :math:`\\psi \\propto r^2`:
+
+    .. math::
+
+        \\psi_{max} = \\arcsin(\\ell / w), \\qquad
+        r' = r \\min\\left(1, \\sqrt{\\psi_{max} / \\psi}\\right)
+    """
+    roll = max(abs(math.atan2(R[2, 1], R[2, 2])) for R in soles_R)
+    bound = math.asin(min(ROLL_LIFT / width, 1.0))
+    return reach * min(1.0, math.sqrt(bound / max(roll, 1e-12)))
 
 
 def sole_zmp_offsets(
