@@ -39,7 +39,7 @@ from pik_mj.walking.robot_gait import (
     sideways_reach,
     single_support_limit,
 )
-from pik_mj.walking.rolling_gait import ANKLE_TORQUE_RATIO, ROLL_SWAY
+from pik_mj.walking.rolling_gait import ANKLE_TORQUE_RATIO, ROLL_LIFT, ROLL_SWAY
 from pik_mj.walking.walk import walk
 from pik_mj.walking.wholebody import calc_walk_pattern, corrected_plan, feet_from_robot
 
@@ -321,7 +321,7 @@ def test_unitree_h1_walks_on_rolling_soles(h1_walk, h1):
     inverse dynamics inside the soles at every tick, and the ZMP of MuJoCo's contact
     forces inside the soles where they are; no fall; feet and root within 5 cm of
     the plan. The soles roll by a fraction of a degree (their polygon's corners
-    within 0.5 mm of one height), the pelvis by degrees."""
+    within ROLL_LIFT of one height), the pelvis by degrees."""
     kind, start, done = h1_walk
     robot, soles, _ = h1
     report, pattern = done.report, done.pattern
@@ -341,7 +341,7 @@ def test_unitree_h1_walks_on_rolling_soles(h1_walk, h1):
     for q in pattern.q:
         w, x, y, z = q[3:7]
         pelvis = max(pelvis, abs(math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))))
-    assert lift < 5e-4 and pelvis > math.radians(3.0)
+    assert lift < ROLL_LIFT and pelvis > math.radians(3.0)
     if kind == "go_pos":
         for leg, foot in feet_from_robot(robot, soles).items():
             assert foot.yaw - start[leg].yaw == pytest.approx(GO_POS[2], abs=2e-3)

@@ -244,10 +244,8 @@ class RobotGait:
     def parameters(self, **options: Any) -> GaitParameters:
         """The :class:`~pik_mj.walking.gait.GaitParameters` of this gait
         (``options``: its other fields, e.g. ``zmp_offsets``)."""
-        own: dict[str, Any] = {
-            "rolling_soles": self.rolling_soles,
-            "initial_stand_time": self.initial_stand_time,
-        }
+        own: dict[str, Any] = {"rolling_soles": self.rolling_soles}
+        own["initial_stand_time"] = self.initial_stand_time
         if self.zmp_offsets:
             own["zmp_offsets"] = dict(self.zmp_offsets)
         return GaitParameters(
@@ -404,11 +402,13 @@ def robot_gait(
         UnknownName: An override that is not a value of the gait.
         InvalidInput: A value that is not a finite number > 0 (``max_turn``,
             ``max_inward`` >= 0), a step time shorter than 2 dt, or a robot that
-            cannot walk this way: its CoM moves sideways, with both soles flat,
-            less than half of :data:`SWAY_RATIO` times the feet's separation
-            (:func:`sideways_reach`; Unitree H1's legs have no ankle roll); the
-            message gives the longest single support that reach allows
-            (:func:`single_support_limit`).
+            cannot walk this way: its CoM moves sideways less than half of
+            :data:`SWAY_RATIO` times the feet's separation (:func:`sideways_reach`)
+            both with the soles flat and with them rolling (bounded); the message
+            gives the longest single support the flat reach allows
+            (:func:`single_support_limit`). A robot that reaches it only with
+            rolling soles (no ankle roll: Unitree H1) gets the rolling-sole gait
+            (:mod:`pik_mj.walking.rolling_gait`; values given are kept).
     """
     for name in overrides:
         if name not in _DERIVED or name == "dt":
@@ -459,8 +459,8 @@ def robot_gait(
         )
     flat = {"step_time": dt * max(2, round(STEP_TIME_RATIO * tc / dt))}
     flat |= {"stride": gait.stride, "step_height": gait.step_height}
-    given_step = overrides.get("step_time")
-    values = rolling_values(rolled, 0.5 * gait.foot_separation, tc, gait.dt, flat, given_step)
+    edge = 0.5 * gait.foot_separation
+    values = rolling_values(rolled, edge, tc, dt, flat, overrides.get("step_time"))
     values = {k: v for k, v in values.items() if k not in overrides}
     step_time = values.get("step_time", gait.step_time)
     rolling = replace(
