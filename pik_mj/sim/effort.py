@@ -44,7 +44,6 @@ linear in ``σ`` between knots): they go through the actuators' controls
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -52,7 +51,7 @@ import numpy as np
 
 from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
-from pik_mj.sim.knots import PathDynamics
+from pik_mj.sim.knots import KNOT_SPACING, PathDynamics, knot_grid
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 
@@ -64,9 +63,6 @@ __all__ = [
     "TorquePlan",
     "plan_torques",
 ]
-
-KNOT_SPACING = 0.05
-"""Nominal time [s] between the knots of the torque plan (at most)."""
 
 KNOT_TOLERANCE = 0.005
 """Share of the largest rest torque by which the plan linear between two knots
@@ -136,14 +132,6 @@ class _Knots:
         self.scene, self.timing, self.dynamics = scene, timing, dynamics
         self.rm = scene.robot.model
         self.actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], int)
-
-    def sigmas(self) -> np.ndarray:
-        """The grid of knot nominal times: the waypoints' and every
-        :data:`KNOT_SPACING` between (:func:`_refined` picks the knots)."""
-        nominal = self.timing.nominal
-        S = float(nominal[-1])
-        grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
-        return np.unique(np.concatenate([grid, nominal]))
 
     def parts(self, sigma: float) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
         """``q(σ)`` and ``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (nv of the
@@ -269,7 +257,7 @@ def plan_torques(
         path = BlendedPath(scene.robot.model, q, dv, timing)
         dynamics = PathDynamics(scene, path, external, ramp)
     knots = _Knots(scene, timing, dynamics)
-    grid = knots.sigmas()
+    grid = knot_grid(timing)  # _refined picks the knots
     found = _refined(grid, knots, knots.parts)
     kept, parts, poses = [], [], []
     for i in sorted(found):

@@ -26,10 +26,16 @@ blends' curvature ``Q_c`` to the servos; the ZMP plan includes it. Each knot
 also keeps the robot's contacts at ``q(σ)`` (:meth:`~pik_mj.sim.physics.Physics.touching`),
 the bodies' poses, and, for the torque plan, the contacts as maps of
 generalized forces (:class:`~pik_mj.sim.torques.ContactSupport`).
+
+The knots lie on one grid (:func:`knot_grid`: every :data:`KNOT_SPACING` of
+nominal time and at each waypoint); the ZMP plan adds the blends' ends
+(:func:`knot_times`). The path's poses and rates at those times are computed
+together, once.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -39,9 +45,29 @@ import numpy as np
 from pik_mj.dynamics import external_torques, inverse_dynamics
 from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.physics import ContactInfo, External, Physics
+from pik_mj.sim.timing import Timing
 from pik_mj.sim.torques import ContactSupport, weight_torques
 
-__all__ = ["Knot", "PathDynamics"]
+__all__ = ["KNOT_SPACING", "Knot", "PathDynamics", "knot_grid", "knot_times"]
+
+KNOT_SPACING = 0.05
+"""Nominal time [s] between the knots of the plans (at most)."""
+
+
+def knot_grid(timing: Timing) -> np.ndarray:
+    """Knot nominal times [s]: every :data:`KNOT_SPACING` and the waypoints'."""
+    nominal = timing.nominal
+    S = float(nominal[-1])
+    grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
+    return np.unique(np.concatenate([grid, nominal]))
+
+
+def knot_times(path: BlendedPath) -> np.ndarray:
+    """:func:`knot_grid` and the blends' ends (just inside each blend) [s]."""
+    nominal, b = path.timing.nominal, path.half_width
+    inner = 0.999 * b[b > 0]
+    ends = np.concatenate([nominal[b > 0] - inner, nominal[b > 0] + inner])
+    return np.unique(np.concatenate([knot_grid(path.timing), ends]))
 
 
 @dataclass
@@ -102,6 +128,8 @@ class PathDynamics:
         self.data = mujoco.MjData(scene.model)
         self._knots: dict[float, Knot] = {}
         self.evaluations = 0
+        sigma = knot_times(path)
+        self._poses = dict(zip(sigma.tolist(), zip(*path.many(sigma), strict=True), strict=True))
 
     def at(self, sigma: float, support: bool = False) -> Knot:
         """The knot at nominal time ``σ`` [s]; ``support``: with its
@@ -117,7 +145,7 @@ class PathDynamics:
         self.evaluations += 1
         scene, d = self.scene, self.data
         m, nv = scene.model, scene.robot.model.nv
-        q, d1, d2 = self.path.at(sigma)
+        q, d1, d2 = self._poses.get(sigma) or self.path.at(sigma)
         qpos = scene.qpos_of(q)
         v, a, zero = np.zeros(m.nv), np.zeros(m.nv), np.zeros(m.nv)
         v[:nv], a[:nv] = d1, d2

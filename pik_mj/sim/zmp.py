@@ -46,8 +46,7 @@ import numpy as np
 
 from pik_mj.dynamics import zmp_points
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.effort import KNOT_SPACING
-from pik_mj.sim.knots import PathDynamics
+from pik_mj.sim.knots import PathDynamics, knot_times
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 
@@ -57,7 +56,6 @@ __all__ = [
     "SAME_SUPPORT",
     "ZMP_RESERVE",
     "ZmpPlan",
-    "knot_times",
     "plan_zmp",
     "stretch_for_balance",
 ]
@@ -115,17 +113,6 @@ class ZmpPlan:
         return (d_s <= 0) | (self.margins(rate, accel) >= ZMP_RESERVE * d_s - 1e-9)
 
 
-def knot_times(path: BlendedPath, timing: Timing) -> np.ndarray:
-    """Knot nominal times: every :data:`~pik_mj.sim.effort.KNOT_SPACING`, the
-    waypoints and the blends' ends (just inside each blend)."""
-    nominal, b = timing.nominal, path.half_width
-    S = float(nominal[-1])
-    grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
-    inner = 0.999 * b[b > 0]
-    ends = np.concatenate([nominal[b > 0] - inner, nominal[b > 0] + inner])
-    return np.unique(np.concatenate([grid, nominal, ends]))
-
-
 def plan_zmp(
     scene: Physics,
     path: BlendedPath,
@@ -150,7 +137,7 @@ def plan_zmp(
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
     kept, parts, origin, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
-    for sigma in knot_times(path, timing):
+    for sigma in knot_times(path):
         knot = dynamics.at(sigma)
         points = np.array([c.position for c in knot.contacts]).reshape(-1, 3)
         if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
