@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -94,6 +94,7 @@ class ZmpPlan:
     origin: np.ndarray
     edges: list[tuple[np.ndarray, np.ndarray]]
     rest_margin: np.ndarray
+    _stacked: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
 
     def points(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """The ZMPs (k, 2) [m] in the polygons' planes at ``(σ̇, σ̈)`` (k,) each."""
@@ -104,7 +105,14 @@ class ZmpPlan:
     def margins(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """Signed distance (k,) [m] of each knot's ZMP to its polygon's edges."""
         p = self.points(rate, accel)
-        return np.array([np.min(A @ pk + b) for (A, b), pk in zip(self.edges, p, strict=True)])
+        if self._stacked is None:  # every knot's half-planes, padded with b = inf
+            E = max(len(b) for _, b in self.edges)
+            A, b = np.zeros((len(self.edges), E, 2)), np.full((len(self.edges), E), np.inf)
+            for k, (Ak, bk) in enumerate(self.edges):
+                A[k, : len(bk)], b[k, : len(bk)] = Ak, bk
+            self._stacked = (A, b)
+        A, b = self._stacked
+        return np.min(A[..., 0] * p[:, None, 0] + A[..., 1] * p[:, None, 1] + b, axis=1)
 
     def fits(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """Per knot: the ZMP keeps :data:`ZMP_RESERVE` of a positive rest margin
