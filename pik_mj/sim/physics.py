@@ -325,37 +325,35 @@ class Physics:
         """Robot contacts (with the environment and self-contacts) in ``data``
         (default: physics; or :meth:`probe`'s state) with ``dist <= max_dist`` [m]."""
         d = self.data if data is None else data
-        if d.ncon == 0:
-            return []
-        con = d.contact  # every contact's fields as arrays
-        g1, g2 = con.geom1, con.geom2
-        r1, r2 = self._system_geom[g1], self._system_geom[g2]
-        keep = np.flatnonzero(
-            (con.dist <= max_dist) & ((con.exclude == 0) | (con.exclude == 1)) & (r1 | r2)
-        )
-        if not len(keep):
-            return []
-        # MuJoCo's normal frame[0:3] points from geom1 to geom2: it pushes geom2.
-        normal = np.where(r2[keep, None], 1.0, -1.0) * con.frame[keep, :3]
-        robot = np.where(r2[keep], g2[keep], g1[keep]).tolist()
-        other = np.where(r2[keep], g1[keep], g2[keep]).tolist()
-        geoms, bodies, geom_body = self.geom_names, self._body_names, self.model.geom_bodyid
-        return [
-            ContactInfo(
-                robot_geom=geoms[a],
-                other_geom=geoms[b],
-                other_body=bodies[geom_body[b]],
-                position=p,
-                normal=n,
-                dist=dist,
-                friction=mu,
-                self_contact=both,
+        system, geoms, bodies = self._system_geom, self.geom_names, self._body_names
+        geom_body = self.model.geom_bodyid
+        out: list[ContactInfo] = []
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if c.dist > max_dist or c.exclude not in (0, 1):
+                continue
+            g1, g2 = int(c.geom1), int(c.geom2)
+            r1, r2 = bool(system[g1]), bool(system[g2])
+            if not (r1 or r2):
+                continue
+            # MuJoCo's normal frame[0:3] points from geom1 to geom2: it pushes geom2.
+            n = np.array(c.frame[:3])
+            robot, other = (g2, g1) if r2 else (g1, g2)
+            if not r2:
+                n = -n
+            out.append(
+                ContactInfo(
+                    robot_geom=geoms[robot],
+                    other_geom=geoms[other],
+                    other_body=bodies[geom_body[other]],
+                    position=np.array(c.pos),
+                    normal=n,
+                    dist=float(c.dist),
+                    friction=float(c.friction[0]),
+                    self_contact=r1 and r2,
+                )
             )
-            for a, b, p, n, dist, mu, both in zip(
-                robot, other, con.pos[keep], normal, con.dist[keep].tolist(),
-                con.friction[keep, 0].tolist(), (r1 & r2)[keep].tolist(), strict=True,
-            )
-        ]  # fmt: skip
+        return out
 
     def probe(self, q: ArrayLike) -> mujoco.MjData:
         """The state of the probe model (robot geoms with ``margin =
