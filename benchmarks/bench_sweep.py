@@ -37,8 +37,17 @@ more on the largest worker count with the motions' and holds' checks sampled
 every step (:class:`PerStepWorker`, the slow path), and every case whose
 verdict differs from the sampled run's is listed with its figures.
 
+With ``--floor N`` the first ``N`` cases run again in this process, one by one,
+and each case's CPU time is split: the solve, the static check, the motion's
+plan (:class:`~pik_mj.sim.motion.MotionReference`: the torque and ZMP plans),
+its playback (``scene.play``, the plan included) and the hold, each beside
+the raw physics of the same steps from the same pose (``mujoco.mj_step(m, d,
+n)``, one C call). The floor of a case, the solve plus the raw physics of its
+motion and hold, bounds the cases per CPU-second whatever the checks cost
+(``--workers 0``: the floor alone, no sweep).
+
 Run: ``python benchmarks/bench_sweep.py [--n 100] [--workers 1 2] [--rounds 1] [--hold 3]
-[--per-step]``
+[--per-step] [--floor 20]``
 """
 
 from __future__ import annotations
@@ -51,9 +60,13 @@ import tempfile
 import time
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import ray
 
+from pik_mj.sim import Waypoints
+from pik_mj.sim.motion import MotionReference, velocity_limits
+from pik_mj.sim.path import Waypoint
 from pik_mj.sweep import Sweep, Uniform, Worker, run_sweep
 from pik_mj.sweep.cli import DEFAULT_BOX
 from pik_mj.sweep.dataset import comparable
@@ -100,6 +113,65 @@ def run(sweep: Sweep, workers: int, out: Path, worker_class: type = Worker) -> d
     }
 
 
+class FloorWorker(Worker):
+    """The sweep's worker keeping each case's final pose and iterates (no checks)."""
+
+    def check(self, q: np.ndarray, path: np.ndarray) -> dict:
+        self.q, self.path = q.copy(), np.asarray(path, dtype=float)
+        return {}
+
+
+def floor(sweep: Sweep, n: int, hold: float) -> dict:
+    """Mean CPU times [s] of the first ``n`` cases' parts, run here one by one,
+    and the raw ``mj_step`` of their motions' and holds' steps (module docstring)."""
+    worker = FloorWorker("sample_humanoid", hold=hold)
+    scene, clock = worker.scene, time.process_time
+    parts = []
+    for case in sweep.cases()[:n]:
+        t0 = clock()
+        worker.run(case)
+        solve = clock() - t0
+        q, path = worker.q, worker.path
+        t0 = clock()
+        scene.static_check(q)
+        static = clock() - t0
+        waypoints = Waypoints(path[0], "path")
+        waypoints.items += [Waypoint(x, "path", i) for i, x in enumerate(path[1:], 1)]
+        lower, upper = velocity_limits(scene, None, waypoints.velocity_bounds)
+        t0 = clock()
+        MotionReference(scene, waypoints, lower, upper, speed=0.2)
+        plan = clock() - t0
+        t0 = clock()
+        motion = scene.play(path)
+        play = clock() - t0
+        t0 = clock()
+        held = scene.hold(q, hold, criteria=worker.criteria)
+        hold_cpu = clock() - t0
+        raws = []
+        for start, steps in ((path[0], motion.steps), (q, held.steps)):
+            scene.set_pose(start)
+            t0 = clock()
+            mujoco.mj_step(scene.model, scene.data, steps)
+            raws.append(clock() - t0)
+        parts.append((solve, static, plan, play, hold_cpu, *raws, motion.steps, held.steps))
+    keys = ("solve", "static", "plan", "play", "hold", "raw play", "raw hold", "steps", "held")
+    mean = dict(zip(keys, np.mean(parts, axis=0).tolist(), strict=True))
+    case = mean["solve"] + mean["static"] + mean["play"] + mean["hold"]
+    bound = mean["solve"] + mean["raw play"] + mean["raw hold"]
+    print(
+        f"\nthe first {n} cases one by one in this process (mean CPU time [s]; load "
+        f"{os.getloadavg()[0]:.2f}):\n"
+        f"  solve {mean['solve']:.3f}, static {mean['static']:.3f}, motion {mean['play']:.3f} "
+        f"(plan {mean['plan']:.3f}; raw mj_step {mean['raw play']:.3f} for "
+        f"{mean['steps']:.0f} steps: {mean['play'] / mean['raw play']:.2f}x, without the plan "
+        f"{(mean['play'] - mean['plan']) / mean['raw play']:.2f}x), hold {mean['hold']:.3f} "
+        f"(raw {mean['raw hold']:.3f}: {mean['hold'] / mean['raw hold']:.2f}x)\n"
+        f"  a case {case:.3f} s: {1 / case:.2f} cases per CPU-second; the floor (solve + raw "
+        f"physics) {bound:.3f} s: at most {1 / bound:.2f} cases per CPU-second"
+    )
+    return {**mean, "case": case, "floor": bound}
+
+
 def _autogroup() -> str:
     """Whether Linux shares the CPU between sessions (autogroup) rather than processes."""
     try:
@@ -121,8 +193,11 @@ def main(argv=None) -> dict:
     parser.add_argument(
         "--per-step", action="store_true", help="also run with every step checked and compare"
     )
+    parser.add_argument("--floor", type=int, default=0, help="cases split here (0: none)")
     args = parser.parse_args(argv)
     sweep = Sweep(Uniform(DEFAULT_BOX, args.n), hold=args.hold, seed=args.seed)
+    if args.workers == [0]:
+        return {"floor": floor(sweep, args.floor, args.hold)}
     base = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_sweep_"))
 
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
@@ -200,6 +275,8 @@ def main(argv=None) -> dict:
     result = {"runs": runs, "same_rows": same, "ray_init_s": ray_start}
     if args.per_step:
         result["per_step"] = _compare(runs[-1], slow)
+    if args.floor:
+        result["floor"] = floor(sweep, args.floor, args.hold)
     return result
 
 

@@ -72,6 +72,7 @@ def _installed(site: Path, cwd: Path, *command: str) -> subprocess.CompletedProc
     return subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.process
 def test_list_and_run_every_scenario_from_a_non_editable_install(installed, tmp_path):
     cwd = tmp_path / "empty"
     cwd.mkdir()

@@ -258,6 +258,7 @@ def _interrupt_one_run(i: int, phase: str, seed: int, tmp_path: Path) -> dict:
     }
 
 
+@pytest.mark.process
 def test_sigint_stops_every_recorded_run_and_leaves_a_valid_recording(tmp_path):
     phases = [list(PHASES)[i % len(PHASES)] for i in range(ROUNDS)]
     with ThreadPoolExecutor(max_workers=PARALLEL) as pool:

@@ -243,6 +243,7 @@ def sweep_command(*args: str) -> list[str]:
     return [sys.executable, "-m", "pik_mj.sweep", *args]
 
 
+@pytest.mark.process
 def test_killed_sweep_resumes_to_the_uninterrupted_rows(ray_session, tmp_path, reference):
     out = tmp_path / "sweep"
     ray_tmp = tempfile.mkdtemp(prefix="pkk")

@@ -16,7 +16,7 @@ from pik_mj import Robot, Scene, balance, fullbody_inverse_kinematics
 from pik_mj import dynamics as dy
 from pik_mj.dynamics import distribution
 from pik_mj.exceptions import InvalidInput
-from pik_mj.sim import effort
+from pik_mj.sim import effort, knots, zmp
 from pik_mj.sim.motion import MotionReference, velocity_limits
 from pik_mj.sim.path import Waypoint, Waypoints
 from pik_mj.sim.static import point_contacts
@@ -244,3 +244,67 @@ def test_a_grasped_object_resting_on_a_surface_does_not_carry_the_robot():
     # the feet carry the robot and the kettle: the free joint's rows are ~0
     root = robot.model.jnt_dofadr[robot.model.body_jntadr[robot.root_body_id]]
     np.testing.assert_allclose(tau[root : root + 6], 0.0, atol=1e-6)
+
+
+def test_one_zmp_formula_gives_the_old_formulas_values():
+    """``dynamics.zmp_points`` (vectorized) on random wrenches equals, within
+    1e-12 m, the two formulas it replaced: the ZMP plan's about the root body's
+    origin in the polygon's frame, and ``zmp_from_wrench``'s about the world
+    origin on the plane ``z``."""
+    rng = np.random.default_rng(3)
+    F = rng.normal(0, 50, (200, 3)) + np.array([0.0, 0.0, 400.0])
+    n, o = rng.normal(0, 20, (200, 3)), rng.normal(0, 0.5, (200, 3))
+    old_plan = np.column_stack(
+        [o[:, 0] - (n[:, 1] + o[:, 2] * F[:, 0]) / F[:, 2],
+         o[:, 1] - (o[:, 2] * F[:, 1] - n[:, 0]) / F[:, 2]]
+    )  # fmt: skip
+    np.testing.assert_allclose(dy.zmp_points(F, n, o), old_plan, rtol=0, atol=1e-12)
+    for f, m, z in zip(F[:20], n[:20], rng.normal(0, 0.2, 20), strict=True):
+        old = np.array([(z * f[0] - m[1]) / f[2], (z * f[1] + m[0]) / f[2]])
+        np.testing.assert_allclose(dy.zmp_from_wrench(f, m, z), old, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(dy.zmp_points(f, m, 0.0, z), old, rtol=0, atol=1e-12)
+
+
+def test_both_plans_read_one_evaluation_per_knot():
+    """The reach's torque plan and ZMP plan on one ``PathDynamics``: each knot
+    is evaluated once (the torque plan's knots are among the ZMP plan's), the
+    plans equal those made apart, and the ZMP plan's points at rates equal,
+    within 1e-12 m, the plan's formula before on its own four ``mj_inverse`` at
+    ``(q̇, q̈)`` = ``(0, 0)``, ``(0, q')``, ``(±q', q'')``."""
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    path = _reach(robot)
+    lower, upper = velocity_limits(scene)
+    ref = MotionReference(scene, path, lower, upper, speed=0.2)
+    dv = np.array([np.zeros(robot.model.nv)] * (len(ref.q) - 1))
+    for i, d in enumerate(dv):
+        mujoco.mj_differentiatePos(robot.model, d, 1.0, ref.q[i], ref.q[i + 1])
+    shared = knots.PathDynamics(scene, ref.path)
+    torques = effort.plan_torques(scene, ref.q, dv, ref.timing, dynamics=shared)
+    evaluated = shared.evaluations
+    plan = zmp.plan_zmp(scene, ref.path, ref.timing, dynamics=shared)
+    apart = zmp.plan_zmp(scene, ref.path, ref.timing)
+    assert shared.evaluations == len(zmp_knots := knots.knot_times(ref.path))
+    assert set(torques.sigma) <= set(zmp_knots) and evaluated < len(zmp_knots)
+    np.testing.assert_array_equal(torques.rest, ref.torques.rest)
+    np.testing.assert_array_equal(plan.parts, apart.parts)
+    k = len(plan.sigma)
+    rate, accel = np.full(k, 0.8), np.full(k, 1.5)
+    points = plan.points(rate, accel)
+    m, rm, data = scene.model, robot.model, mujoco.MjData(scene.model)
+    root = m.body(robot.root_body).id
+    for j in range(0, k, 4):
+        q, d1, d2 = ref.path.at(plan.sigma[j])
+        v, a, zero = np.zeros(m.nv), np.zeros(m.nv), np.zeros(m.nv)
+        v[: rm.nv], a[: rm.nv] = d1, d2
+        g, acc, plus, minus = dy.inverse_dynamics(
+            m, data, scene.qpos_of(q), np.array([zero, zero, v, -v]), np.array([zero, v, a, a])
+        )
+        Q = (g, acc - g, 0.5 * (plus + minus) - g, 0.5 * (plus - minus))
+        region = scene.support(scene.touching(scene.qpos_of(q)), np.zeros(3), zmp.GROUND_SLOPE)[0]
+        R, R_B = region.R, data.xmat[root].reshape(3, 3)
+        w = Q[0] + Q[1] * accel[j] + Q[2] * rate[j] ** 2 + Q[3] * rate[j]
+        F, n = R.T @ w[:3], R.T @ (R_B @ w[3:6])
+        o = R.T @ data.xpos[root] - [0, 0, region.height]
+        old = [o[0] - (n[1] + o[2] * F[0]) / F[2], o[1] - (o[2] * F[1] - n[0]) / F[2]]
+        np.testing.assert_allclose(points[j], old, rtol=0, atol=1e-12)

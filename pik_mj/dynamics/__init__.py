@@ -42,6 +42,7 @@ from pik_mj.dynamics.floating_base import (
     zmp_from_inverse_dynamics,
     zmp_from_wrench,
     zmp_of_motion,
+    zmp_points,
 )
 from pik_mj.dynamics.inverse import (
     ExternalSpec,
@@ -80,4 +81,5 @@ __all__ = [
     "zmp_from_inverse_dynamics",
     "zmp_from_wrench",
     "zmp_of_motion",
+    "zmp_points",
 ]

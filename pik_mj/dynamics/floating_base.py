@@ -51,19 +51,50 @@ def root_wrench(
     return np.linalg.solve(J_B.T, tau[dofs]), data.xpos[b].copy()
 
 
+def zmp_points(
+    force: np.ndarray, moment: np.ndarray, about: np.ndarray | float = 0.0, z: float = 0.0
+) -> np.ndarray:
+    """Points (..., 2) on the plane at height ``z`` where the horizontal moment
+    of the wrenches ``(f, n_a)`` (..., 3) [N, N·m], ``n_a`` about the points
+    ``a`` (..., 3) [m] (default: the origin), vanishes (the ZMP; irteus manual:
+    ``:calc-zmp``). With ``h = a_z - z``, from ``n_s = n_a + (a - s) × f``:
+
+    .. math::
+
+        s_x = a_x - \\frac{n_{a,y} + h f_x}{f_z}, \\qquad
+        s_y = a_y - \\frac{h f_y - n_{a,x}}{f_z}
+
+    Unchecked: ``f_z ≤ 0`` gives a meaningless or non-finite point
+    (:func:`zmp_from_wrench` raises)."""
+    f, n = np.asarray(force, dtype=float), np.asarray(moment, dtype=float)
+    a = np.broadcast_to(np.asarray(about, dtype=float), f.shape)
+    h = a[..., 2] - z
+    return np.stack(
+        [
+            a[..., 0] - (n[..., 1] + h * f[..., 0]) / f[..., 2],
+            a[..., 1] - (h * f[..., 1] - n[..., 0]) / f[..., 2],
+        ],
+        axis=-1,
+    )
+
+
 def zmp_from_wrench(f: np.ndarray, n_W0: np.ndarray, z: float) -> np.ndarray:
-    """Point on the plane ``z`` where the horizontal moment of ``(f, n_W0)`` vanishes.
+    """Point on the plane ``z`` where the horizontal moment of ``(f, n_W0)``
+    (moment about the world origin) vanishes (:func:`zmp_points`).
 
     .. math::
 
         n_s = n_0 - s \\times f = 0_{xy} \\Rightarrow
         s_x = \\frac{z f_x - n_{0,y}}{f_z},\\; s_y = \\frac{z f_y + n_{0,x}}{f_z}
+
+    Raises:
+        PikError: ``f_z ≤ 0``: the ground does not push.
     """
     if f[2] <= 1e-9:
         raise PikError(
             f"the ground reaction has no upward force (f_z = {f[2]:.3g} N): the ZMP is undefined"
         )
-    return np.array([(z * f[0] - n_W0[1]) / f[2], (z * f[1] + n_W0[0]) / f[2]])
+    return zmp_points(f, n_W0, 0.0, z)
 
 
 def zmp_from_inverse_dynamics(

@@ -49,7 +49,9 @@ def inverse_dynamics(
     """``M(q) q̈_k + c(q, q̇_k) − τ_passive(q, q̇_k)`` (k, nv) at one configuration
     ``q`` (nq,) for the velocities ``qvel`` and accelerations ``qacc`` (k, nv):
     ``mj_inverse`` with the constraint solver disabled (no contact forces),
-    unchecked (the callers' inputs are). ``data`` ends with the kinematics at ``q``."""
+    unchecked (the callers' inputs are); the position stage (kinematics, mass
+    matrix) computed once, for the first pair. ``data`` ends with the kinematics
+    at ``q``."""
     out = np.empty((len(qvel), model.nv))
     data.qpos[:] = q
     saved = model.opt.disableflags
@@ -58,7 +60,10 @@ def inverse_dynamics(
         for k, (v, a) in enumerate(zip(qvel, qacc, strict=True)):
             data.qvel[:] = v
             data.qacc[:] = a
-            mujoco.mj_inverse(model, data)
+            if k == 0:
+                mujoco.mj_inverse(model, data)
+            else:
+                mujoco.mj_inverseSkip(model, data, int(mujoco.mjtStage.mjSTAGE_POS), 1)
             out[k] = data.qfrc_inverse
     finally:
         model.opt.disableflags = saved

@@ -44,19 +44,16 @@ linear in ``σ`` between knots): they go through the actuators' controls
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import mujoco
 import numpy as np
 
-from pik_mj.dynamics import external_torques, inverse_dynamics
 from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
+from pik_mj.sim.knots import KNOT_SPACING, PathDynamics, knot_grid
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
-from pik_mj.sim.torques import ContactSupport, weight_torques
 
 __all__ = [
     "DRIVE_RESERVE",
@@ -66,9 +63,6 @@ __all__ = [
     "TorquePlan",
     "plan_torques",
 ]
-
-KNOT_SPACING = 0.05
-"""Nominal time [s] between the knots of the torque plan (at most)."""
 
 KNOT_TOLERANCE = 0.005
 """Share of the largest rest torque by which the plan linear between two knots
@@ -134,50 +128,25 @@ class TorquePlan:
 class _Knots:
     """The reference's poses and rates at knots (the plan's workspace)."""
 
-    def __init__(self, scene: Physics, q: np.ndarray, dv: np.ndarray, timing: Timing):
-        self.scene, self.q, self.dv, self.timing = scene, q, dv, timing
+    def __init__(self, scene: Physics, timing: Timing, dynamics: PathDynamics):
+        self.scene, self.timing, self.dynamics = scene, timing, dynamics
         self.rm = scene.robot.model
-        self.data = mujoco.MjData(scene.model)
         self.actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], int)
-        self.path = BlendedPath(self.rm, q, dv, timing)
 
-    def sigmas(self) -> np.ndarray:
-        """The grid of knot nominal times: the waypoints' and every
-        :data:`KNOT_SPACING` between (:func:`_refined` picks the knots)."""
-        nominal = self.timing.nominal
-        S = float(nominal[-1])
-        grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
-        return np.unique(np.concatenate([grid, nominal]))
-
-    def pose(self, sigma: float) -> tuple[np.ndarray, np.ndarray]:
-        """``q(σ)`` and ``q' = dq/dσ`` of the played path
-        (:class:`~pik_mj.sim.blends.BlendedPath`; zero at the end)."""
-        q, slope, _ = self.path.at(sigma)
-        return q, slope
-
-    def parts(
-        self, q: np.ndarray, dq: np.ndarray, load: Sequence[External]
-    ) -> tuple[np.ndarray, ...] | None:
-        """``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (nv of the robot) at a
-        knot, or None without an equilibrium."""
-        scene, d, nv = self.scene, self.data, self.rm.nv
-        m = scene.model
-        qpos = scene.qpos_of(q)
-        v = np.zeros(m.nv)
-        v[:nv] = dq
-        zero = np.zeros(m.nv)
-        g, accel, plus, minus = inverse_dynamics(
-            m, d, qpos, np.array([zero, zero, v, -v]), np.array([zero, v, zero, zero])
-        )
-        support = ContactSupport(scene, d, scene.touching(qpos))
-        rest = support.hold(g - external_torques(m, d, load) - weight_torques(scene, d))
+    def parts(self, sigma: float) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
+        """``q(σ)`` and ``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (nv of the
+        robot) at a knot (:class:`~pik_mj.sim.knots.Knot`), or None without an
+        equilibrium."""
+        knot = self.dynamics.at(sigma, support=True)
+        support, nv = knot.support, self.rm.nv
+        rest = support.hold(knot.rest)
         if rest is None:
-            return None
-        return (
+            return knot.q, None
+        return knot.q, (
             rest[:nv],
-            support.carry(accel - g)[:nv],
-            support.carry(0.5 * (plus + minus) - g)[:nv],
-            support.carry(0.5 * (plus - minus))[:nv],
+            support.carry(knot.inertia)[:nv],
+            support.carry(knot.velocity)[:nv],
+            support.carry(knot.damping)[:nv],
         )
 
     def bounds(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -277,22 +246,19 @@ def plan_torques(
     timing: Timing,
     external: Sequence[External] = (),
     ramp: bool = False,
+    dynamics: PathDynamics | None = None,
 ) -> TorquePlan:
     """The torque plan of the path ``q`` (waypoints (n, nq), steps ``dv`` (n - 1,
     nv)) with ``timing``, whose segments it slows down where the drives need
     (module docstring; ``timing.stretch`` is updated). ``ramp``: the external
-    wrenches grow with the path's progress ``σ / S``."""
-    knots = _Knots(scene, q, dv, timing)
-    S = float(timing.nominal[-1])
-    grid = knots.sigmas()
-
-    def evaluate(sigma: float) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
-        s = sigma / S if (ramp and S > 0) else 1.0
-        load = [(f, s * np.asarray(F, float), s * np.asarray(M, float)) for f, F, M in external]
-        qk, dq = knots.pose(sigma)
-        return qk, knots.parts(qk, dq, load)
-
-    found = _refined(grid, knots, evaluate)
+    wrenches grow with the path's progress ``σ / S``. ``dynamics``: the path's
+    knots when evaluated already (shared with the ZMP plan; default: new)."""
+    if dynamics is None:
+        path = BlendedPath(scene.robot.model, q, dv, timing)
+        dynamics = PathDynamics(scene, path, external, ramp)
+    knots = _Knots(scene, timing, dynamics)
+    grid = knot_grid(timing)  # _refined picks the knots
+    found = _refined(grid, knots, knots.parts)
     kept, parts, poses = [], [], []
     for i in sorted(found):
         qk, part = found[i]

@@ -55,6 +55,7 @@ import numpy as np
 from pik_mj.exceptions import InvalidInput
 from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.effort import plan_torques
+from pik_mj.sim.knots import PathDynamics
 from pik_mj.sim.path import Waypoints
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.servos import ServoLaw
@@ -215,14 +216,15 @@ class MotionReference:
         self.timing = Timing(steps.max(axis=1) if n > 1 else np.zeros(0), labels)
         self.nominal = self.timing.nominal
         self.path = BlendedPath(rm, self.q, self._dv, self.timing)
+        knots = PathDynamics(scene, self.path, external, self._ramp)  # for both plans
         self.torques = (
-            plan_torques(scene, self.q, self._dv, self.timing, external, self._ramp)
+            plan_torques(scene, self.q, self._dv, self.timing, external, self._ramp, knots)
             if feedforward
             else None
         )
         self.shortfalls = [] if self.torques is None else self.torques.shortfalls
         self.balance_stretch = (
-            stretch_for_balance(scene, self.path, self.timing, external, self._ramp)
+            stretch_for_balance(scene, self.path, self.timing, external, self._ramp, knots)
             if feedforward and not self.shortfalls
             else {}
         )

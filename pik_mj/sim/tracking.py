@@ -147,6 +147,9 @@ class Run:
             self.record, d.qpos, self.t0, reference.data, reference.waypoint, True
         )
         self.sampler.flush(self.record)
+        # every step's controls at once (a constant reference's rows are tiled per chunk)
+        times = np.arange(self.n_steps) * scene.model.opt.timestep
+        self._controls = reference.controls(times) if reference.moving else None
 
     @property
     def done(self) -> bool:
@@ -158,7 +161,10 @@ class Run:
         (at most the steps left)."""
         dt = self.scene.model.opt.timestep
         t = (self.steps + np.arange(min(n, self.n_steps - self.steps))) * dt
-        ctrl = self.reference.controls(t)
+        if self._controls is None:
+            ctrl = self.reference.controls(t)
+        else:
+            ctrl = self._controls[self.steps : self.steps + len(t)]
         if self.balance is not None:
             ctrl = self.balance.controls(ctrl, self.steps, self.state, self.reference.data)
         if not xfrc:

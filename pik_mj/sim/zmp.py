@@ -10,13 +10,15 @@ inverse dynamics) from the contacts; at a knot ``σ`` with rates ``(σ̇, σ̈)`
     Q = Q_s + Q_a\, \ddot σ + Q_v\, \dot σ^2 + Q_d\, \dot σ
 
 ``Q_s`` at rest (gravity less the external wrenches and the grasped objects'
-weights, :func:`pik_mj.sim.torques.weight_torques`), ``Q_a`` at ``q̈ = q'``,
-``Q_v`` at ``q̇ = q', q̈ = q''`` less rest, ``Q_d`` the joints' damping (MuJoCo's
-``mj_inverse``, as :mod:`pik_mj.sim.effort`). Its rows are the net contact
+weights), ``Q_a = M q'``, ``Q_v = c(q, q') + M q''`` (the blends' curvature
+included), ``Q_d = D q'`` the joints' damping: the knot's inverse dynamics
+(:class:`~pik_mj.sim.knots.Knot`, evaluated once for this plan and the torque
+plan, :mod:`pik_mj.sim.effort`). Its rows are the net contact
 force ``F`` (world) and the moment ``R_B (Q_4, Q_5, Q_6)`` about the root body's
 origin ``o``. In the frame of the ground contacts' support polygon (basis
 ``e_1, e_2, n``, the plane at height ``h``; :meth:`~pik_mj.sim.physics.Physics.support`)
 the point of the plane about which that wrench has no tangential moment is
+(:func:`pik_mj.dynamics.zmp_points`)
 
 .. math::
 
@@ -37,17 +39,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
-from pik_mj.dynamics import external_torques, inverse_dynamics
+from pik_mj.dynamics import zmp_points
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.effort import KNOT_SPACING
+from pik_mj.sim.knots import PathDynamics, knot_times
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
-from pik_mj.sim.torques import weight_torques
 
 __all__ = [
     "GROUND_SLOPE",
@@ -93,23 +94,25 @@ class ZmpPlan:
     origin: np.ndarray
     edges: list[tuple[np.ndarray, np.ndarray]]
     rest_margin: np.ndarray
+    _stacked: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
 
     def points(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """The ZMPs (k, 2) [m] in the polygons' planes at ``(σ̇, σ̈)`` (k,) each."""
         s, a, v, d = self.parts
         Q = s + a * accel[:, None] + v * (rate**2)[:, None] + d * rate[:, None]
-        F, n, o = Q[:, :3], Q[:, 3:], self.origin
-        return np.column_stack(
-            [
-                o[:, 0] - (n[:, 1] + o[:, 2] * F[:, 0]) / F[:, 2],
-                o[:, 1] - (o[:, 2] * F[:, 1] - n[:, 0]) / F[:, 2],
-            ]
-        )
+        return zmp_points(Q[:, :3], Q[:, 3:], self.origin)
 
     def margins(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """Signed distance (k,) [m] of each knot's ZMP to its polygon's edges."""
         p = self.points(rate, accel)
-        return np.array([np.min(A @ pk + b) for (A, b), pk in zip(self.edges, p, strict=True)])
+        if self._stacked is None:  # every knot's half-planes, padded with b = inf
+            E = max(len(b) for _, b in self.edges)
+            A, b = np.zeros((len(self.edges), E, 2)), np.full((len(self.edges), E), np.inf)
+            for k, (Ak, bk) in enumerate(self.edges):
+                A[k, : len(bk)], b[k, : len(bk)] = Ak, bk
+            self._stacked = (A, b)
+        A, b = self._stacked
+        return np.min(A[..., 0] * p[:, None, 0] + A[..., 1] * p[:, None, 1] + b, axis=1)
 
     def fits(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """Per knot: the ZMP keeps :data:`ZMP_RESERVE` of a positive rest margin
@@ -118,71 +121,49 @@ class ZmpPlan:
         return (d_s <= 0) | (self.margins(rate, accel) >= ZMP_RESERVE * d_s - 1e-9)
 
 
-def _knots(path: BlendedPath, timing: Timing) -> np.ndarray:
-    """Knot nominal times: every :data:`~pik_mj.sim.effort.KNOT_SPACING`, the
-    waypoints and the blends' ends (just inside each blend)."""
-    nominal, b = timing.nominal, path.half_width
-    S = float(nominal[-1])
-    grid = np.linspace(0.0, S, max(2, math.ceil(S / KNOT_SPACING) + 1))
-    inner = 0.999 * b[b > 0]
-    ends = np.concatenate([nominal[b > 0] - inner, nominal[b > 0] + inner])
-    return np.unique(np.concatenate([grid, nominal, ends]))
-
-
 def plan_zmp(
     scene: Physics,
     path: BlendedPath,
     timing: Timing,
     external: Sequence[External] = (),
     ramp: bool = False,
+    dynamics: PathDynamics | None = None,
 ) -> ZmpPlan | None:
     """The :class:`ZmpPlan` of ``path`` (``ramp``: the external wrenches grow
-    with the path's progress ``σ / S``), or None when the robot has no free
-    joint. Knots without ground contacts (or whose support is a point or a
-    segment, or carried with ``F_3 ≤ 0``) are left out; a knot whose contact
+    with the path's progress ``σ / S``; ``dynamics``: the path's knots when
+    evaluated already, shared with the torque plan), or None when the robot has
+    no free joint. Knots without ground contacts (or whose support is a point or
+    a segment, or carried with ``F_3 ≤ 0``) are left out; a knot whose contact
     points are within :data:`SAME_SUPPORT` of the knot before's keeps its polygon."""
     m, rm = scene.model, scene.robot.model
     free = [j for j in range(rm.njnt) if int(rm.jnt_type[j]) == _FREE]
     if not free:
         return None
+    if dynamics is None:
+        dynamics = PathDynamics(scene, path, external, ramp)
     dof = int(rm.jnt_dofadr[free[0]])
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
-    data = mujoco.MjData(m)
-    S = float(timing.nominal[-1])
     kept, parts, origin, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
-    knots = _knots(path, timing)
-    for sigma, q, dq, ddq in zip(knots, *path.many(knots), strict=True):
-        qpos = scene.qpos_of(q)
-        contacts = scene.touching(qpos)
-        points = np.array([c.position for c in contacts]).reshape(-1, 3)
+    for sigma in knot_times(path):
+        knot = dynamics.at(sigma)
+        points = np.array([c.position for c in knot.contacts]).reshape(-1, 3)
         if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
-            region, _ = scene.support(contacts, np.zeros(3), GROUND_SLOPE)
+            region, _ = scene.support(knot.contacts, np.zeros(3), GROUND_SLOPE)
             seen = points
         if region is None or region.halfplanes is None:
             continue
-        v, a, zero = np.zeros(m.nv), np.zeros(m.nv), np.zeros(m.nv)
-        v[: rm.nv], a[: rm.nv] = dq, ddq
-        g, accel, plus, minus = inverse_dynamics(
-            m, data, qpos, np.array([zero, zero, v, -v]), np.array([zero, v, a, a])
-        )
-        s = sigma / S if (ramp and S > 0) else 1.0
-        load = [(f, s * np.asarray(F, float), s * np.asarray(M, float)) for f, F, M in external]
-        Q_s = g - external_torques(m, data, load) - weight_torques(scene, data)
-        R_B = data.xmat[body].reshape(3, 3)
-        Q = [Q_s, accel - g, 0.5 * (plus + minus) - g, 0.5 * (plus - minus)]
-        R = region.R
+        R, R_B = region.R, knot.xmat[body].reshape(3, 3)
+        Q = [knot.rest, knot.inertia, knot.velocity + knot.curvature, knot.damping]
         wrench = [
             np.concatenate([R.T @ x[dof : dof + 3], R.T @ (R_B @ x[dof + 3 : dof + 6])]) for x in Q
         ]
         if wrench[0][2] <= 0:
             continue
-        o = R.T @ data.xpos[body] - np.array([0.0, 0.0, region.height])
-        A, b = np.asarray(region.halfplanes.A), np.asarray(region.halfplanes.b)
         kept.append(sigma)
         parts.append(wrench)
-        origin.append(o)
-        edges.append((A, b))
+        origin.append(R.T @ knot.xpos[body] - np.array([0.0, 0.0, region.height]))
+        edges.append((np.asarray(region.halfplanes.A), np.asarray(region.halfplanes.b)))
     if not kept:
         return None
     plan = ZmpPlan(
@@ -200,11 +181,12 @@ def stretch_for_balance(
     timing: Timing,
     external: Sequence[External] = (),
     ramp: bool = False,
+    dynamics: PathDynamics | None = None,
 ) -> dict[int, float]:
     """Slow down each segment of ``timing`` whose knots' ZMP leaves the reserve
-    (module docstring; ``timing.stretch`` is updated). Returns the segments
-    stretched, ``{segment index: c}``."""
-    plan = plan_zmp(scene, path, timing, external, ramp)
+    (module docstring; ``timing.stretch`` is updated; ``dynamics``: as
+    :func:`plan_zmp`). Returns the segments stretched, ``{segment index: c}``."""
+    plan = plan_zmp(scene, path, timing, external, ramp, dynamics)
     if plan is None:
         return {}
     t = timing.times_of(plan.sigma)
