@@ -38,9 +38,11 @@ from pik_mj import Robot
 from pik_mj.exceptions import PikError
 from pik_mj.robot.ground import robot_soles
 from pik_mj.robot.loading import menagerie_available, menagerie_models
+from pik_mj.walking.gait import DOUBLE_SUPPORT
 from pik_mj.walking.robot_gait import DEFAULT_DT, robot_gait
+from pik_mj.walking.support import zmp_margin
 from pik_mj.walking.walk import walk
-from pik_mj.walking.wholebody import feet_from_robot
+from pik_mj.walking.wholebody import WalkPattern, feet_from_robot
 
 ROBOTS = ("unitree_g1", "unitree_h1", "booster_t1", "sample_humanoid", "dm_humanoid")
 GO_POS = (0.5, 0.2, math.radians(30.0))  # [m, m, rad]
@@ -78,6 +80,35 @@ def walk_figures(name: str, kind: str, steps: int = 6, dt: float = DEFAULT_DT) -
         "gait": gait.to_dict(),
         "wall": time.perf_counter() - t0,
         "failed": [label for label, ok, _ in done.checks if not ok],
+        **(rolled_soles(done.pattern) if gait.rolling_soles else {}),
+    }
+
+
+def rolled_soles(pattern: WalkPattern) -> dict[str, float]:
+    """A rolling-sole pattern's soles as they are: the largest sole roll [rad], the
+    largest height spread of a sole polygon's corners [m], the largest root roll
+    [rad], and the least margin [m] of the ZMP of its inverse dynamics to the
+    soles' polygons rolled as in the pattern, projected on the floor."""
+    corners = {lb: np.c_[s.outline, np.zeros(len(s.outline))] for lb, s in pattern.soles.items()}
+    lift, roll, margins = 0.0, 0.0, []
+    for lb, R in pattern.feet_R.items():
+        roll = max(roll, float(np.max(np.abs(np.arctan2(R[:, 2, 1], R[:, 2, 2])))))
+        heights = np.einsum("kij,nj->kni", R, corners[lb])[..., 2]
+        lift = max(lift, float(np.max(np.ptp(heights, axis=1))))
+    for k, label in enumerate(pattern.support):
+        legs = pattern.plan.params.all_limbs if label == DOUBLE_SUPPORT else (label,)
+        polygons = [
+            pattern.feet_p[lb][k][:2] + (corners[lb] @ pattern.feet_R[lb][k].T)[:, :2]
+            for lb in legs
+        ]
+        margins.append(zmp_margin(pattern.zmp_computed[k], polygons))
+    w, x, y, z = pattern.q[:, 3:7].T
+    root = np.abs(np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)))
+    return {
+        "sole_roll_max": roll,
+        "sole_lift_max": lift,
+        "root_roll_max": float(root.max()),
+        "zmp_margin_id_rolled": float(min(margins)),
     }
 
 
@@ -101,15 +132,25 @@ def cell(w: dict[str, Any]) -> str:
 
 
 def notes(row: dict[str, Any]) -> list[str]:
-    """Why a robot's walks were refused or failed, one line each."""
+    """Why a robot's walks were refused or failed, and how a rolling-sole walk's
+    soles rolled, one line each."""
     forward = row["forward"]
     if forward["verdict"] == "refused":
         return [f"refused: {forward['reason']}"]
-    return [
+    lines = [
         f"{kind}: failed {w['failed']} {w['fall'] or ''}".rstrip()
         for kind, w in row.items()
         if w["verdict"] == "FAIL"
     ]
+    for kind, w in row.items():
+        if "sole_roll_max" in w:
+            lines.append(
+                f"{kind}: rolling soles, sole roll <= {math.degrees(w['sole_roll_max']):.2f} deg "
+                f"(corners within {1e3 * w['sole_lift_max']:.2f} mm), root roll <= "
+                f"{math.degrees(w['root_roll_max']):.1f} deg, ZMP margin on the rolled soles "
+                f"{1e3 * w['zmp_margin_id_rolled']:.2f} mm"
+            )
+    return lines
 
 
 def available(name: str) -> bool:

@@ -2,16 +2,16 @@
 MuJoCo's contacts, its own servos and torque limits, the body-inclination
 stabilizer; a synthetic humanoid without sites on off-centre mesh soles walks,
 and Unitree G1 and Booster T1 walk 6 steps forward and go to (0.5 m, 0.2 m, 30°)
-where MENAGERIE_ROOT has them (H1 is refused, saying why).
+where MENAGERIE_ROOT has them (H1: tests/test_walking_h1*.py).
 
 Costs on a 2-core machine: the synthetic walk's pattern ~10 s and each playback
-~5 s; each Menagerie walk ~15-25 s; H1's refusal ~3 s.
+~5 s; each Menagerie walk ~15-25 s.
 """
 
 from __future__ import annotations
 
 import math
-import re
+from dataclasses import replace
 
 import mujoco
 import numpy as np
@@ -24,7 +24,8 @@ from pik_mj.robot import Robot
 from pik_mj.robot.ground import robot_soles
 from pik_mj.sim import Scene
 from pik_mj.walking.drive import CARRY_RATIO, LIMIT_ANGLE, joint_drive, torque_limits
-from pik_mj.walking.gait import plan_gait
+from pik_mj.walking.footsteps import straight_steps
+from pik_mj.walking.gait import Footstep, GaitParameters, plan_gait
 from pik_mj.walking.playback import WALK_CONTACT, play_walk_pattern
 from pik_mj.walking.robot_gait import (
     FOOT_CLEARANCE,
@@ -218,26 +219,26 @@ def test_menagerie_robot_goes_to_a_pose(menagerie_walker):
         assert foot.yaw - start[leg].yaw == pytest.approx(GO_POS[2], abs=2e-3)
 
 
-def test_unitree_h1_is_refused_saying_why():
-    """H1's legs have no ankle roll: with both soles flat its CoM moves sideways a few
-    millimetres, not the quarter of its feet's 0.41 m separation a step needs; the
-    stance sole's ZMP, ~0.17 m to the side, pushes the CoM out of that range in
-    about a tenth of a second, far short of the step's single support."""
-    requires_menagerie("unitree_h1")
-    robot = Robot.from_model("unitree_h1")
-    with pytest.raises(InvalidInput) as refused:
-        robot_gait(robot)
-    found = re.search(
-        r"cannot move its CoM sideways .*: (\d+) mm of the 10\d mm .* ZMP on the stance sole, "
-        r"(\d+) mm to the side, .* after (\d+) ms of single support \(T_c (\S+) s\), "
-        r"of the (\S+) s a step needs",
-        str(refused.value),
-    )
-    assert found, str(refused.value)
-    reach, edge, limit, tc, needed = (float(v) for v in found.groups())
-    assert reach < 10 and 165 < edge < 180  # separation 0.406 m, soles 0.06 m wide
-    assert 0.28 < tc < 0.34  # sqrt(z_c / g), z_c ~ 0.9-1.0 m
-    assert limit < 150 and 1e3 * needed > 4 * limit
+def test_initial_stand_delays_the_plan_by_its_time():
+    """``initial_stand_time`` T_0: the first T_0 stand on the initial feet with the ZMP
+    reference at their middle, then the feet, ZMP reference and support labels are
+    those of the plan without it, T_0 later; negative T_0 is refused."""
+    feet = {"rleg": ((0.0, -0.1, 0.0), 0.0), "lleg": ((0.0, 0.1, 0.0), 0.0)}
+    start = {lb: Footstep(lb, np.array(p), yaw) for lb, (p, yaw) in feet.items()}
+    steps = straight_steps(2, 0.1, start, foot_separation=0.2)
+    base = GaitParameters(step_time=0.5, dt=0.02)
+    plain = plan_gait(feet, steps, base, com_height=0.8)
+    late = plan_gait(feet, steps, replace(base, initial_stand_time=0.3), com_height=0.8)
+    n = 15  # 0.3 s
+    assert len(late.t) == len(plain.t) + n
+    np.testing.assert_allclose(late.zmp_ref[:n], np.zeros((n, 2)), atol=1e-12)
+    np.testing.assert_allclose(late.zmp_ref[n:], plain.zmp_ref, atol=1e-12)
+    for lb in feet:
+        np.testing.assert_allclose(late.feet_p[lb][n:], plain.feet_p[lb], atol=1e-12)
+    assert list(late.support[n:]) == list(plain.support)
+    assert set(late.support[:n]) == {"double"}
+    with pytest.raises(InvalidInput, match="initial_stand_time"):
+        replace(base, initial_stand_time=-0.1)
 
 
 def test_single_support_limit_is_where_the_pendulum_takes_the_com_out_of_reach():

@@ -14,14 +14,17 @@ current stance of every limb is given explicitly as ``initial_feet`` and
 ``(cdr footstep-list)``.
 
 Timeline (irteus manual: ``gait-generator``), with step time :math:`T`, double support
-ratio :math:`r` and :math:`S` footsteps: phase 0 stands for :math:`T` with the ZMP
-at its start point, phases :math:`1 \\ldots S` execute one footstep each, and
-phase :math:`S+1` stands for :math:`T` with the ZMP at its end point, so
+ratio :math:`r` and :math:`S` footsteps: phase 0 stands for :math:`T_0 + T` with
+the ZMP at its start point (:math:`T_0` the ``initial_stand_time``, 0 by
+default), phases :math:`1 \\ldots S` execute one footstep each, and phase
+:math:`S+1` stands for :math:`T` with the ZMP at its end point, so
 
 .. math::
 
-    t_{total} = (S + 2) T, \\qquad t_k = k \\Delta t,\\ k = 0 \\ldots
-    \\lfloor t_{total} / \\Delta t \\rfloor.
+    t_{total} = T_0 + (S + 2) T, \\qquad t_k = k \\Delta t,\\ k = 0 \\ldots
+    \\lfloor t_{total} / \\Delta t \\rfloor
+
+(the local time of phase 0 runs from :math:`-T_0`).
 
 Within a phase (local time :math:`\\tau \\in [0, T)`, :math:`t_m = r T / 2`) the
 first and last :math:`t_m` are double support and the ZMP reference moves
@@ -222,6 +225,11 @@ class GaitParameters:
         gravity: Gravitational acceleration in [m/s^2]; None: the robot model's
             (:func:`pik_mj.walking.wholebody.calc_walk_pattern`), or
             :data:`pik_mj.spatial.STANDARD_GRAVITY` for a plan made without one.
+        initial_stand_time: T_0, standing added before the first step [s] (module
+            docstring).
+        rolling_soles: Let the soles roll about their long axis below the CoM and
+            the root roll (:mod:`pik_mj.walking.walk_tasks`): for legs without
+            ankle roll.
     """
 
     step_time: float = 1.0
@@ -236,8 +244,11 @@ class GaitParameters:
     r: float = 1e-6
     preview_time: float = 1.6
     gravity: float | None = None
+    initial_stand_time: float = 0.0
+    rolling_soles: bool = False
 
     def __post_init__(self) -> None:
+        _finite("initial_stand_time", self.initial_stand_time, low=0.0)
         _finite("step_time", self.step_time, low=0.0, low_open=True)
         _finite("step_height", self.step_height, low=0.0)
         _finite("dt", self.dt, low=0.0, low_open=True)
@@ -376,11 +387,11 @@ def plan_gait(
         if step.limb not in limbs:
             raise UnknownName("limb", step.limb, limbs)
     stances = _stances(feet0, steps)
-    T, dt = params.step_time, params.dt
-    n_samples = int(np.floor((len(steps) + 2) * T / dt + 1e-9)) + 1
+    T, dt, T0 = params.step_time, params.dt, params.initial_stand_time
+    n_samples = int(np.floor((T0 + (len(steps) + 2) * T) / dt + 1e-9)) + 1
     t = np.arange(n_samples) * dt
-    phase = np.minimum(np.floor(t / T + 1e-9).astype(int), len(steps) + 1)
-    tau = t - phase * T
+    phase = np.clip(np.floor((t - T0) / T + 1e-9).astype(int), 0, len(steps) + 1)
+    tau = t - T0 - phase * T
     zmp_ref = _zmp_reference(_support_points(stances, steps, params), phase, tau, params)
     feet_p, feet_yaw, support, swing_phase = _feet(stances, steps, phase, tau, params)
     controller = PreviewController(

@@ -47,7 +47,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import mujoco
@@ -62,7 +62,14 @@ from pik_mj.tasks.com import CentroidTask
 from pik_mj.tasks.frame import FrameTask
 from pik_mj.walking.footsteps import ReachLimits, go_pos, straight_steps
 from pik_mj.walking.gait import Footstep, GaitParameters
-from pik_mj.walking.wholebody import bent_knees
+from pik_mj.walking.rolling_gait import (
+    ROLL_DOUBLE_SUPPORT,
+    ROLL_SWAY,
+    bounded_reach,
+    rolling_values,
+    sole_zmp_offsets,
+)
+from pik_mj.walking.walk_tasks import bent_knees, flat_sole_tasks
 
 __all__ = [
     "DEFAULT_DT",
@@ -210,6 +217,11 @@ class RobotGait:
         preview_time: Preview horizon of the preview control [s].
         geometry: What these were derived from.
         given: Names of the values that were given, not derived.
+        rolling_soles: The legs sway the CoM only with the soles rolling
+            (:mod:`pik_mj.walking.rolling_gait`); then the steps are shorter.
+        initial_stand_time: Standing added before the first step [s].
+        zmp_offsets: Each leg's ZMP reference point in its sole frame [m]
+            (empty: the sole frame's origin).
     """
 
     stride: float
@@ -225,10 +237,17 @@ class RobotGait:
     preview_time: float
     geometry: LegGeometry
     given: tuple[str, ...] = ()
+    rolling_soles: bool = False
+    initial_stand_time: float = 0.0
+    zmp_offsets: Mapping[str, tuple[float, float, float]] = field(default_factory=dict)
 
     def parameters(self, **options: Any) -> GaitParameters:
         """The :class:`~pik_mj.walking.gait.GaitParameters` of this gait
         (``options``: its other fields, e.g. ``zmp_offsets``)."""
+        own: dict[str, Any] = {"rolling_soles": self.rolling_soles}
+        own["initial_stand_time"] = self.initial_stand_time
+        if self.zmp_offsets:
+            own["zmp_offsets"] = dict(self.zmp_offsets)
         return GaitParameters(
             step_time=self.step_time,
             step_height=self.step_height,
@@ -236,7 +255,7 @@ class RobotGait:
             double_support_ratio=self.double_support_time / self.step_time,
             preview_time=self.preview_time,
             gravity=self.geometry.gravity,
-            **options,
+            **{**own, **options},
         )
 
     def reach_limits(self) -> ReachLimits:
@@ -277,8 +296,16 @@ class RobotGait:
         )
 
     def to_dict(self) -> dict[str, float]:
-        """The values [m, s, rad], JSON-ready."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name in _DERIVED}
+        """The values [m, s, rad], JSON-ready (with rolling soles also
+        ``rolling_soles``, ``initial_stand_time`` and ``zmp_offsets``)."""
+        values: dict[str, Any] = {
+            f.name: getattr(self, f.name) for f in fields(self) if f.name in _DERIVED
+        }
+        if self.rolling_soles:
+            values["rolling_soles"] = True
+            values["initial_stand_time"] = self.initial_stand_time
+            values["zmp_offsets"] = {lb: list(o) for lb, o in self.zmp_offsets.items()}
+        return values
 
     def table(self) -> str:
         """One line per value: name, value with unit, and where it came from."""
@@ -300,6 +327,13 @@ class RobotGait:
             "max_inward": "0.1 x foot separation",
             "preview_time": "max(1.6 s, 2 steps)",
         }
+        if self.rolling_soles:
+            why |= {
+                "stride": "the flat gait's, scaled by the step time",
+                "step_height": "the flat gait's, scaled by the step time",
+                "step_time": f"CoM sway {ROLL_SWAY} x the sideways reach with rolling soles",
+                "double_support_time": f"{ROLL_DOUBLE_SUPPORT} x step time",
+            }
         units = {"max_turn": "rad", "step_time": "s", "double_support_time": "s", "dt": "s"}
         units["preview_time"] = "s"
         lines = []
@@ -311,7 +345,23 @@ class RobotGait:
             )
             source = "given" if name in self.given else why[name]
             lines.append(f"  {name:<20} {shown:<22} {source}")
+        if self.rolling_soles:
+            lines += self._rolling_lines()
         return "\n".join(lines)
+
+    def _rolling_lines(self) -> list[str]:
+        """The table's lines of the rolling-sole gait (:mod:`~pik_mj.walking.rolling_gait`)."""
+        offsets = ", ".join(
+            f"{lb} ({o[0] * 1e3:+.0f}, {o[1] * 1e3:+.0f}) mm" for lb, o in self.zmp_offsets.items()
+        )
+        return [
+            f"  {'rolling_soles':<20} {'yes':<22} no joint keeps a sole flat while the leg "
+            "leans: the soles roll below the CoM, the pelvis rolls; steps scaled to the sway",
+            f"  {'initial_stand_time':<20} {f'{self.initial_stand_time:.4g} s':<22} the flat "
+            "gait's step time less this one",
+            f"  {'zmp_offsets':<20} {offsets}: farthest from the sole's edges with the ankle "
+            "within its torque",
+        ]
 
     def __str__(self) -> str:
         return "gait:\n" + self.table()
@@ -352,11 +402,13 @@ def robot_gait(
         UnknownName: An override that is not a value of the gait.
         InvalidInput: A value that is not a finite number > 0 (``max_turn``,
             ``max_inward`` >= 0), a step time shorter than 2 dt, or a robot that
-            cannot walk this way: its CoM moves sideways, with both soles flat,
-            less than half of :data:`SWAY_RATIO` times the feet's separation
-            (:func:`sideways_reach`; Unitree H1's legs have no ankle roll); the
-            message gives the longest single support that reach allows
-            (:func:`single_support_limit`).
+            cannot walk this way: its CoM moves sideways less than half of
+            :data:`SWAY_RATIO` times the feet's separation (:func:`sideways_reach`)
+            both with the soles flat and with them rolling (bounded); the message
+            gives the longest single support the flat reach allows
+            (:func:`single_support_limit`). A robot that reaches it only with
+            rolling soles (no ankle roll: Unitree H1) gets the rolling-sole gait
+            (:mod:`pik_mj.walking.rolling_gait`; values given are kept).
     """
     for name in overrides:
         if name not in _DERIVED or name == "dt":
@@ -390,8 +442,11 @@ def robot_gait(
     _check(gait)
     need = SWAY_RATIO * gait.foot_separation
     reach = sideways_reach(robot, soles, need)
-    if reach < 0.5 * need:
-        edge = 0.5 * (gait.foot_separation - geo.sole_size[1])
+    if reach >= 0.5 * need:
+        return gait
+    rolled = sideways_reach(robot, soles, need, rolling_soles=True)
+    edge = 0.5 * (gait.foot_separation - geo.sole_size[1])
+    if rolled < 0.5 * need:
         limit = single_support_limit(reach, edge, tc)
         raise InvalidInput(
             f"the robot cannot move its CoM sideways with both soles flat: {reach * 1e3:.0f} mm "
@@ -399,9 +454,24 @@ def robot_gait(
             "no joint that keeps a sole flat while the leg leans sideways); with the ZMP on "
             f"the stance sole, {edge * 1e3:.0f} mm to the side, its CoM leaves that range after "
             f"{limit * 1e3:.0f} ms of single support (T_c {tc:.2f} s), of the "
-            f"{gait.step_time - gait.double_support_time:.2f} s a step needs"
+            f"{gait.step_time - gait.double_support_time:.2f} s a step needs; with the soles "
+            f"rolling about their long axis, {rolled * 1e3:.0f} mm"
         )
-    return gait
+    flat = {"step_time": dt * max(2, round(STEP_TIME_RATIO * tc / dt))}
+    flat |= {"stride": gait.stride, "step_height": gait.step_height}
+    edge = 0.5 * gait.foot_separation
+    values = rolling_values(rolled, edge, tc, dt, flat, overrides.get("step_time"))
+    values = {k: v for k, v in values.items() if k not in overrides}
+    step_time = values.get("step_time", gait.step_time)
+    rolling = replace(
+        gait,
+        **values,
+        preview_time=overrides.get("preview_time", max(1.6, 2.0 * step_time)),
+        rolling_soles=True,
+        zmp_offsets=sole_zmp_offsets(robot, soles, PITCH_AXIS),
+    )
+    _check(rolling)
+    return rolling
 
 
 def gait_value(text: str) -> tuple[str, float]:
@@ -421,7 +491,9 @@ def gait_value(text: str) -> tuple[str, float]:
         raise InvalidInput(f"{name.strip()}: {value!r} is not a number") from None
 
 
-def sideways_reach(robot: Robot, soles: Mapping[str, Sole], distance: float) -> float:
+def sideways_reach(
+    robot: Robot, soles: Mapping[str, Sole], distance: float, *, rolling_soles: bool = False
+) -> float:
     """How far [m] the robot's CoM moves sideways, towards each foot, with both soles
     flat where they stand (the smaller of the two): the prioritized IK
     (:func:`pik_mj.solve.solve`) from the start pose with the knees bent
@@ -432,6 +504,10 @@ def sideways_reach(robot: Robot, soles: Mapping[str, Sole], distance: float) -> 
     The cart-table walk moves the CoM sideways between the feet during double
     support; a robot whose legs cannot (no roll joint between hip and sole
     that keeps the sole flat while the leg leans) reaches a few millimetres.
+    With ``rolling_soles`` each sole's roll about its long axis is asked flat
+    below the CoM, not with the feet (:mod:`pik_mj.walking.walk_tasks`), and the
+    reach is what the soles' bounded roll allows
+    (:func:`~pik_mj.walking.rolling_gait.bounded_reach`).
     """
     configuration = robot.configuration
     q0 = configuration.q.copy()
@@ -444,19 +520,28 @@ def sideways_reach(robot: Robot, soles: Mapping[str, Sole], distance: float) -> 
     try:
         for side in (-1.0, 1.0):
             configuration.update(bent_knees(robot, list(soles)))
+            roll = "x" if rolling_soles else True  # "x": the roll about x free
             tasks = [
-                FrameTask(configuration, sole.body, X, move_target_type="body")
+                FrameTask(configuration, sole.body, X, move_target_type="body", rotation_axis=roll)
                 for sole, X in zip(soles.values(), feet, strict=True)
             ]
+            flat = list(flat_sole_tasks(robot, soles).values()) if rolling_soles else []
+            for task, X in zip(flat, feet, strict=False):
+                task.set_target(X)
             com = CentroidTask(configuration, start + side * distance * lateral)
             levels = [
                 guard_level(configuration, robot.joint_names, range(adr, adr + 6)),
                 tasks,
                 [com],
+                *([flat] if flat else []),
                 [posture_task(configuration, 1e-2)],
             ]
             solve(configuration, levels, stop=60, revert_if_fail=False, qp_solver="daqp")
-            reached.append(float(abs((robot.com() - start) @ lateral)))
+            reach = float(abs((robot.com() - start) @ lateral))
+            if rolling_soles:
+                rotations = [sole.pose(model, data)[1] for sole in soles.values()]
+                reach = bounded_reach(reach, rotations, min(s.size[1] for s in soles.values()))
+            reached.append(reach)
     finally:
         configuration.update(q0)
     return min(reached)

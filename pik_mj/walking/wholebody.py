@@ -6,16 +6,10 @@ reference and the preview-control CoM. Here every tick is turned into a whole-bo
 configuration by the prioritized IK (:func:`pik_mj.solve.solve`), warm-started
 from the previous tick:
 
-* level 0 (hard): joint limits and the MJCF couplings
-  (:func:`pik_mj.robot.stack.guard_level`), and self-collision: every pair of the
-  robot's geoms MuJoCo collides (:func:`pik_mj.tasks.collision_pairs`, as the
-  robot ships: ``<contact><pair>``, ``<exclude>``, ``contype``/``conaffinity``)
-  kept apart (:class:`~pik_mj.tasks.CollisionAvoidanceTask`);
-* level 1: both soles on their planned poses (position, heading, sole flat) and
-  the CoM on the preview trajectory (xy) at the cart-table height (z);
-* level 2: the root body upright with the mid-feet heading, the joints other
-  than the legs' at the walk's pose (the legs carry the CoM, not the waist);
-* level 3: posture towards the first tick's pose (:data:`POSTURE_WEIGHT`).
+the stack of :mod:`pik_mj.walking.walk_tasks` (limits and self-collision; soles
+and CoM; the root upright and the upper body still; posture), with the soles'
+roll left to a lower level where the gait asks for rolling soles
+(``GaitParameters.rolling_soles``, legs without ankle roll).
 
 Each sole is the robot's :class:`~pik_mj.robot.ground.Sole` (its frame S fixed
 to the foot body B, from MuJoCo's floor contacts), so no site is needed: a sole
@@ -40,26 +34,24 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
 
-import mink
 import numpy as np
 
 from pik_mj.dynamics import zmp_of_motion
 from pik_mj.exceptions import InvalidInput, UnknownName
 from pik_mj.robot import Robot
 from pik_mj.robot.ground import Sole, robot_soles
-from pik_mj.robot.stack import guard_level, posture_task
 from pik_mj.solve import solve
-from pik_mj.spatial import rot_z, yaw_of
-from pik_mj.tasks.collision import CollisionAvoidanceTask
-from pik_mj.tasks.collision_pairs import collision_pairs
-from pik_mj.tasks.com import CentroidTask
-from pik_mj.tasks.frame import FrameTask
-from pik_mj.tasks.mink_adapter import MinkTask
+from pik_mj.spatial import yaw_of
 from pik_mj.walking.gait import Footstep, GaitParameters, GaitPlan, plan_gait
 from pik_mj.walking.preview import PreviewController
 from pik_mj.walking.support import support_margin
+from pik_mj.walking.walk_tasks import (
+    SELF_COLLISION_ORANGE,
+    SELF_COLLISION_YELLOW,
+    WalkTasks,
+    bent_knees,
+)
 
 __all__ = [
     "MAX_CORRECTIONS",
@@ -75,11 +67,6 @@ __all__ = [
 
 MAX_CORRECTIONS = 3
 """Most passes of the two-stage correction (module docstring)."""
-SELF_COLLISION_YELLOW = 0.05
-"""[m] Robot geoms nearer than this get a self-collision row (irteus' yellow zone)."""
-SELF_COLLISION_ORANGE = 0.005
-"""[m] The distance robot geoms keep (irteus' orange zone; a pair nearer at the start
-keeps its start distance)."""
 
 
 @dataclass(frozen=True)
@@ -213,167 +200,6 @@ def foot_force_sensors(robot: Robot, soles: Mapping[str, Sole]) -> dict[str, str
     return out
 
 
-POSTURE_WEIGHT = 1e-2
-"""[cost/rad²] Cost of moving away from the first tick's pose (the last level)."""
-KNEE_BEND = 0.4
-"""[rad] How far :func:`bent_knees` bends a straight knee before the first tick."""
-STRAIGHT_KNEE = float(np.sin(np.deg2rad(10.0)))
-"""A knee bent by less than 10° is straight (:func:`bent_knees`)."""
-
-
-def bent_knees(robot: Robot, legs: Sequence[str], bend: float = KNEE_BEND) -> np.ndarray:
-    """The robot's configuration with each straight knee bent by ``bend`` [rad]: the
-    first tick's start (the irteus manual's ``init-pose-function``). A straight leg
-    is singular: lowering its hip to the walk's CoM height has no first-order
-    knee motion, and the IK would crouch with the waist instead.
-
-    A leg's knee is a pitch joint between its first and last (hip and ankle
-    pitch; axes within 25° of lateral), of axis :math:`a` at anchor :math:`k`. Turning
-    it moves the ankle :math:`p_A` along :math:`a \\times (p_A - k)`, which changes
-    the hip–ankle distance :math:`\\|p_A - p_H\\|` at the rate
-
-    .. math::
-
-        \\sigma = \\frac{|u^T (a \\times (p_A - k))|}{\\|p_A - k\\|}, \\qquad
-        u = \\frac{p_A - p_H}{\\|p_A - p_H\\|}
-
-    (the sine of the knee's bend, 0 straight); a knee with :math:`\\sigma <`
-    :data:`STRAIGHT_KNEE` turns towards the far end of its range.
-    """
-    model, data = robot.model, robot.data
-    q = robot.configuration.q.copy()
-    for leg in legs:
-        joints = [model.joint(j).id for j in robot.limb(leg).joints]
-        pitch = [j for j in joints if abs(data.xaxis[j][1]) > 0.9]
-        if len(pitch) < 3:
-            continue
-        hip, ankle = data.xanchor[pitch[0]], data.xanchor[pitch[-1]]
-        u = (ankle - hip) / max(float(np.linalg.norm(ankle - hip)), 1e-12)
-        for knee in pitch[1:-1]:
-            lever = ankle - data.xanchor[knee]
-            rate = abs(u @ np.cross(data.xaxis[knee], lever)) / max(np.linalg.norm(lever), 1e-12)
-            if rate >= STRAIGHT_KNEE:
-                continue
-            adr = model.jnt_qposadr[knee]
-            lo, hi = model.jnt_range[knee] if model.jnt_limited[knee] else (-np.pi, np.pi)
-            toward = hi if hi - q[adr] >= q[adr] - lo else lo
-            q[adr] += np.clip(toward - q[adr], -bend, bend)
-    return q
-
-
-@dataclass(frozen=True)
-class _WalkTasks:
-    """The IK stack of a walk's ticks (module docstring) and its tasks."""
-
-    feet: dict[str, FrameTask]
-    soles: dict[str, Sole]
-    com: CentroidTask
-    upright: FrameTask
-    levels: list[list[Any]]
-    pairs: int
-
-    @property
-    def postures(self) -> list[mink.PostureTask]:
-        """The posture tasks (upper body, whole body), their targets the walk's pose."""
-        return [self.levels[2][1].task, self.levels[3][0].task]
-
-    @classmethod
-    def of(
-        cls,
-        robot: Robot,
-        soles: Mapping[str, Sole],
-        upright_body: str,
-        thre: float,
-        rthre: float,
-        self_collision: bool,
-    ) -> _WalkTasks:
-        configuration = robot.configuration
-        feet = {
-            leg: FrameTask(
-                configuration,
-                sole.body,
-                (robot.data.xpos[robot.model.body(sole.body).id].copy(), np.eye(3)),
-                move_target_type="body",
-                thre=thre,
-                rthre=rthre,
-                name=f"foot:{leg}",
-            )
-            for leg, sole in soles.items()
-        }
-        com = CentroidTask(
-            configuration, np.zeros(3), translation_axis=True, centroid_thre=thre, name="com"
-        )
-        upright = FrameTask(
-            configuration,
-            upright_body,
-            (np.zeros(3), np.eye(3)),
-            move_target_type="body",
-            translation_axis=None,
-            rthre=rthre,
-            name=f"upright:{upright_body}",
-        )
-        adr = robot.model.jnt_dofadr[robot.model.body_jntadr[robot.root_body_id]]
-        guard = guard_level(configuration, robot.joint_names, range(adr, adr + 6))
-        pairs = _self_collision(robot) if self_collision else None
-        if pairs is not None:
-            guard.append(pairs)
-        upper = _upper_body_posture(robot, soles)
-        levels: list[list[Any]] = [
-            guard,
-            [*feet.values(), com],
-            [upright, upper],
-            [posture_task(configuration, POSTURE_WEIGHT)],
-        ]
-        n_pairs = 0 if pairs is None else len(pairs.pairs)
-        return cls(feet, dict(soles), com, upright, levels, n_pairs)
-
-    def aim(self, plan: GaitPlan, k: int, com_ref: np.ndarray) -> None:
-        """Set the targets to the plan's tick ``k``: each foot body where its sole
-        lands on the plan (:math:`X_{WS}^* X_{BS}^{-1}`), the CoM ``com_ref`` [m],
-        the root upright with the mid-feet heading."""
-        yaw_mid = 0.0
-        for leg, task in self.feet.items():
-            sole = self.soles[leg]
-            yaw = float(plan.feet_yaw[leg][k])
-            R_WB = rot_z(yaw) @ sole.R_BS.T
-            task.set_target((plan.feet_p[leg][k] - R_WB @ sole.p_BS, R_WB))
-            yaw_mid += yaw / len(self.feet)
-        self.com.set_target(com_ref)
-        self.upright.set_target((np.zeros(3), rot_z(yaw_mid)))
-
-
-def _upper_body_posture(robot: Robot, soles: Mapping[str, Sole]) -> MinkTask:
-    """Cost 1 [cost/rad²] on moving the joints of the robot that are not the legs'
-    (``soles``) away from the walk's pose: the legs and the floating base carry the
-    CoM, the waist and the arms stay."""
-    model = robot.model
-    legs = {j for leg in soles for j in robot.limb(leg).joints}
-    cost = np.zeros(model.nv)
-    for name in robot.joint_names:
-        if name not in legs:
-            cost[model.jnt_dofadr[model.joint(name).id]] = 1.0
-    task = mink.PostureTask(model, cost=cost)
-    task.set_target_from_configuration(robot.configuration)
-    return MinkTask(task, name="upper_body_posture", check=False)
-
-
-def _self_collision(robot: Robot) -> CollisionAvoidanceTask | None:
-    """The self-collision rows of the walk (module docstring), or None when the
-    robot's geoms never collide with each other."""
-    model = robot.model
-    bodies = [model.body(b).name for b in robot.bodies() if model.body_geomnum[model.body(b).id]]
-    pairs = collision_pairs(model, robot.data, bodies)
-    if not pairs:
-        return None
-    return CollisionAvoidanceTask(
-        robot.configuration,
-        pairs,
-        yellow=SELF_COLLISION_YELLOW,
-        orange=SELF_COLLISION_ORANGE,
-        name="self_collision",
-    )
-
-
 def calc_walk_pattern(
     robot: Robot,
     footsteps: Sequence[Footstep],
@@ -457,7 +283,9 @@ def calc_walk_pattern(
     start = robot.configuration.q.copy()
     robot.configuration.update(bent_knees(robot, params.all_limbs))
     upright_body = robot.root_body if upright_body is None else upright_body
-    tasks = _WalkTasks.of(robot, soles, upright_body, ik_thre, ik_rthre, self_collision)
+    tasks = WalkTasks.of(
+        robot, soles, upright_body, ik_thre, ik_rthre, self_collision, params.rolling_soles
+    )
     loops = (stop, min_loop, init_stop)
     ticks = _track(robot, plan, tasks, loops, qp_solver, callback)
     zmp_computed = zmp_of_motion(
@@ -546,7 +374,7 @@ class _Ticks:
 def _track(
     robot: Robot,
     plan: GaitPlan,
-    tasks: _WalkTasks,
+    tasks: WalkTasks,
     loops: tuple[int, int, int],
     qp_solver: object,
     callback: Callable[[int, Robot], None] | None,
