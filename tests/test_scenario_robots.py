@@ -60,6 +60,7 @@ def pairs() -> list:
     return out
 
 
+@pytest.mark.long
 @pytest.mark.parametrize(("scenario", "robot"), pairs())
 def test_scenario_on_robot(scenario, robot, tmp_path):
     if robot in menagerie_models():

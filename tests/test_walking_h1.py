@@ -143,6 +143,7 @@ def walks_on_rolling_soles(done: Walk, soles, steps: int) -> None:
     assert lift < ROLL_LIFT and pelvis > math.radians(3.0)
 
 
+@pytest.mark.long
 def test_unitree_h1_walks_six_strides_on_rolling_soles(h1):
     robot, soles, gait = h1
     robot.reset_pose()

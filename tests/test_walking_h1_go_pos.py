@@ -12,6 +12,7 @@ from pik_mj.walking.walk import walk
 from pik_mj.walking.wholebody import feet_from_robot
 
 
+@pytest.mark.long
 def test_unitree_h1_goes_to_a_pose_on_rolling_soles(h1):  # noqa: F811
     """The go-pos's checks of the forward walk, and both feet end turned by 30°."""
     robot, soles, gait = h1
