@@ -166,7 +166,9 @@ class Physics:
             system |= subtree_mask(model, b)
         self._system_geom = system[model.geom_bodyid]
         self._system_view = _frozen(self._system_geom.copy())
+        self._system_list = self._system_geom.tolist()
         self._kin_data = mujoco.MjData(model)
+        self._regions: dict[bytes, balance.SupportRegion] = {}
         rm = robot.model
         servo_ids = [int(j) for j in robot.angle_joint_ids]
         self.servo_joints = [rm.joint(j).name for j in servo_ids]
@@ -180,6 +182,7 @@ class Physics:
         self._probe_data = mujoco.MjData(self._probe_model)
         self.geom_names = tuple(model.geom(g).name for g in range(model.ngeom))
         self._body_names = [model.body(b).name for b in range(model.nbody)]
+        self._geom_body_names = [self._body_names[b] for b in model.geom_bodyid.tolist()]
         self.geom_ids = MappingProxyType({n: g for g, n in enumerate(self.geom_names) if n})
         self.foot_geoms = [rm.geom(g).name for g in foot_geoms(robot)]
         self._foot_ids = np.array([self.geom_ids[n] for n in self.foot_geoms], dtype=int)
@@ -325,31 +328,36 @@ class Physics:
         """Robot contacts (with the environment and self-contacts) in ``data``
         (default: physics; or :meth:`probe`'s state) with ``dist <= max_dist`` [m]."""
         d = self.data if data is None else data
-        system, geoms, bodies = self._system_geom, self.geom_names, self._body_names
-        geom_body = self.model.geom_bodyid
+        if not d.ncon:
+            return []
+        system, geoms = self._system_list, self.geom_names
+        con = d.contact  # MuJoCo's contact arrays, read at once
+        dist, exclude = con.dist.tolist(), con.exclude.tolist()
+        keep, pairs = [], []
+        for i, (g1, g2) in enumerate(con.geom.tolist()):
+            r1, r2 = system[g1], system[g2]
+            if dist[i] <= max_dist and exclude[i] in (0, 1) and (r1 or r2):
+                keep.append(i)
+                pairs.append((g1, g2, r1, r2))
+        if not keep:
+            return []
+        # MuJoCo's normal frame[0:3] points from geom1 to geom2: it pushes geom2.
+        normal = con.frame[keep, :3]
+        flip = [k for k, (_, _, _, r2) in enumerate(pairs) if not r2]
+        normal[flip] = -normal[flip]
+        position, friction = con.pos[keep], con.friction[keep, 0].tolist()
         out: list[ContactInfo] = []
-        for i in range(d.ncon):
-            c = d.contact[i]
-            if c.dist > max_dist or c.exclude not in (0, 1):
-                continue
-            g1, g2 = int(c.geom1), int(c.geom2)
-            r1, r2 = bool(system[g1]), bool(system[g2])
-            if not (r1 or r2):
-                continue
-            # MuJoCo's normal frame[0:3] points from geom1 to geom2: it pushes geom2.
-            n = np.array(c.frame[:3])
+        for k, (g1, g2, r1, r2) in enumerate(pairs):
             robot, other = (g2, g1) if r2 else (g1, g2)
-            if not r2:
-                n = -n
             out.append(
                 ContactInfo(
                     robot_geom=geoms[robot],
                     other_geom=geoms[other],
-                    other_body=bodies[geom_body[other]],
-                    position=np.array(c.pos),
-                    normal=n,
-                    dist=float(c.dist),
-                    friction=float(c.friction[0]),
+                    other_body=self._geom_body_names[other],
+                    position=position[k],
+                    normal=normal[k],
+                    dist=dist[keep[k]],
+                    friction=friction[k],
                     self_contact=r1 and r2,
                 )
             )
@@ -426,15 +434,23 @@ class Physics:
     def support_region(self, points: np.ndarray) -> balance.SupportRegion | None:
         """Convex hull (:func:`pik_mj.balance.support_polygon`, degenerate allowed)
         of ground contact points (n, 3) [m] projected along gravity; None without
-        points."""
+        points. The region of points seen before is the one built then (read only)."""
         if not len(points):
             return None
         up = self.up()
-        uv = points @ balance.plane_basis(up)[:, :2]
-        extent = float(np.max(np.ptp(uv, axis=0))) if len(uv) > 1 else 0.0
-        return balance.support_polygon(
-            [points], up, allow_degenerate=True, tol=max(1e-9, 1e-6 * extent)
-        )
+        points = np.ascontiguousarray(points, dtype=float)
+        key = up.tobytes() + points.tobytes() + repr(points.shape).encode()
+        region = self._regions.get(key)
+        if region is None:
+            uv = points @ balance.plane_basis(up)[:, :2]
+            extent = float(np.max(np.ptp(uv, axis=0))) if len(uv) > 1 else 0.0
+            region = balance.support_polygon(
+                [points], up, allow_degenerate=True, tol=max(1e-9, 1e-6 * extent)
+            )
+            if len(self._regions) >= _REGIONS_KEPT:
+                self._regions.clear()
+            self._regions[key] = region
+        return region
 
     def ground_points(self, qpos: np.ndarray, max_slope: float) -> tuple[np.ndarray, bytes]:
         """The points ``p_WC`` (n, 3) [m] of :meth:`support`: the robot's (and its
@@ -512,6 +528,10 @@ class Physics:
             SimulationUnstable: A warning fired or the state is not finite.
         """
         self._guard.step(n, before_step=before_step)
+
+
+_REGIONS_KEPT = 256
+"""Support regions :meth:`Physics.support_region` keeps, by their points."""
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -50,6 +50,10 @@ def min_jerk(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
+_INVERSE_TABLE = (np.linspace(0.0, 1.0, 4001), min_jerk(np.linspace(0.0, 1.0, 4001))[0])
+"""``τ`` and ``m(τ)`` on a grid: the table :meth:`Timing.times_of` inverts ``m`` on."""
+
+
 class Timing:
     """The timing of a path (module docstring).
 
@@ -120,8 +124,7 @@ class Timing:
         (the minimum-jerk profile inverted; a ``σ`` on a segment boundary: the
         boundary's time)."""
         sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
-        table = np.linspace(0.0, 1.0, 4001)
-        m = min_jerk(table)[0]
+        table, m = _INVERSE_TABLE
         k = np.searchsorted(self.span[:, 1], sigma, side="left")
         k = np.clip(k, 0, len(self.first) - 1)
         (s0, s1), t0, D = self.span[k].T, self.starts[k], self.durations[k]

@@ -46,7 +46,7 @@ import numpy as np
 
 from pik_mj.dynamics import zmp_points
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.knots import PathDynamics, knot_times
+from pik_mj.sim.knots import Knot, PathDynamics, knot_times
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 
@@ -143,7 +143,7 @@ def plan_zmp(
         dynamics = PathDynamics(scene, path, external, ramp)
     dof = int(rm.jnt_dofadr[free[0]])
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
-    kept, parts, origin, edges = [], [], [], []
+    sigmas, rows, frames, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
     for sigma in knot_times(path):
         knot = dynamics.at(sigma)
@@ -153,26 +153,37 @@ def plan_zmp(
             seen = points
         if region is None or region.halfplanes is None:
             continue
-        R, R_B = region.R, knot.xmat[body].reshape(3, 3)
-        Q = [knot.rest, knot.inertia, knot.velocity + knot.curvature, knot.damping]
-        wrench = [
-            np.concatenate([R.T @ x[dof : dof + 3], R.T @ (R_B @ x[dof + 3 : dof + 6])]) for x in Q
-        ]
-        if wrench[0][2] <= 0:
-            continue
-        kept.append(sigma)
-        parts.append(wrench)
-        origin.append(R.T @ knot.xpos[body] - np.array([0.0, 0.0, region.height]))
+        sigmas.append(sigma)
+        rows.append([x[dof : dof + 6] for x in _parts(knot)])
+        frames.append((region, knot.xmat[body].reshape(3, 3), knot.xpos[body]))
         edges.append((np.asarray(region.halfplanes.A), np.asarray(region.halfplanes.b)))
-    if not kept:
+    if not sigmas:
         return None
+    Q = np.array(rows)  # (k, 4, 6): the free joint's rows of Q_s, Q_a, Q_v + Q_c, Q_d
+    R = np.array([region.R for region, _, _ in frames])  # (k, 3, 3)
+    R_B = np.array([R_Bk for _, R_Bk, _ in frames])
+    force = Q[..., :3] @ R  # R^T F, row by row
+    moment = (Q[..., 3:] @ np.transpose(R_B, (0, 2, 1))) @ R  # R^T R_B n
+    height = np.array([[0.0, 0.0, region.height] for region, _, _ in frames])
+    origin = np.einsum("kj,kji->ki", np.array([o for _, _, o in frames]), R) - height
+    kept = force[:, 0, 2] > 0
     plan = ZmpPlan(
-        np.array(kept), np.transpose(np.array(parts), (1, 0, 2)), np.array(origin), edges,
-        np.zeros(len(kept)),
-    )  # fmt: skip
-    zero = np.zeros(len(kept))
+        np.array(sigmas)[kept],
+        np.transpose(np.concatenate([force, moment], axis=2)[kept], (1, 0, 2)),
+        origin[kept],
+        [e for e, k in zip(edges, kept, strict=True) if k],
+        np.zeros(int(kept.sum())),
+    )
+    if not len(plan.sigma):
+        return None
+    zero = np.zeros(len(plan.sigma))
     plan.rest_margin = plan.margins(zero, zero)
     return plan
+
+
+def _parts(knot: Knot) -> list[np.ndarray]:
+    """``Q_s, Q_a, Q_v + Q_c, Q_d`` (nv each) of a knot."""
+    return [knot.rest, knot.inertia, knot.velocity + knot.curvature, knot.damping]
 
 
 def stretch_for_balance(
