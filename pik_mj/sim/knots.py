@@ -39,7 +39,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from pik_mj.dynamics import external_torques, inverse_dynamics
@@ -125,7 +124,7 @@ class PathDynamics:
         self.scene, self.path = scene, path
         self.external = [(f, np.asarray(F, float), np.asarray(M, float)) for f, F, M in external]
         self.ramp = bool(ramp)
-        self.data = mujoco.MjData(scene.model)
+        self.data = scene.workspace()  # every evaluation writes qpos, qvel, qacc
         self._knots: dict[float, Knot] = {}
         self.evaluations = 0
         sigma = knot_times(path)
@@ -134,39 +133,60 @@ class PathDynamics:
     def at(self, sigma: float, support: bool = False) -> Knot:
         """The knot at nominal time ``σ`` [s]; ``support``: with its
         :class:`~pik_mj.sim.torques.ContactSupport`."""
-        sigma = float(sigma)
-        knot = self._knots.get(sigma)
-        if knot is None or (support and knot.support is None):
-            knot = self._evaluate(sigma, support)
-            self._knots[sigma] = knot
-        return knot
+        return self.many([sigma], support)[0]
 
-    def _evaluate(self, sigma: float, support: bool) -> Knot:
-        self.evaluations += 1
+    def many(self, sigmas: Sequence[float], support: bool = False) -> list[Knot]:
+        """The knots at the nominal times ``σ`` [s] (as :meth:`at`), those not
+        evaluated yet evaluated together."""
+        sigmas = [float(sigma) for sigma in sigmas]
+        missing = [
+            sigma
+            for sigma in dict.fromkeys(sigmas)
+            if (knot := self._knots.get(sigma)) is None or (support and knot.support is None)
+        ]
+        if missing:
+            self._knots.update(zip(missing, self._evaluate(missing, support), strict=True))
+        return [self._knots[sigma] for sigma in sigmas]
+
+    def _evaluate(self, sigmas: list[float], support: bool) -> list[Knot]:
+        self.evaluations += len(sigmas)
         scene, d = self.scene, self.data
-        m, nv = scene.model, scene.robot.model.nv
-        q, d1, d2 = self._poses.get(sigma) or self.path.at(sigma)
-        qpos = scene.qpos_of(q)
-        v, a, zero = np.zeros(m.nv), np.zeros(m.nv), np.zeros(m.nv)
-        v[:nv], a[:nv] = d1, d2
-        g, accel, plus, minus, bend = inverse_dynamics(
-            m, d, qpos, np.array([zero, zero, v, -v, zero]), np.array([zero, v, zero, zero, a])
-        )
+        m, nv, k = scene.model, scene.robot.model.nv, len(sigmas)
+        poses = [self._poses.get(sigma) or self.path.at(sigma) for sigma in sigmas]
+        v, a, zero = np.zeros((k, m.nv)), np.zeros((k, m.nv)), np.zeros((k, m.nv))
+        v[:, :nv], a[:, :nv] = [p[1] for p in poses], [p[2] for p in poses]
+        rates = np.stack([zero, zero, v, -v, zero], axis=1)  # (q̇, q̈) of the five
+        accels = np.stack([zero, v, zero, zero, a], axis=1)
         S = float(self.path.timing.nominal[-1])
-        s = sigma / S if (self.ramp and S > 0) else 1.0
-        load = [(f, s * F, s * M) for f, F, M in self.external]
-        contacts = scene.touching(qpos)
-        return Knot(
-            sigma=sigma,
-            q=q,
-            qpos=qpos,
-            contacts=contacts,
-            rest=g - external_torques(m, d, load) - weight_torques(scene, d),
-            inertia=accel - g,
-            velocity=0.5 * (plus + minus) - g,
-            damping=0.5 * (plus - minus),
-            curvature=bend - g,
-            xpos=d.xpos.copy(),
-            xmat=d.xmat.copy(),
-            support=ContactSupport(scene, d, contacts) if support else None,
-        )
+        taus, external, weight = np.empty((k, 5, m.nv)), np.empty((k, m.nv)), np.empty((k, m.nv))
+        qpos, contacts, supports, xpos, xmat = [], [], [], [], []
+        for i, sigma in enumerate(sigmas):
+            qpos.append(scene.qpos_of(poses[i][0]))
+            taus[i] = inverse_dynamics(m, d, qpos[i], rates[i], accels[i])
+            s = sigma / S if (self.ramp and S > 0) else 1.0
+            external[i] = external_torques(m, d, [(f, s * F, s * M) for f, F, M in self.external])
+            weight[i] = weight_torques(scene, d)
+            contacts.append(scene.touching(qpos[i]))
+            supports.append(ContactSupport(scene, d, contacts[i]) if support else None)
+            xpos.append(d.xpos.copy())
+            xmat.append(d.xmat.copy())
+        g, accel, plus, minus, bend = np.transpose(taus, (1, 0, 2))
+        rest, inertia, curvature = g - external - weight, accel - g, bend - g
+        velocity, damping = 0.5 * (plus + minus) - g, 0.5 * (plus - minus)
+        return [
+            Knot(
+                sigma,
+                poses[i][0],
+                qpos[i],
+                contacts[i],
+                rest[i],
+                inertia[i],
+                velocity[i],
+                damping[i],
+                curvature[i],
+                xpos[i],
+                xmat[i],
+                supports[i],
+            )
+            for i, sigma in enumerate(sigmas)
+        ]

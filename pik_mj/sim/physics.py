@@ -168,6 +168,7 @@ class Physics:
         self._system_view = _frozen(self._system_geom.copy())
         self._system_list = self._system_geom.tolist()
         self._kin_data = mujoco.MjData(model)
+        self._workspace: mujoco.MjData | None = None
         self._regions: dict[bytes, balance.SupportRegion] = {}
         rm = robot.model
         servo_ids = [int(j) for j in robot.angle_joint_ids]
@@ -271,6 +272,14 @@ class Physics:
         mujoco.mj_kinematics(self.model, data)
         mujoco.mj_comPos(self.model, data)
         return data
+
+    def workspace(self) -> mujoco.MjData:
+        """A data of :attr:`model` to compute in, shared by its callers (made
+        once): for a computation that writes every input it reads (``qpos``,
+        ``qvel``, ``qacc`` before ``mj_inverse``), valid until the next caller's."""
+        if self._workspace is None:
+            self._workspace = mujoco.MjData(self.model)
+        return self._workspace
 
     def set_pose(self, q: ArrayLike) -> None:
         """Write the robot configuration ``q`` into the physics state: zero

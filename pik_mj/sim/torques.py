@@ -157,9 +157,7 @@ class ContactSupport:
             body = m.geom_bodyid[scene.geom_ids[c.robot_geom]]
             mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, c.position, body)
         self._J = J
-        self._distribution = ContactDistribution.of_points(
-            [c.position for c in env], [c.normal for c in env], [c.friction for c in env]
-        )
+        self._distribution = _distribution(env)
         self._carried: np.ndarray | None = None
 
     def wrench(self, tau: np.ndarray) -> np.ndarray:
@@ -187,6 +185,27 @@ class ContactSupport:
                 L = np.linalg.pinv(self._distribution.A)
             self._carried = self._J.T @ L @ self._wrench  # (nv, 6)
         return tau - self._carried @ tau[self._dofs]
+
+
+_DISTRIBUTIONS: dict[bytes, ContactDistribution] = {}
+_DISTRIBUTIONS_KEPT = 256
+
+
+def _distribution(contacts: Sequence[ContactInfo]) -> ContactDistribution:
+    """:meth:`~pik_mj.dynamics.ContactDistribution.of_points` of the contacts'
+    points, normals and friction; the one of the same values is kept (with its
+    least-norm map, formed once)."""
+    points = np.array([c.position for c in contacts], dtype=float)
+    normals = np.array([c.normal for c in contacts], dtype=float)
+    mu = np.array([c.friction for c in contacts], dtype=float)
+    key = points.tobytes() + normals.tobytes() + mu.tobytes()
+    found = _DISTRIBUTIONS.get(key)
+    if found is None:
+        found = ContactDistribution.of_points(points, normals, mu)
+        if len(_DISTRIBUTIONS) >= _DISTRIBUTIONS_KEPT:
+            _DISTRIBUTIONS.clear()
+        _DISTRIBUTIONS[key] = found
+    return found
 
 
 def drive_shortfalls(scene: Physics, q: np.ndarray, tau: np.ndarray) -> list[DriveShortfall]:

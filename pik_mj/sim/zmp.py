@@ -145,8 +145,8 @@ def plan_zmp(
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
     sigmas, rows, frames, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
-    for sigma in knot_times(path):
-        knot = dynamics.at(sigma)
+    for knot in dynamics.many(knot_times(path)):
+        sigma = knot.sigma
         points = np.array([c.position for c in knot.contacts]).reshape(-1, 3)
         if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
             region, _ = scene.support(knot.contacts, np.zeros(3), GROUND_SLOPE)
