@@ -30,7 +30,8 @@ Each time is the median of ``--repeats`` runs, the runs of the compared pair
 alternating (a change of the machine's load hits both). Ratios are time over
 the raw ``mj_step`` time, by two clocks: the CPU time of this process (what a
 busy shared machine does not distort: the rollout steps in the calling thread)
-and the wall time; ``play - plan`` is the playback without its torque plan.
+and the wall time; ``play - plan`` is the playback without its plan, ``plan /
+raw`` the plan over the raw ``mj_step`` of the motion.
 The batch's times are wall times (``hold_many`` runs on threads).
 
 Run: ``MENAGERIE_ROOT=... python benchmarks/bench_physics.py [--repeats 5] [--batch 8]
@@ -192,7 +193,7 @@ def _table(rows: list[dict], clock: str, wall: bool) -> None:
     print(
         f"{'robot':16} {'nv':>3} {'hold [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} "
         f"{'play [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} {'plan [ms]':>10} "
-        f"{'play - plan':>12}"
+        f"{'play - plan':>12} {'plan / raw':>11}"
     )
     for r in rows:
         h, hp, p, pp = r["hold"], r["hold per step"], r["play"], r["play per step"]
@@ -200,7 +201,8 @@ def _table(rows: list[dict], clock: str, wall: bool) -> None:
             f"{r['robot']:16} {r['nv']:>3} {1e3 * h[time_of]:>10.1f} {1e3 * h[raw]:>8.1f} "
             f"{h[ratio]:>5.2f}x {hp[ratio]:>8.2f}x {1e3 * p[time_of]:>10.1f} "
             f"{1e3 * p[raw]:>8.1f} {p[ratio]:>5.2f}x {pp[ratio]:>8.2f}x "
-            f"{1e3 * r[plan]:>10.1f} {(p[time_of] - r[plan]) / p[raw]:>11.2f}x"
+            f"{1e3 * r[plan]:>10.1f} {(p[time_of] - r[plan]) / p[raw]:>11.2f}x "
+            f"{r[plan] / p[raw]:>10.2f}x"
         )
 
 
