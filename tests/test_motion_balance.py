@@ -123,8 +123,8 @@ def test_the_plan_s_zmp_is_the_inverse_dynamics_one():
     robot = Robot.from_model("sample_humanoid")
     scene = Scene.from_robot(robot)
     path = _zigzag(robot)
-    blended, timing, _ = _blended(robot, path)
-    plan = zmp.plan_zmp(scene, blended, timing)
+    blended, _, _ = _blended(robot, path)
+    plan = zmp.plan_zmp(scene, blended)
     k = len(plan.sigma)
     assert k > 20
     rng = np.random.default_rng(0)

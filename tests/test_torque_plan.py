@@ -282,8 +282,8 @@ def test_both_plans_read_one_evaluation_per_knot():
     shared = knots.PathDynamics(scene, ref.path)
     torques = effort.plan_torques(scene, ref.q, dv, ref.timing, dynamics=shared)
     evaluated = shared.evaluations
-    plan = zmp.plan_zmp(scene, ref.path, ref.timing, dynamics=shared)
-    apart = zmp.plan_zmp(scene, ref.path, ref.timing)
+    plan = zmp.plan_zmp(scene, ref.path, dynamics=shared)
+    apart = zmp.plan_zmp(scene, ref.path)
     assert shared.evaluations == len(zmp_knots := knots.knot_times(ref.path))
     assert set(torques.sigma) <= set(zmp_knots) and evaluated < len(zmp_knots)
     np.testing.assert_array_equal(torques.rest, ref.torques.rest)

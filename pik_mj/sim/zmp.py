@@ -124,7 +124,6 @@ class ZmpPlan:
 def plan_zmp(
     scene: Physics,
     path: BlendedPath,
-    timing: Timing,
     external: Sequence[External] = (),
     ramp: bool = False,
     dynamics: PathDynamics | None = None,
@@ -197,7 +196,7 @@ def stretch_for_balance(
     """Slow down each segment of ``timing`` whose knots' ZMP leaves the reserve
     (module docstring; ``timing.stretch`` is updated; ``dynamics``: as
     :func:`plan_zmp`). Returns the segments stretched, ``{segment index: c}``."""
-    plan = plan_zmp(scene, path, timing, external, ramp, dynamics)
+    plan = plan_zmp(scene, path, external, ramp, dynamics)
     if plan is None:
         return {}
     t = timing.times_of(plan.sigma)
