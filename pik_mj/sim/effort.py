@@ -170,22 +170,14 @@ def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray, ra
 
 
 def _stretch(plan: TorquePlan, knots: _Knots, lo: np.ndarray, hi: np.ndarray) -> None:
-    """Slow down each segment whose knots need it (bisection on its stretch)."""
-    timing, dofs = knots.timing, knots.scene.servo_dofs
-    base = timing.stretch.copy()
-    t = timing.times_of(plan.sigma)
-    _, rate, accel = timing.progress(t)
-    segment = timing.segment_of(t)
-    ok = _fits(plan, dofs, lo, hi, (rate, accel))
-    for k in np.unique(segment[~ok]):
-        mine = segment == k
-        low, high = 1.0, MAX_STRETCH
-        for _ in range(30):
-            c = 0.5 * (low + high)
-            fits = _fits(plan, dofs, lo, hi, (rate / c, accel / c**2))
-            low, high = (low, c) if np.all(fits[mine]) else (c, high)
-        timing.stretch[k] = base[k] * high
-        plan.stretched[int(k)] = float(timing.stretch[k])
+    """Slow down each segment whose knots need it (:meth:`Timing.stretch_until`;
+    ``_fits`` is knot by knot)."""
+    dofs = knots.scene.servo_dofs
+    plan.stretched.update(
+        knots.timing.stretch_until(
+            plan.sigma, lambda rate, accel: _fits(plan, dofs, lo, hi, (rate, accel)), MAX_STRETCH
+        )
+    )
 
 
 def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:

@@ -30,7 +30,7 @@ through blends (:class:`~pik_mj.sim.blends.BlendedPath`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -131,6 +131,34 @@ class Timing:
         moving = s1 > s0
         frac = np.where(moving, (sigma - s0) / np.where(moving, s1 - s0, 1.0), 1.0)
         return t0 + D * np.interp(np.clip(frac, 0.0, 1.0), m, table)
+
+    def stretch_until(
+        self,
+        sigma: np.ndarray,
+        fits: Callable[[np.ndarray, np.ndarray], np.ndarray],
+        max_stretch: float,
+    ) -> dict[int, float]:
+        """Slow down each segment with a knot that does not fit until all its knots
+        do: its stretch ``c_k`` multiplied by the least ``c`` in ``[1, max_stretch]``
+        (bisection, 30 halvings) at which ``fits(σ̇', σ̈')`` holds on every knot of
+        the segment, its rates ``σ̇ / c`` and ``σ̈ / c²`` (the other knots' as they
+        are). ``fits`` gives, per knot at nominal times ``sigma`` [s], whether it
+        fits at rates ``(σ̇, σ̈)`` (k,) each, knot by knot. Returns the segments
+        slowed, ``{k: c_k}``."""
+        t = self.times_of(sigma)
+        _, rate, accel = self.progress(t)
+        segment = self.segment_of(t)
+        out = {}
+        for k in np.unique(segment[~fits(rate, accel)]):
+            mine = segment == k
+            low, high = 1.0, max_stretch
+            for _ in range(30):
+                c = 0.5 * (low + high)
+                ok = fits(np.where(mine, rate / c, rate), np.where(mine, accel / c**2, accel))
+                low, high = (low, c) if np.all(ok[mine]) else (c, high)
+            self.stretch[k] *= high
+            out[int(k)] = float(self.stretch[k])
+        return out
 
     def waypoint_times(self) -> np.ndarray:
         """Time [s] of each waypoint: ``σ(t_i) = σ_i``."""

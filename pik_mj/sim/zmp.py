@@ -199,18 +199,4 @@ def stretch_for_balance(
     plan = plan_zmp(scene, path, external, ramp, dynamics)
     if plan is None:
         return {}
-    t = timing.times_of(plan.sigma)
-    _, rate, accel = timing.progress(t)
-    segment = timing.segment_of(t)
-    ok = plan.fits(rate, accel)
-    out = {}
-    for k in np.unique(segment[~ok]):
-        mine = segment == k
-        low, high = 1.0, MAX_STRETCH
-        for _ in range(30):
-            c = 0.5 * (low + high)
-            fits = plan.fits(np.where(mine, rate / c, rate), np.where(mine, accel / c**2, accel))
-            low, high = (low, c) if np.all(fits[mine]) else (c, high)
-        timing.stretch[k] *= high
-        out[int(k)] = float(timing.stretch[k])
-    return out
+    return timing.stretch_until(plan.sigma, plan.fits, MAX_STRETCH)
