@@ -144,11 +144,13 @@ def plan_zmp(
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
     sigmas, rows, frames, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
+    up, cos_max = scene.up(), math.cos(GROUND_SLOPE)
     for knot in dynamics.many(knot_times(path)):
-        sigma = knot.sigma
-        points = np.array([c.position for c in knot.contacts]).reshape(-1, 3)
+        sigma, contacts = knot.sigma, knot.contacts
+        points = contacts.points
         if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
-            region, _ = scene.support(knot.contacts, np.zeros(3), GROUND_SLOPE)
+            ground = ~contacts.self_contact & (contacts.normals @ up >= cos_max)
+            region = scene.support_region(points[ground])  # as Physics.support
             seen = points
         if region is None or region.halfplanes is None:
             continue
