@@ -237,6 +237,7 @@ class ContactDistribution:
         for start in moments:
             A[3:, start : start + 3] = np.eye(3)
         self.A, self.n, self.cols, self.weights = A, n, cols, np.array(weights)
+        self._points_only = n == 3 * len(cols)  # every contact a point: a force alone
         self.G = np.zeros((sum(len(d) for _, _, d in limits), n))
         self.h = np.concatenate([d for _, _, d in limits]) if limits else np.zeros(0)
         r = 0
@@ -295,6 +296,9 @@ class ContactDistribution:
         if x is None:
             return None
         out = np.zeros((len(self.cols), 6))
+        if self._points_only:  # forces alone, three columns each
+            out[:, :3] = (scale * x).reshape(-1, 3)
+            return out
         for i, (start, k) in enumerate(self.cols):
             out[i, :k] = scale * x[start : start + k]
         return out

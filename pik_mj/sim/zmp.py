@@ -46,7 +46,7 @@ import numpy as np
 
 from pik_mj.dynamics import zmp_points
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.knots import Knot, PathDynamics
+from pik_mj.sim.knots import PathDynamics
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 
@@ -141,6 +141,7 @@ def plan_zmp(
     if dynamics is None:
         dynamics = PathDynamics(scene, path, external, ramp)
     dof = int(rm.jnt_dofadr[free[0]])
+    free_rows = slice(dof, dof + 6)
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
     sigmas, rows, frames, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
@@ -155,7 +156,14 @@ def plan_zmp(
         if region is None or region.halfplanes is None:
             continue
         sigmas.append(sigma)
-        rows.append([x[dof : dof + 6] for x in _parts(knot)])
+        rows.append(  # Q_s, Q_a, Q_v + Q_c, Q_d: the free joint's rows
+            (
+                knot.rest[free_rows],
+                knot.inertia[free_rows],
+                knot.velocity[free_rows] + knot.curvature[free_rows],
+                knot.damping[free_rows],
+            )
+        )
         frames.append((region, knot.xmat[body].reshape(3, 3), knot.xpos[body]))
         edges.append((np.asarray(region.halfplanes.A), np.asarray(region.halfplanes.b)))
     if not sigmas:
@@ -180,11 +188,6 @@ def plan_zmp(
     zero = np.zeros(len(plan.sigma))
     plan.rest_margin = plan.margins(zero, zero)
     return plan
-
-
-def _parts(knot: Knot) -> list[np.ndarray]:
-    """``Q_s, Q_a, Q_v + Q_c, Q_d`` (nv each) of a knot."""
-    return [knot.rest, knot.inertia, knot.velocity + knot.curvature, knot.damping]
 
 
 def stretch_for_balance(
