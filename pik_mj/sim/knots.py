@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from pik_mj.dynamics import external_torques, inverse_dynamics
+from pik_mj.dynamics import external_torques, inverse_dynamics_many
 from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
@@ -107,17 +107,17 @@ def robot_contacts(scene: Physics, probes: Sequence[tuple[np.ndarray, ...]]) -> 
     ``dist`` within the scene's ``contact_tolerance``, not excluded; its
     normal turned into the robot's geom (MuJoCo's ``frame[0:3]`` points from
     geom1 to geom2)."""
-    counts = np.cumsum([len(p[1]) for p in probes])[:-1]
+    ends = np.cumsum([len(p[1]) for p in probes]).tolist()
     g, dist, exclude, frame, pos, mu = (np.concatenate([p[i] for p in probes]) for i in range(6))
     g = g.reshape(-1, 2)
     system = scene.system_geoms
     r1, r2 = system[g[:, 0]], system[g[:, 1]]
     keep = (dist <= scene.contact_tolerance) & ((exclude == 0) | (exclude == 1)) & (r1 | r2)
     normal = np.where(r2[:, None], frame, -frame)
-    parts = (np.where(r2, g[:, 1], g[:, 0]), pos, normal, mu, r1 & r2)
-    split = [np.split(x, counts) for x in parts]
-    kept = np.split(keep, counts)
-    return [KnotContacts(*(x[k][mask] for x in split)) for k, mask in enumerate(kept)]
+    parts = [x[keep] for x in (np.where(r2, g[:, 1], g[:, 0]), pos, normal, mu, r1 & r2)]
+    ends = np.concatenate([[0], np.cumsum(keep)])[ends].tolist()  # of the kept, per probe
+    starts = [0, *ends[:-1]]
+    return [KnotContacts(*(x[a:b] for x in parts)) for a, b in zip(starts, ends, strict=True)]
 
 
 @dataclass
@@ -162,6 +162,7 @@ class PathDynamics:
         ramp: The wrenches grow with the path's progress ``σ / S``.
 
     Attributes:
+        sigma: The nominal times [s] of :func:`knot_times` of ``path``.
         evaluations: Knots evaluated so far (each ``mj_inverse`` batch counts once).
     """
 
@@ -178,9 +179,9 @@ class PathDynamics:
         self.data = scene.workspace()  # every evaluation writes qpos, qvel, qacc
         self._knots: dict[float, Knot] = {}
         self.evaluations = 0
-        sigma = knot_times(path)
-        self._row = {s: i for i, s in enumerate(sigma.tolist())}
-        self._poses = path.many(sigma)
+        self.sigma = knot_times(path)
+        self._row = {s: i for i, s in enumerate(self.sigma.tolist())}
+        self._poses = path.many(self.sigma)
         m = scene.model
         self._held = np.array([body for _, body in scene.held_objects], dtype=int)
         self._robot_body = m.geom_bodyid  # of each contact's robot geom
@@ -242,19 +243,21 @@ class PathDynamics:
         rates = np.stack([zero, zero, v, -v, zero], axis=1)  # (q̇, q̈) of the five
         accels = np.stack([zero, v, zero, zero, a], axis=1)
         S = float(self.path.timing.nominal[-1])
-        taus, external, weight = np.empty((k, 5, m.nv)), np.zeros((k, m.nv)), np.zeros((k, m.nv))
+        external, weight = np.zeros((k, m.nv)), np.zeros((k, m.nv))
         xpos, xmat = np.empty((k, m.nbody, 3)), np.empty((k, m.nbody, 9))
-        probes = []
-        for i, sigma in enumerate(sigmas):
-            taus[i] = inverse_dynamics(m, d, qpos[i], rates[i], accels[i])
+        held, ramp = len(self._held), self.ramp and S > 0
+
+        def loads(i: int) -> None:  # d holds the kinematics at qpos[i]
             if self.external:
-                s = sigma / S if (self.ramp and S > 0) else 1.0
+                s = sigmas[i] / S if ramp else 1.0
                 wrenches = [(f, s * F, s * M) for f, F, M in self.external]
                 external[i] = external_torques(m, d, wrenches)
-            if len(self._held):
+            if held:
                 weight[i] = weight_torques(scene, d)
             xpos[i], xmat[i] = d.xpos, d.xmat
-            probes.append(scene.probe_contacts(qpos[i], friction=True))
+
+        taus = inverse_dynamics_many(m, d, qpos, rates, accels, loads)
+        probes = [scene.probe_contacts(x, friction=True) for x in qpos]
         contacts = robot_contacts(scene, probes)
         g, accel, plus, minus, bend = np.transpose(taus, (1, 0, 2))
         rest, inertia, curvature = g - external - weight, accel - g, bend - g

@@ -55,7 +55,7 @@ import numpy as np
 from pik_mj.exceptions import InvalidInput
 from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.effort import plan_torques
-from pik_mj.sim.knots import PathDynamics, knot_times
+from pik_mj.sim.knots import PathDynamics
 from pik_mj.sim.path import Waypoints
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.servos import ServoLaw
@@ -218,7 +218,7 @@ class MotionReference:
         self.path = BlendedPath(rm, self.q, self._dv, self.timing)
         knots = PathDynamics(scene, self.path, external, self._ramp)  # for both plans
         if feedforward and np.any(rm.jnt_type == mujoco.mjtJoint.mjJNT_FREE):
-            knots.many(knot_times(self.path))  # the ZMP plan's (all): evaluated together
+            knots.many(knots.sigma)  # the ZMP plan's knots (all): evaluated together
         self.torques = (
             plan_torques(scene, self.q, self._dv, self.timing, external, self._ramp, knots)
             if feedforward

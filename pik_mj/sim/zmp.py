@@ -46,7 +46,7 @@ import numpy as np
 
 from pik_mj.dynamics import zmp_points
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.knots import Knot, PathDynamics, knot_times
+from pik_mj.sim.knots import Knot, PathDynamics
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 
@@ -145,7 +145,7 @@ def plan_zmp(
     sigmas, rows, frames, edges = [], [], [], []
     seen, region = np.zeros((0, 3)), None
     up, cos_max = scene.up(), math.cos(GROUND_SLOPE)
-    for knot in dynamics.many(knot_times(path)):
+    for knot in dynamics.many(dynamics.sigma):  # knot_times(path)
         sigma, contacts = knot.sigma, knot.contacts
         points = contacts.points
         if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
