@@ -31,7 +31,10 @@ alternating (a change of the machine's load hits both). Ratios are time over
 the raw ``mj_step`` time, by two clocks: the CPU time of this process (what a
 busy shared machine does not distort: the rollout steps in the calling thread)
 and the wall time; ``play - plan`` is the playback without its plan, ``plan /
-raw`` the plan over the raw ``mj_step`` of the motion.
+raw`` the plan over the raw ``mj_step`` of the motion, ``physics / raw`` the
+motion's own physics (the controls of its every step, computed beforehand,
+stepped from its start in one rollout, no checks) over the raw ``mj_step`` of
+the standing pose: what a moving robot's contacts cost MuJoCo, not the checks.
 The batch's times are wall times (``hold_many`` runs on threads).
 
 Run: ``MENAGERIE_ROOT=... python benchmarks/bench_physics.py [--repeats 5] [--batch 8]
@@ -53,8 +56,9 @@ from pik_mj import Robot, Scene
 from pik_mj.record import Recorder
 from pik_mj.robot.loading import menagerie_available, menagerie_models
 from pik_mj.sim import Waypoints
-from pik_mj.sim.motion import MotionReference, velocity_limits
+from pik_mj.sim.motion import DEFAULT_SPEED, MotionReference, velocity_limits
 from pik_mj.sim.path import Waypoint
+from pik_mj.sim.stepping import Stepper
 from pik_mj.sim.tracking import RECORD_EVERY
 
 ROBOTS = ("sample_humanoid", "dm_humanoid", "unitree_g1")
@@ -87,6 +91,22 @@ def _path(robot: Robot) -> Waypoints:
             q[j.qposadr[0]] = np.clip(q0[j.qposadr[0]] + amount * k / 6, lo, hi)
         path.items.append(Waypoint(q, "reach", k))
     return path
+
+
+def _motion_physics(scene: Scene, path: Waypoints, steps: int) -> np.ndarray:
+    """Wall and CPU time [s] of the motion's own physics: the controls of its
+    ``steps`` steps (its reference's, computed beforehand) stepped from its start
+    in one rollout, no checks."""
+    lower, upper = velocity_limits(scene)
+    reference = MotionReference(scene, path, lower, upper, speed=DEFAULT_SPEED)
+    reference.begin()
+    controls = reference.controls(np.arange(steps) * scene.model.opt.timestep)
+    stepper = Stepper(scene.model)
+    t = _clock()
+    stepper.step(scene.data, controls)
+    out = _clock() - t
+    stepper.close()
+    return out
 
 
 def _timed(call, raw, repeats: int) -> dict:
@@ -124,7 +144,7 @@ def run_robot(name: str, repeats: int) -> dict:
     plans = []
     for _ in range(repeats):
         t = _clock()
-        MotionReference(scene, path, lower, upper, speed=0.2)
+        MotionReference(scene, path, lower, upper, speed=DEFAULT_SPEED)
         plans.append(_clock() - t)
     row["plan"], row["plan cpu"] = np.median(plans, axis=0)
     for label, every in (("play", None), ("play per step", 1)):
@@ -135,6 +155,8 @@ def run_robot(name: str, repeats: int) -> dict:
             lambda n=first.steps: _raw(scene, path.q[0], n),
             repeats,
         )
+    physics = [_motion_physics(scene, path, row["play"]["report"].steps) for _ in range(repeats)]
+    row["physics"], row["physics cpu"] = np.median(physics, axis=0)
     return row
 
 
@@ -188,12 +210,13 @@ def run_batch(name: str, n: int) -> dict:
 def _table(rows: list[dict], clock: str, wall: bool) -> None:
     """The times [ms] and ratios of ``rows`` by one clock."""
     time_of, ratio, plan = ("wall", "ratio", "plan") if wall else ("cpu", "cpu ratio", "plan cpu")
+    physics = "physics" if wall else "physics cpu"
     raw = "raw" if wall else "raw cpu"
     print(f"\n{clock}:")
     print(
         f"{'robot':16} {'nv':>3} {'hold [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} "
         f"{'play [ms]':>10} {'mj_step':>8} {'ratio':>6} {'per step':>9} {'plan [ms]':>10} "
-        f"{'play - plan':>12} {'plan / raw':>11}"
+        f"{'play - plan':>12} {'plan / raw':>11} {'physics / raw':>14}"
     )
     for r in rows:
         h, hp, p, pp = r["hold"], r["hold per step"], r["play"], r["play per step"]
@@ -202,7 +225,7 @@ def _table(rows: list[dict], clock: str, wall: bool) -> None:
             f"{h[ratio]:>5.2f}x {hp[ratio]:>8.2f}x {1e3 * p[time_of]:>10.1f} "
             f"{1e3 * p[raw]:>8.1f} {p[ratio]:>5.2f}x {pp[ratio]:>8.2f}x "
             f"{1e3 * r[plan]:>10.1f} {(p[time_of] - r[plan]) / p[raw]:>11.2f}x "
-            f"{r[plan] / p[raw]:>10.2f}x"
+            f"{r[plan] / p[raw]:>10.2f}x {r[physics] / p[raw]:>13.2f}x"
         )
 
 

@@ -9,6 +9,7 @@ vertex arrays ``(m, 2)`` ordered counter-clockwise.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -18,29 +19,41 @@ from scipy.spatial import HalfspaceIntersection
 from pik_mj.balance.values import finite_array, real
 from pik_mj.exceptions import InvalidInput
 
+Point = tuple[float, float]
 
-def _cross2(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+
+def _cross2(o: Point, a: Point, b: Point) -> float:
     """z-component of ``(a - o) x (b - o)`` (positive for a left turn)."""
-    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
 
-def _drop_flat_vertices(hull: np.ndarray, dist_tol: float) -> np.ndarray:
+def _chain(points: list[Point]) -> list[Point]:
+    """One chain of Andrew's monotone chain: the points (sorted) kept while each
+    turn is strictly to the left."""
+    out: list[Point] = []
+    for p in points:
+        while len(out) >= 2 and _cross2(out[-2], out[-1], p) <= 0.0:
+            out.pop()
+        out.append(p)
+    return out
+
+
+def _drop_flat_vertices(hull: list[Point], dist_tol: float) -> list[Point]:
     """Drops vertices within ``dist_tol`` of a neighbour or of the neighbours' line."""
-    v = [p for p in hull]
+    v = list(hull)
     changed = True
     while changed and len(v) >= 3:
         changed = False
         for i in range(len(v)):
             a, p, b = v[i - 1], v[i], v[(i + 1) % len(v)]
-            ab = b - a
-            lab = float(np.linalg.norm(ab))
-            near = float(np.linalg.norm(p - a)) <= dist_tol
+            lab = math.hypot(b[0] - a[0], b[1] - a[1])
+            near = math.hypot(p[0] - a[0], p[1] - a[1]) <= dist_tol
             flat = lab > 0.0 and _cross2(a, b, p) / lab >= -dist_tol
             if near or flat or lab == 0.0:
                 del v[i]
                 changed = True
                 break
-    return np.array(v)
+    return v
 
 
 def convex_hull_2d(
@@ -73,19 +86,10 @@ def convex_hull_2d(
     extent = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
     dist_tol = 1e-9 * extent if tol is None else real(tol, "tol")
     hull = pts
-    if len(pts) >= 3:
-
-        def chain(seq: np.ndarray) -> list[np.ndarray]:
-            out: list[np.ndarray] = []
-            for p in seq:
-                while len(out) >= 2 and _cross2(out[-2], out[-1], p) <= 0.0:
-                    out.pop()
-                out.append(p)
-            return out
-
-        lower = chain(pts)
-        upper = chain(pts[::-1])
-        hull = _drop_flat_vertices(np.array(lower[:-1] + upper[:-1]), dist_tol)
+    if len(pts) >= 3:  # on Python floats: a few points, many small steps
+        sorted_points = [(x, y) for x, y in pts.tolist()]
+        lower, upper = _chain(sorted_points), _chain(sorted_points[::-1])
+        hull = np.array(_drop_flat_vertices(lower[:-1] + upper[:-1], dist_tol)).reshape(-1, 2)
     if len(hull) >= 3:
         return hull
     if not allow_degenerate:
@@ -101,6 +105,12 @@ def convex_hull_2d(
     axis = np.linalg.svd(d, full_matrices=False)[2][0]
     s = d @ axis
     return pts[[int(np.argmin(s)), int(np.argmax(s))]]
+
+
+def _next(a: np.ndarray) -> np.ndarray:
+    """The rows of ``a`` each replaced by the next one, the last by the first
+    (``np.roll(a, -1, axis=0)``)."""
+    return np.concatenate([a[1:], a[:1]])
 
 
 def polygon_area(vertices: np.ndarray) -> float:
@@ -120,7 +130,7 @@ def polygon_area(vertices: np.ndarray) -> float:
     if len(v) < 3:
         return 0.0
     x, y = v[:, 0], v[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    return 0.5 * float(np.dot(x, _next(y)) - np.dot(_next(x), y))
 
 
 class HalfPlanes(NamedTuple):
@@ -169,13 +179,14 @@ def halfplanes_from_polygon(vertices_ccw: np.ndarray) -> HalfPlanes:
     v = finite_array(vertices_ccw, (None, 2), "vertices_ccw")
     if len(v) < 3:
         raise InvalidInput(f"a polygon needs at least 3 vertices, got {len(v)}")
-    edges = np.roll(v, -1, axis=0) - v
+    edges = _next(v) - v
     lengths = np.linalg.norm(edges, axis=1)
     scale = max(float(np.max(np.ptp(v, axis=0))), 1e-300)
     if np.any(lengths <= 1e-12 * scale):
         raise InvalidInput("vertices_ccw has repeated consecutive vertices")
     t = edges / lengths[:, None]
-    turns = t[:, 0] * np.roll(t, -1, axis=0)[:, 1] - t[:, 1] * np.roll(t, -1, axis=0)[:, 0]
+    t_next = _next(t)
+    turns = t[:, 0] * t_next[:, 1] - t[:, 1] * t_next[:, 0]
     if np.any(turns <= 0.0):
         raise InvalidInput(
             "vertices_ccw must be a strictly convex polygon in counter-clockwise "

@@ -3,6 +3,7 @@ the up direction (prioritized-IK manual: ``centroid-support-polygon-task``)."""
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -33,6 +34,14 @@ def plane_basis(normal: np.ndarray) -> np.ndarray:
         Rotation ``(3, 3)`` with columns ``e1, e2, n``.
     """
     n = finite_array(normal, (3,), "normal")
+    return _plane_basis(*n.tolist()).copy()
+
+
+@functools.lru_cache(maxsize=64)
+def _plane_basis(x: float, y: float, z: float) -> np.ndarray:
+    """:func:`plane_basis` of the normal ``(x, y, z)``, kept by its value (most
+    callers ask about the same up direction)."""
+    n = np.array([x, y, z])
     norm = float(np.linalg.norm(n))
     if norm < 1e-12:
         raise InvalidInput(f"normal must be a non-zero vector, got {n}")

@@ -7,7 +7,7 @@ its kinematics, centre of mass and contacts recomputed on the sampler's own
 whatever ``MjData`` stepped it (one of a rollout pool's threads, or the
 scene's). :meth:`Sampler.read` keeps a row's contact arrays and
 :meth:`Sampler.flush` classifies those of all the rows since the last flush in
-one vectorized pass (a chunk's rows at once). A row holds the time, the root
+one vectorized pass (a run's rows at once). A row holds the time, the root
 body's pose, the CoM, the servo joints' positions, the positions of the
 watched geoms (the allowed and planned contacts' robot geoms, whose slip is
 measured) and which of them touch, the reference's values at the same time,

@@ -10,9 +10,10 @@ arms to the bodies' CoM are taken at each chunk's start). The rollout returns
 the state after every step; the record keeps every ``record_every``-th
 (:data:`RECORD_EVERY` by default: 40 ms at a 2 ms step), read by the
 :class:`~pik_mj.sim.sampling.Sampler` (root pose, CoM, joints, watched geoms,
-contacts; every ``margin_every`` steps the ground contacts; the contacts of a
-chunk's rows vectorized at once), the reference moved to the rows' times
-(:meth:`~pik_mj.sim.measures.Reference.updates`). The figures are computed over
+contacts; every ``margin_every`` steps the ground contacts; the contacts of
+all rows classified at once, at the end or before a callback), the reference
+moved to each row's time (:meth:`~pik_mj.sim.measures.Reference.updates` of
+all the rows' times, its timing evaluated once per run). The figures are computed over
 the whole record at the end (:func:`pik_mj.sim.figures.figures`). A fall ends
 the run at the check after it (``stop_on_fall``).
 
@@ -146,10 +147,14 @@ class Run:
         self._last = self.sampler.read(
             self.record, d.qpos, self.t0, reference.data, reference.waypoint, True
         )
-        self.sampler.flush(self.record)
+        dt = scene.model.opt.timestep
         # every step's controls at once (a constant reference's rows are tiled per chunk)
-        times = np.arange(self.n_steps) * scene.model.opt.timestep
+        times = np.arange(self.n_steps) * dt
         self._controls = reference.controls(times) if reference.moving else None
+        # the reference at every row's time, its timing evaluated once for the run
+        rows = np.arange(self.record_every, self.n_steps + self.record_every, self.record_every)
+        rows[-1] = self.n_steps
+        self._rows = reference.updates(rows * dt)
 
     @property
     def done(self) -> bool:
@@ -203,12 +208,10 @@ class Run:
         ends = list(range(r - self.steps % r, n + 1, r))
         if not ends or ends[-1] != n:
             ends.append(n)
-        times = (self.steps + np.array(ends)) * self.scene.model.opt.timestep
         done = 0
-        for k, _ in zip(ends, self.reference.updates(times), strict=True):
+        for k in ends:
             self.sample(k - done, trajectory[k - 1])
             done = k
-        self.sampler.flush(self.record)
 
     def sample(self, n: int, state: np.ndarray) -> None:
         """Record the state (``mjSTATE_FULLPHYSICS``) after ``n`` more steps, the
@@ -217,7 +220,9 @@ class Run:
         self.steps += n
         reference = self.reference
         if self.steps % self.record_every and self.steps < self.n_steps:
-            return  # between rows (a callback's chunk)
+            reference.update(self.steps * m.opt.timestep)  # a callback's chunk, between rows
+            return
+        next(self._rows)
         before, self._recorded = self._recorded, self.steps
         margin = self.steps // self.margin_every > before // self.margin_every
         qpos = state[1 : 1 + m.nq]
@@ -250,6 +255,7 @@ class Run:
 
     def finish(self) -> Tracked:
         """The figures of the run (:func:`pik_mj.sim.figures.figures`)."""
+        self.sampler.flush(self.record)
         out = figures(
             self.scene,
             self.record,
@@ -339,6 +345,7 @@ def _call(callbacks: Sequence[Callback], run: Run, criteria: HoldCriteria, frame
     if run.so_far is None:
         run.so_far = RunningFigures(scene, len(run.sampler.watch))
     so_far = run.so_far
+    run.sampler.flush(run.record)
     so_far.update(run.record)
     d = scene.data
     sample = HoldSample(
