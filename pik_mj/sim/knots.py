@@ -214,11 +214,13 @@ class PathDynamics:
         d.qpos[:] = knot.qpos
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
-        bodies = self._robot_body[c.geom]
-        env = ~c.self_contact & ~np.isin(bodies, self._held)
-        return ContactSupport.of_points(
-            self.scene, d, c.points[env], c.normals[env], c.friction[env], bodies[env]
-        )
+        arrays = (c.points, c.normals, c.friction, self._robot_body[c.geom])
+        env = ~c.self_contact
+        if len(self._held):
+            env &= ~np.isin(arrays[3], self._held)
+        if not env.all():
+            arrays = tuple(x[env] for x in arrays)
+        return ContactSupport.of_points(self.scene, d, *arrays)
 
     def _poses_of(self, sigmas: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``q``, ``q'``, ``q''`` at the nominal times (those of :func:`knot_times`

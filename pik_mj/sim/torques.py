@@ -17,6 +17,8 @@ from pik_mj.spatial import skew
 
 __all__ = ["ContactSupport", "drive_shortfalls", "holding_torques", "weight_torques"]
 
+_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+
 
 def holding_torques(
     scene: Physics,
@@ -179,18 +181,20 @@ class ContactSupport:
         m = scene.model
         b = scene.robot.root_body_id
         j = int(m.body_jntadr[b])
-        self.active = len(points) > 0 and j >= 0 and m.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
+        self.active = len(points) > 0 and j >= 0 and int(m.jnt_type[j]) == _FREE
         if not self.active:
             return
-        self._dofs = m.jnt_dofadr[j] + np.arange(6)
+        a = int(m.jnt_dofadr[j])
+        self._dofs = slice(a, a + 6)  # the free joint's
         J_B = np.zeros((6, m.nv))
         mujoco.mj_jacBody(m, data, J_B[:3], J_B[3:], b)
         shift = np.eye(6)  # (f, n about p_WB) -> (f, n about the origin)
         shift[3:, :3] = skew(data.xpos[b])
         self._wrench = shift @ np.linalg.inv(J_B[:, self._dofs].T)  # (6, 6): τ_root -> w
-        J = np.zeros((3 * len(points), m.nv))
-        for i, (point, body) in enumerate(zip(points, bodies.tolist(), strict=True)):
-            mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, point, body)
+        J = np.zeros((len(points), 3, m.nv))
+        for Ji, point, body in zip(J, points, bodies.tolist(), strict=True):
+            mujoco.mj_jac(m, data, Ji, None, point, body)
+        J = J.reshape(-1, m.nv)
         self._J = J
         self._distribution = _distribution(points, normals, friction)
         self._carried: np.ndarray | None = None
