@@ -160,26 +160,29 @@ class _Knots:
         return servo_bounds(model, self.actuators, qpos)
 
 
-def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray, rates) -> np.ndarray:
-    """Per knot: the moving torques at ``(σ̇, σ̈)`` are within ``ρ`` of the bounds
-    (or no farther out than at rest)."""
-    rate, accel = rates
-    tau = plan.at(plan.sigma, rate, accel)[:, dofs]
-    rest = plan.rest[:, dofs]
-    top = np.maximum(DRIVE_RESERVE * hi, rest)
-    bottom = np.minimum(DRIVE_RESERVE * lo, rest)
-    return np.all((tau <= top + 1e-9) & (tau >= bottom - 1e-9), axis=1)
+def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+    """Per knot, at rates ``(σ̇, σ̈)`` (k,) each: the moving torques
+    ``τ_s + P M q' σ̈ + P c σ̇² + P D q' σ̇`` (:meth:`TorquePlan.at` at the knots
+    themselves) are within ``ρ`` of the bounds (or no farther out than at rest)."""
+    rest, inertia, velocity, damping = (
+        x[:, dofs] for x in (plan.rest, plan.inertia, plan.velocity, plan.damping)
+    )
+    top = np.maximum(DRIVE_RESERVE * hi, rest) + 1e-9
+    bottom = np.minimum(DRIVE_RESERVE * lo, rest) - 1e-9
+
+    def fits(rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
+        rate, accel = rate[:, None], accel[:, None]
+        tau = rest + inertia * accel + velocity * rate**2 + damping * rate
+        return np.all((tau <= top) & (tau >= bottom), axis=1)
+
+    return fits
 
 
 def _stretch(plan: TorquePlan, knots: _Knots, lo: np.ndarray, hi: np.ndarray) -> None:
     """Slow down each segment whose knots need it (:meth:`Timing.stretch_until`;
     ``_fits`` is knot by knot)."""
-    dofs = knots.scene.servo_dofs
-    plan.stretched.update(
-        knots.timing.stretch_until(
-            plan.sigma, lambda rate, accel: _fits(plan, dofs, lo, hi, (rate, accel)), MAX_STRETCH
-        )
-    )
+    fits = _fits(plan, knots.scene.servo_dofs, lo, hi)
+    plan.stretched.update(knots.timing.stretch_until(plan.sigma, fits, MAX_STRETCH))
 
 
 def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
