@@ -308,3 +308,95 @@ def test_both_plans_read_one_evaluation_per_knot():
         o = R.T @ data.xpos[root] - [0, 0, region.height]
         old = [o[0] - (n[1] + o[2] * F[0]) / F[2], o[1] - (o[2] * F[1] - n[0]) / F[2]]
         np.testing.assert_allclose(points[j], old, rtol=0, atol=1e-12)
+
+
+def test_knot_contacts_and_supports_equal_touching_s():
+    """The knots' contacts read from the probe's arrays at once
+    (:func:`pik_mj.sim.knots.robot_contacts`) are ``scene.touching``'s, contact by
+    contact (geom, point, normal into the robot, friction, self-contact), and
+    the supports built from them (``ContactSupport.of_points``, at the knot's
+    kinematics) hold and carry every term exactly as ``ContactSupport`` built
+    from those contacts at ``scene.kinematics`` of the knot's pose."""
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    lower, upper = velocity_limits(scene)
+    ref = MotionReference(scene, _reach(robot), lower, upper, speed=0.5)
+    dynamics = knots.PathDynamics(scene, ref.path)
+    data = mujoco.MjData(scene.model)
+    for knot in dynamics.many(dynamics.sigma[::3], support=True):
+        found, touching = knot.contacts, scene.touching(knot.qpos)
+        assert len(touching) >= 4
+        assert [scene.geom_names[g] for g in found.geom] == [c.robot_geom for c in touching]
+        for name, value in (("points", "position"), ("normals", "normal")):
+            np.testing.assert_array_equal(
+                getattr(found, name), [getattr(c, value) for c in touching]
+            )
+        np.testing.assert_array_equal(found.friction, [c.friction for c in touching])
+        np.testing.assert_array_equal(found.self_contact, [c.self_contact for c in touching])
+        scene.kinematics(knot.q, data)
+        reference = ContactSupport(scene, data, touching)
+        np.testing.assert_array_equal(knot.support.hold(knot.rest), reference.hold(knot.rest))
+        for term in (knot.inertia, knot.velocity, knot.damping):
+            np.testing.assert_array_equal(knot.support.carry(term), reference.carry(term))
+
+
+def test_inverse_dynamics_of_many_configurations_is_each_one_s():
+    """``inverse_dynamics_many`` equals ``inverse_dynamics`` configuration by
+    configuration (bitwise), calls ``each(i)`` with the kinematics of
+    configuration ``i`` (the bodies' poses of ``mj_kinematics`` there), and
+    leaves the constraint solver as it found it."""
+    robot = Robot.from_model("sample_humanoid")
+    m = robot.model
+    rng = np.random.default_rng(3)
+    q = np.tile(robot.configuration.q, (3, 1))
+    q[:, 7:] += rng.uniform(-0.2, 0.2, (3, m.nq - 7))
+    qvel, qacc = rng.normal(size=(3, 4, m.nv)), rng.normal(size=(3, 4, m.nv))
+    data, check = mujoco.MjData(m), mujoco.MjData(m)
+    seen = []
+
+    def each(i: int) -> None:
+        check.qpos[:] = q[i]
+        mujoco.mj_kinematics(m, check)
+        seen.append(np.array_equal(data.xpos, check.xpos) and np.array_equal(data.xmat, check.xmat))
+
+    flags = m.opt.disableflags
+    many = dy.inverse_dynamics_many(m, data, q, qvel, qacc, each)
+    assert seen == [True, True, True] and m.opt.disableflags == flags
+    for i in range(3):
+        np.testing.assert_array_equal(many[i], dy.inverse_dynamics(m, data, q[i], qvel[i], qacc[i]))
+    Ma = np.zeros(m.nv)  # data at q[2]: at equal velocities the difference is M Δq̈
+    mujoco.mj_mulM(m, data, Ma, qacc[2, 1] - qacc[2, 0])
+    tau = dy.inverse_dynamics(m, data, q[2], qvel[2, :1].repeat(2, 0), qacc[2, :2])
+    np.testing.assert_allclose(tau[1] - tau[0], Ma, atol=1e-9)
+
+
+def test_point_contacts_limits_are_their_friction_pyramids():
+    """``ContactDistribution.of_points``: ``A x`` is the forces' total and moment
+    about the origin (``Σ f_i``, ``Σ p_i × f_i``), and ``G x ≤ h`` holds exactly
+    when each force is inside its inscribed pyramid (``|f·e_k| ≤ μ/√2 f·n`` in the
+    plane basis of its normal), checked on 400 random forces away from the
+    faces."""
+    rng = np.random.default_rng(5)
+    n = 5
+    points = rng.normal(size=(n, 3))
+    normals = np.array([[0, 0, 1.0], [0, 0, 1.0], *rng.normal(size=(3, 3))])
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    mu = np.array([0.8, 0.8, 0.5, 1.0, 0.3])
+    problem = distribution.ContactDistribution.of_points(points, normals, mu)
+    bases = [balance.plane_basis(v) for v in normals]
+    checked, verdicts = 0, set()
+    for _ in range(400):
+        f = rng.normal(size=(n, 3)) + 2.0 * normals  # inside or not, both often
+        x = f.reshape(-1)
+        local = np.array([R.T @ fi for R, fi in zip(bases, f, strict=True)])  # (e1, e2, n)
+        slack = mu[:, None] / np.sqrt(2) * local[:, 2:] - np.abs(local[:, :2])
+        if np.min(np.abs(slack)) < 1e-6:
+            continue
+        rows = problem.G @ x <= problem.h
+        inside = [bool(np.all(rows[problem.G[:, 3 * i : 3 * i + 3].any(axis=1)])) for i in range(n)]
+        assert inside == np.all(slack > 0, axis=1).tolist()
+        verdicts.update(inside)
+        total = np.concatenate([f.sum(axis=0), np.cross(points, f).sum(axis=0)])
+        np.testing.assert_allclose(problem.A @ x, total, atol=1e-12)
+        checked += 1
+    assert checked > 300 and verdicts == {True, False}

@@ -49,6 +49,7 @@ from pik_mj.dynamics.inverse import (
     external_torques,
     frame_jacobian,
     inverse_dynamics,
+    inverse_dynamics_many,
     joint_torques,
 )
 from pik_mj.dynamics.statics import (
@@ -71,6 +72,7 @@ __all__ = [
     "frame_jacobian",
     "free_root_body",
     "inverse_dynamics",
+    "inverse_dynamics_many",
     "joint_torques",
     "root_wrench",
     "static_balance_point",

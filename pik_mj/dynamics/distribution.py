@@ -214,35 +214,46 @@ class ContactDistribution:
     ):
         if not (np.isfinite(moment_weight) and moment_weight > 0):
             raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
-        cols, weights, moments, limits = [], [], [], []
-        n = 0
         for i, c in enumerate(contacts):
             if not isinstance(c, ContactConstraint):
                 raise InvalidInput(
                     f"contacts[{i}] must be a ContactConstraint, got {type(c).__name__}"
                 )
-            C, d = _limits(c)
-            k = C.shape[1]
-            cols.append((n, k))
-            weights += [1.0] * 3 + [moment_weight] * (k - 3)
-            if k == 6:
-                moments.append(n + 3)
-            limits.append((n, C, d))
-            n += k
-        starts = np.array([start for start, _ in cols], dtype=int)
+        points = [c.p_WC for c in contacts] if points is None else points
+        self._assemble([_limits(c) for c in contacts], points, moment_weight)
+
+    def _assemble(
+        self, limits: list[tuple[np.ndarray, np.ndarray]], points, moment_weight: float
+    ) -> None:
+        """``A``, ``W``, ``G``, ``h`` (class docstring) of contacts with the limits
+        ``C, d`` (:func:`_limits`) at ``points``."""
+        widths = [C.shape[1] for C, _ in limits]
+        n = sum(widths)
+        starts = np.cumsum([0, *widths[:-1]]).astype(int) if widths else np.zeros(0, int)
+        cols = list(zip(starts.tolist(), widths, strict=True))
+        weights = [w for k in widths for w in [1.0] * 3 + [moment_weight] * (k - 3)]
         A = np.zeros((6, n))
         if n:
             forces = (starts[:, None] + np.arange(3)).reshape(-1)
-            A[:, forces] = wrench_map([c.p_WC for c in contacts] if points is None else points)
-        for start in moments:
-            A[3:, start : start + 3] = np.eye(3)
+            A[:, forces] = wrench_map(points)
+        for start, k in cols:
+            if k == 6:
+                A[3:, start + 3 : start + 6] = np.eye(3)
         self.A, self.n, self.cols, self.weights = A, n, cols, np.array(weights)
-        self.G = np.zeros((sum(len(d) for _, _, d in limits), n))
-        self.h = np.concatenate([d for _, _, d in limits]) if limits else np.zeros(0)
-        r = 0
-        for start, C, _ in limits:
-            self.G[r : r + len(C), start : start + C.shape[1]] = -C
-            r += len(C)
+        self._points_only = n == 3 * len(cols)  # every contact a point: a force alone
+        rows = [len(d) for _, d in limits]
+        self.h = np.concatenate([d for _, d in limits]) if limits else np.zeros(0)
+        if self._points_only and len(set(rows)) == 1:  # the same block on the diagonal
+            K, r = len(limits), rows[0]
+            G = np.zeros((K, r, K, 3))
+            G[np.arange(K), :, np.arange(K), :] = -np.array([C for C, _ in limits])
+            self.G = G.reshape(K * r, n)
+        else:
+            self.G = np.zeros((sum(rows), n))
+            r = 0
+            for (start, k), (C, _) in zip(cols, limits, strict=True):
+                self.G[r : r + len(C), start : start + k] = -C
+                r += len(C)
         self._map: np.ndarray | bool | None = False
 
     @classmethod
@@ -254,11 +265,19 @@ class ContactDistribution:
         (:func:`pik_mj.balance.contact_from_normal`). A contact's limits depend
         on its normal and friction only: the constraints are shared by every
         contact with the same ones, wherever it is."""
-        contacts = [
-            _at_origin(*np.asarray(n, float).tolist(), float(f))
-            for n, f in zip(normals, mu, strict=True)
-        ]
-        return cls(contacts, moment_weight, points=np.asarray(points, float).reshape(-1, 3))
+        if not (np.isfinite(moment_weight) and moment_weight > 0):
+            raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
+        found: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = {}
+        limits = []
+        normals = np.asarray(normals, float).reshape(-1, 3).tolist()
+        for normal, friction in zip(normals, np.asarray(mu, float).tolist(), strict=True):
+            key = (*normal, friction)
+            if key not in found:
+                found[key] = _limits(_at_origin(*key))
+            limits.append(found[key])
+        distribution = cls.__new__(cls)
+        distribution._assemble(limits, np.asarray(points, float).reshape(-1, 3), moment_weight)
+        return distribution
 
     @property
     def least_norm_map(self) -> np.ndarray | None:
@@ -295,6 +314,9 @@ class ContactDistribution:
         if x is None:
             return None
         out = np.zeros((len(self.cols), 6))
+        if self._points_only:  # forces alone, three columns each
+            out[:, :3] = (scale * x).reshape(-1, 3)
+            return out
         for i, (start, k) in enumerate(self.cols):
             out[i, :k] = scale * x[start : start + k]
         return out

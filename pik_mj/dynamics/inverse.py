@@ -4,7 +4,7 @@ with the constraint solver disabled."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import mujoco
 import numpy as np
@@ -52,19 +52,40 @@ def inverse_dynamics(
     unchecked (the callers' inputs are); the position stage (kinematics, mass
     matrix) computed once, for the first pair. ``data`` ends with the kinematics
     at ``q``."""
-    out = np.empty((len(qvel), model.nv))
-    data.qpos[:] = q
+    return inverse_dynamics_many(model, data, np.asarray(q)[None], qvel[None], qacc[None])[0]
+
+
+def inverse_dynamics_many(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    q: np.ndarray,
+    qvel: np.ndarray,
+    qacc: np.ndarray,
+    each: Callable[[int], None] | None = None,
+) -> np.ndarray:
+    """:func:`inverse_dynamics` at each configuration ``q[i]`` (k, nq) for its
+    velocities ``qvel[i]`` and accelerations ``qacc[i]`` (k, p, nv): (k, p, nv);
+    ``each(i)``, when given, is called after configuration ``i``'s, ``data``
+    then holding its kinematics."""
+    k, p = qvel.shape[:2]
+    out = np.empty((k, p, model.nv))
+    qpos, v, a, tau = data.qpos, data.qvel, data.qacc, data.qfrc_inverse
+    stage = int(mujoco.mjtStage.mjSTAGE_POS)
     saved = model.opt.disableflags
     model.opt.disableflags = saved | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     try:
-        for k, (v, a) in enumerate(zip(qvel, qacc, strict=True)):
-            data.qvel[:] = v
-            data.qacc[:] = a
-            if k == 0:
-                mujoco.mj_inverse(model, data)
-            else:
-                mujoco.mj_inverseSkip(model, data, int(mujoco.mjtStage.mjSTAGE_POS), 1)
-            out[k] = data.qfrc_inverse
+        for i in range(k):
+            qpos[:] = q[i]
+            for j in range(p):
+                v[:] = qvel[i, j]
+                a[:] = qacc[i, j]
+                if j == 0:
+                    mujoco.mj_inverse(model, data)
+                else:
+                    mujoco.mj_inverseSkip(model, data, stage, 1)
+                out[i, j] = tau
+            if each is not None:
+                each(i)
     finally:
         model.opt.disableflags = saved
     return out

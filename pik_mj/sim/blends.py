@@ -91,18 +91,17 @@ class BlendedPath:
         if np.any(straight):
             r = self.rates[i[straight]]
             delta[straight], d1[straight] = s[straight, None] * r, r
-        for mask, centre, off in ((after, i, s), (before, i + 1, s - T)):
-            if not np.any(mask):
-                continue
-            c = centre[mask]
+        blend = after | before
+        if np.any(blend):  # the blend after waypoint i or before i + 1, both at once
+            c = np.where(after, i, i + 1)[blend]
             bw = b[c][:, None]
             v_in, v_out = self.rates[c - 1], self.rates[c]
-            u = off[mask][:, None] + bw  # σ - σ_w + b_w in [0, 2 b_w]
+            u = np.where(after, s, s - T)[blend][:, None] + bw  # σ - σ_w + b_w in [0, 2 b_w]
             turn, x = v_out - v_in, u / (2.0 * bw)
-            w[mask] = c
-            delta[mask] = v_in * (u - bw) + 2.0 * bw * turn * (x**3 - 0.5 * x**4)
-            d1[mask] = v_in + turn * (3.0 * x**2 - 2.0 * x**3)
-            d2[mask] = turn / (2.0 * bw) * 6.0 * x * (1.0 - x)
+            w[blend] = c
+            delta[blend] = v_in * (u - bw) + 2.0 * bw * turn * (x**3 - 0.5 * x**4)
+            d1[blend] = v_in + turn * (3.0 * x**2 - 2.0 * x**3)
+            d2[blend] = turn / (2.0 * bw) * 6.0 * x * (1.0 - x)
         return w, delta, d1, d2
 
     def at(self, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

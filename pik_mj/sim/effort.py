@@ -133,20 +133,22 @@ class _Knots:
         self.rm = scene.robot.model
         self.actuators = np.array([scene.servo_actuators[j] for j in scene.servo_joints], int)
 
-    def parts(self, sigma: float) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
-        """``q(σ)`` and ``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (nv of the
-        robot) at a knot (:class:`~pik_mj.sim.knots.Knot`), or None without an
-        equilibrium."""
+    def parts(self, sigma: float) -> tuple[np.ndarray, np.ndarray | None]:
+        """``q(σ)`` and ``τ_s``, ``P M q'``, ``P c(q, q')``, ``P D q'`` (4, nv of
+        the robot) at a knot (:class:`~pik_mj.sim.knots.Knot`), or None without
+        an equilibrium."""
         knot = self.dynamics.at(sigma, support=True)
         support, nv = knot.support, self.rm.nv
         rest = support.hold(knot.rest)
         if rest is None:
             return knot.q, None
-        return knot.q, (
-            rest[:nv],
-            support.carry(knot.inertia)[:nv],
-            support.carry(knot.velocity)[:nv],
-            support.carry(knot.damping)[:nv],
+        return knot.q, np.array(
+            [
+                rest[:nv],
+                support.carry(knot.inertia)[:nv],
+                support.carry(knot.velocity)[:nv],
+                support.carry(knot.damping)[:nv],
+            ]
         )
 
     def bounds(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -158,26 +160,29 @@ class _Knots:
         return servo_bounds(model, self.actuators, qpos)
 
 
-def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray, rates) -> np.ndarray:
-    """Per knot: the moving torques at ``(σ̇, σ̈)`` are within ``ρ`` of the bounds
-    (or no farther out than at rest)."""
-    rate, accel = rates
-    tau = plan.at(plan.sigma, rate, accel)[:, dofs]
-    rest = plan.rest[:, dofs]
-    top = np.maximum(DRIVE_RESERVE * hi, rest)
-    bottom = np.minimum(DRIVE_RESERVE * lo, rest)
-    return np.all((tau <= top + 1e-9) & (tau >= bottom - 1e-9), axis=1)
+def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+    """Per knot, at rates ``(σ̇, σ̈)`` (k,) each: the moving torques
+    ``τ_s + P M q' σ̈ + P c σ̇² + P D q' σ̇`` (:meth:`TorquePlan.at` at the knots
+    themselves) are within ``ρ`` of the bounds (or no farther out than at rest)."""
+    rest, inertia, velocity, damping = (
+        x[:, dofs] for x in (plan.rest, plan.inertia, plan.velocity, plan.damping)
+    )
+    top = np.maximum(DRIVE_RESERVE * hi, rest) + 1e-9
+    bottom = np.minimum(DRIVE_RESERVE * lo, rest) - 1e-9
+
+    def fits(rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
+        rate, accel = rate[:, None], accel[:, None]
+        tau = rest + inertia * accel + velocity * rate**2 + damping * rate
+        return np.all((tau <= top) & (tau >= bottom), axis=1)
+
+    return fits
 
 
 def _stretch(plan: TorquePlan, knots: _Knots, lo: np.ndarray, hi: np.ndarray) -> None:
     """Slow down each segment whose knots need it (:meth:`Timing.stretch_until`;
     ``_fits`` is knot by knot)."""
-    dofs = knots.scene.servo_dofs
-    plan.stretched.update(
-        knots.timing.stretch_until(
-            plan.sigma, lambda rate, accel: _fits(plan, dofs, lo, hi, (rate, accel)), MAX_STRETCH
-        )
-    )
+    fits = _fits(plan, knots.scene.servo_dofs, lo, hi)
+    plan.stretched.update(knots.timing.stretch_until(plan.sigma, fits, MAX_STRETCH))
 
 
 def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
@@ -218,17 +223,20 @@ def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
 
 
 def _linear(
-    sigma: np.ndarray, parts: list[tuple], rates: tuple[float, float], dofs: np.ndarray
+    sigma: np.ndarray, parts: list[np.ndarray], rates: tuple[float, float], dofs: np.ndarray
 ) -> bool:
     """The plan linear between the knots ``σ_a``, ``σ_b`` gives ``σ_m``'s
-    feed-forward at ``(σ̇, σ̈)`` within :data:`KNOT_TOLERANCE` (:func:`_refined`)."""
-    a, m, b = parts
+    feed-forward at ``(σ̇, σ̈)`` within :data:`KNOT_TOLERANCE` (:func:`_refined`):
+    ``|Σ_i g_i ((1 - w) a_i + w b_i - m_i)| ≤ tol · max(|a_0|, |b_0|)`` on the
+    servo joints, ``g = (1, σ̈, σ̇², σ̇)``, ``w = (σ_m - σ_a) / (σ_b - σ_a)``."""
+    a, m, b = (p[:, dofs] for p in parts)
     w = (sigma[1] - sigma[0]) / (sigma[2] - sigma[0])
     rate, accel = rates
-    gains = (1.0, accel, rate**2, rate)
-    error = sum(g * ((1 - w) * a[i] + w * b[i] - m[i]) for i, g in enumerate(gains))
-    scale = max(np.abs(a[0][dofs]).max(initial=0.0), np.abs(b[0][dofs]).max(initial=0.0))
-    return bool(np.all(np.abs(error[dofs]) <= KNOT_TOLERANCE * scale))
+    gains = np.array([[1.0], [accel], [rate**2], [rate]])
+    term = gains * ((1 - w) * a + w * b - m)
+    error = term[0] + term[1] + term[2] + term[3]
+    scale = max(np.abs(a[0]).max(initial=0.0), np.abs(b[0]).max(initial=0.0))
+    return bool(np.all(np.abs(error) <= KNOT_TOLERANCE * scale))
 
 
 def plan_torques(
@@ -259,15 +267,15 @@ def plan_torques(
             parts.append(part)
             poses.append(qk)
     nv = scene.robot.model.nv
-    columns = [np.array([p[i] for p in parts]).reshape(-1, nv) for i in range(4)]
-    plan = TorquePlan(np.array(kept), *columns)
+    table = np.array(parts).reshape(-1, 4, nv)
+    plan = TorquePlan(np.array(kept), *(table[:, i].copy() for i in range(4)))
     if not kept or not len(scene.servo_joints):
         return plan
     lo, hi = knots.bounds(np.array(poses))
-    t = timing.times_of(plan.sigma)
-    where = [f"t = {tk:.2f} s of the path" for tk in t]
     rest = plan.rest[:, scene.servo_dofs]
-    plan.shortfalls = shortfalls(list(scene.servo_joints), rest, lo, hi, where)
+    if np.any((rest > hi) | (rest < lo)):  # a drive short at rest: name the joints
+        where = [f"t = {tk:.2f} s of the path" for tk in timing.times_of(plan.sigma)]
+        plan.shortfalls = shortfalls(list(scene.servo_joints), rest, lo, hi, where)
     if not plan.shortfalls:
         _stretch(plan, knots, lo, hi)
     return plan

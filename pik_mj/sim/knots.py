@@ -23,9 +23,11 @@ with ``τ(q̇, q̈)`` MuJoCo's inverse dynamics at ``q`` without constraints
 (:func:`pik_mj.dynamics.inverse_dynamics`: five ``mj_inverse`` at one
 configuration, the position stage computed once). The torque plan leaves the
 blends' curvature ``Q_c`` to the servos; the ZMP plan includes it. Each knot
-also keeps the robot's contacts at ``q(σ)`` (:meth:`~pik_mj.sim.physics.Physics.touching`),
-the bodies' poses, and, for the torque plan, the contacts as maps of
-generalized forces (:class:`~pik_mj.sim.torques.ContactSupport`).
+also keeps the robot's contacts at ``q(σ)`` (:class:`KnotContacts`: those
+:meth:`~pik_mj.sim.physics.Physics.touching` lists, read from the probe's
+arrays), the bodies' poses, and, for the torque plan, the contacts as maps of
+generalized forces (:class:`~pik_mj.sim.torques.ContactSupport`, built on
+demand at the knot's kinematics).
 
 The knots lie on one grid (:func:`knot_grid`: every :data:`KNOT_SPACING` of
 nominal time and at each waypoint); the ZMP plan adds the blends' ends
@@ -39,15 +41,24 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
-from pik_mj.dynamics import external_torques, inverse_dynamics
+from pik_mj.dynamics import external_torques, inverse_dynamics_many
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.physics import ContactInfo, External, Physics
+from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 from pik_mj.sim.torques import ContactSupport, weight_torques
 
-__all__ = ["KNOT_SPACING", "Knot", "PathDynamics", "knot_grid", "knot_times"]
+__all__ = [
+    "KNOT_SPACING",
+    "Knot",
+    "KnotContacts",
+    "PathDynamics",
+    "knot_grid",
+    "knot_times",
+    "robot_contacts",
+]
 
 KNOT_SPACING = 0.05
 """Nominal time [s] between the knots of the plans (at most)."""
@@ -70,6 +81,46 @@ def knot_times(path: BlendedPath) -> np.ndarray:
 
 
 @dataclass
+class KnotContacts:
+    """The robot's contacts at a knot (those of
+    :meth:`~pik_mj.sim.physics.Physics.touching`, in MuJoCo's order), as arrays.
+
+    Attributes:
+        geom: The robot's geom of each contact (n,).
+        points: Contact points ``p_WC`` (n, 3) [m].
+        normals: Unit normals into the robot's geom (n, 3).
+        friction: Sliding friction of each pair (n,).
+        self_contact: Both geoms are the robot's (n,).
+    """
+
+    geom: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray
+    friction: np.ndarray
+    self_contact: np.ndarray
+
+
+def robot_contacts(scene: Physics, probes: Sequence[tuple[np.ndarray, ...]]) -> list[KnotContacts]:
+    """The :class:`KnotContacts` of each probe's contacts
+    (:meth:`~pik_mj.sim.physics.Physics.probe_contacts` with friction), all
+    read at once: a contact with a geom of the robot (or a grasped object),
+    ``dist`` within the scene's ``contact_tolerance``, not excluded; its
+    normal turned into the robot's geom (MuJoCo's ``frame[0:3]`` points from
+    geom1 to geom2)."""
+    ends = np.cumsum([len(p[1]) for p in probes]).tolist()
+    g, dist, exclude, frame, pos, mu = (np.concatenate([p[i] for p in probes]) for i in range(6))
+    g = g.reshape(-1, 2)
+    system = scene.system_geoms
+    r1, r2 = system[g[:, 0]], system[g[:, 1]]
+    keep = (dist <= scene.contact_tolerance) & ((exclude == 0) | (exclude == 1)) & (r1 | r2)
+    normal = np.where(r2[:, None], frame, -frame)
+    parts = [x[keep] for x in (np.where(r2, g[:, 1], g[:, 0]), pos, normal, mu, r1 & r2)]
+    ends = np.concatenate([[0], np.cumsum(keep)])[ends].tolist()  # of the kept, per probe
+    starts = [0, *ends[:-1]]
+    return [KnotContacts(*(x[a:b] for x in parts)) for a, b in zip(starts, ends, strict=True)]
+
+
+@dataclass
 class Knot:
     """The reference at one knot (module docstring); generalized forces (nv of
     the scene's model) [N, N·m].
@@ -89,7 +140,7 @@ class Knot:
     sigma: float
     q: np.ndarray
     qpos: np.ndarray
-    contacts: list[ContactInfo]
+    contacts: KnotContacts
     rest: np.ndarray
     inertia: np.ndarray
     velocity: np.ndarray
@@ -111,6 +162,7 @@ class PathDynamics:
         ramp: The wrenches grow with the path's progress ``σ / S``.
 
     Attributes:
+        sigma: The nominal times [s] of :func:`knot_times` of ``path``.
         evaluations: Knots evaluated so far (each ``mj_inverse`` batch counts once).
     """
 
@@ -127,8 +179,12 @@ class PathDynamics:
         self.data = scene.workspace()  # every evaluation writes qpos, qvel, qacc
         self._knots: dict[float, Knot] = {}
         self.evaluations = 0
-        sigma = knot_times(path)
-        self._poses = dict(zip(sigma.tolist(), zip(*path.many(sigma), strict=True), strict=True))
+        self.sigma = knot_times(path)
+        self._row = {s: i for i, s in enumerate(self.sigma.tolist())}
+        self._poses = path.many(self.sigma)
+        m = scene.model
+        self._held = np.array([body for _, body in scene.held_objects], dtype=int)
+        self._robot_body = m.geom_bodyid  # of each contact's robot geom
 
     def at(self, sigma: float, support: bool = False) -> Knot:
         """The knot at nominal time ``σ`` [s]; ``support``: with its
@@ -139,44 +195,79 @@ class PathDynamics:
         """The knots at the nominal times ``σ`` [s] (as :meth:`at`), those not
         evaluated yet evaluated together."""
         sigmas = [float(sigma) for sigma in sigmas]
-        missing = [
-            sigma
-            for sigma in dict.fromkeys(sigmas)
-            if (knot := self._knots.get(sigma)) is None or (support and knot.support is None)
-        ]
+        knots = self._knots
+        missing = [sigma for sigma in dict.fromkeys(sigmas) if sigma not in knots]
         if missing:
-            self._knots.update(zip(missing, self._evaluate(missing, support), strict=True))
-        return [self._knots[sigma] for sigma in sigmas]
+            knots.update(zip(missing, self._evaluate(missing), strict=True))
+        found = [knots[sigma] for sigma in sigmas]
+        if support:
+            for knot in found:
+                if knot.support is None:
+                    knot.support = self._support(knot)
+        return found
 
-    def _evaluate(self, sigmas: list[float], support: bool) -> list[Knot]:
+    def _support(self, knot: Knot) -> ContactSupport:
+        """The knot's :class:`~pik_mj.sim.torques.ContactSupport`: its
+        environment contacts (not self-contacts, not a grasped object's) at its
+        kinematics (``mj_kinematics``, ``mj_comPos``)."""
+        m, d, c = self.scene.model, self.data, knot.contacts
+        d.qpos[:] = knot.qpos
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        arrays = (c.points, c.normals, c.friction, self._robot_body[c.geom])
+        env = ~c.self_contact
+        if len(self._held):
+            env &= ~np.isin(arrays[3], self._held)
+        if not env.all():
+            arrays = tuple(x[env] for x in arrays)
+        return ContactSupport.of_points(self.scene, d, *arrays)
+
+    def _poses_of(self, sigmas: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``q``, ``q'``, ``q''`` at the nominal times (those of :func:`knot_times`
+        computed when made)."""
+        rows = [self._row.get(sigma) for sigma in sigmas]
+        if None in rows:
+            return self.path.many(np.array(sigmas))
+        return tuple(x[rows] for x in self._poses)
+
+    def _evaluate(self, sigmas: list[float]) -> list[Knot]:
         self.evaluations += len(sigmas)
         scene, d = self.scene, self.data
         m, nv, k = scene.model, scene.robot.model.nv, len(sigmas)
-        poses = [self._poses.get(sigma) or self.path.at(sigma) for sigma in sigmas]
+        q, d1, d2 = self._poses_of(sigmas)
+        if scene.grasps:  # the grasped objects in their frames
+            qpos = np.array([scene.qpos_of(qk) for qk in q])
+        else:  # the path's waypoints were checked: no check per knot
+            qpos = np.tile(m.qpos0, (k, 1))
+            qpos[:, : scene.robot_nq] = q
         v, a, zero = np.zeros((k, m.nv)), np.zeros((k, m.nv)), np.zeros((k, m.nv))
-        v[:, :nv], a[:, :nv] = [p[1] for p in poses], [p[2] for p in poses]
+        v[:, :nv], a[:, :nv] = d1, d2
         rates = np.stack([zero, zero, v, -v, zero], axis=1)  # (q̇, q̈) of the five
         accels = np.stack([zero, v, zero, zero, a], axis=1)
         S = float(self.path.timing.nominal[-1])
-        taus, external, weight = np.empty((k, 5, m.nv)), np.empty((k, m.nv)), np.empty((k, m.nv))
-        qpos, contacts, supports, xpos, xmat = [], [], [], [], []
-        for i, sigma in enumerate(sigmas):
-            qpos.append(scene.qpos_of(poses[i][0]))
-            taus[i] = inverse_dynamics(m, d, qpos[i], rates[i], accels[i])
-            s = sigma / S if (self.ramp and S > 0) else 1.0
-            external[i] = external_torques(m, d, [(f, s * F, s * M) for f, F, M in self.external])
-            weight[i] = weight_torques(scene, d)
-            contacts.append(scene.touching(qpos[i]))
-            supports.append(ContactSupport(scene, d, contacts[i]) if support else None)
-            xpos.append(d.xpos.copy())
-            xmat.append(d.xmat.copy())
+        external, weight = np.zeros((k, m.nv)), np.zeros((k, m.nv))
+        xpos, xmat = np.empty((k, m.nbody, 3)), np.empty((k, m.nbody, 9))
+        held, ramp = len(self._held), self.ramp and S > 0
+
+        def loads(i: int) -> None:  # d holds the kinematics at qpos[i]
+            if self.external:
+                s = sigmas[i] / S if ramp else 1.0
+                wrenches = [(f, s * F, s * M) for f, F, M in self.external]
+                external[i] = external_torques(m, d, wrenches)
+            if held:
+                weight[i] = weight_torques(scene, d)
+            xpos[i], xmat[i] = d.xpos, d.xmat
+
+        taus = inverse_dynamics_many(m, d, qpos, rates, accels, loads)
+        probes = [scene.probe_contacts(x, friction=True) for x in qpos]
+        contacts = robot_contacts(scene, probes)
         g, accel, plus, minus, bend = np.transpose(taus, (1, 0, 2))
         rest, inertia, curvature = g - external - weight, accel - g, bend - g
         velocity, damping = 0.5 * (plus + minus) - g, 0.5 * (plus - minus)
         return [
             Knot(
                 sigma,
-                poses[i][0],
+                q[i],
                 qpos[i],
                 contacts[i],
                 rest[i],
@@ -186,7 +277,6 @@ class PathDynamics:
                 curvature[i],
                 xpos[i],
                 xmat[i],
-                supports[i],
             )
             for i, sigma in enumerate(sigmas)
         ]

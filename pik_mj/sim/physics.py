@@ -487,22 +487,24 @@ class Physics:
         keep = self.ground_contacts(contacts, max_slope)
         return contacts[4][keep], contacts[0][keep].tobytes()
 
-    def probe_contacts(self, qpos: np.ndarray) -> tuple[np.ndarray, ...]:
+    def probe_contacts(self, qpos: np.ndarray, friction: bool = False) -> tuple[np.ndarray, ...]:
         """MuJoCo's contacts of the probe model (as :meth:`touching`) at the world
         state ``qpos``, its arrays copied: ``geom`` (n, 2), ``dist`` (n,) [m],
-        ``exclude`` (n,), the normal ``frame[:, :3]`` (n, 3) and ``pos`` (n, 3) [m]."""
+        ``exclude`` (n,), the normal ``frame[:, :3]`` (n, 3) and ``pos`` (n, 3) [m];
+        with ``friction``, the pairs' sliding friction ``friction[:, 0]`` (n,) last."""
         m, d = self._probe_model, self._probe_data
         d.qpos[:] = qpos
         mujoco.mj_kinematics(m, d)
         mujoco.mj_collision(m, d)
         con = d.contact
-        return (
+        arrays = (
             con.geom.copy(),
             con.dist.copy(),
             con.exclude.copy(),
             con.frame[:, :3].copy(),
             con.pos.copy(),
         )
+        return (*arrays, con.friction[:, 0].copy()) if friction else arrays
 
     def ground_contacts(self, contacts: tuple[np.ndarray, ...], max_slope: float) -> np.ndarray:
         """Which of the probe ``contacts`` (:meth:`probe_contacts`, or rows of

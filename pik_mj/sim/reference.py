@@ -217,6 +217,8 @@ class MotionReference:
         self.nominal = self.timing.nominal
         self.path = BlendedPath(rm, self.q, self._dv, self.timing)
         knots = PathDynamics(scene, self.path, external, self._ramp)  # for both plans
+        if feedforward and np.any(rm.jnt_type == mujoco.mjtJoint.mjJNT_FREE):
+            knots.many(knots.sigma)  # the ZMP plan's knots (all): evaluated together
         self.torques = (
             plan_torques(scene, self.q, self._dv, self.timing, external, self._ramp, knots)
             if feedforward

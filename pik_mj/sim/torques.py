@@ -17,6 +17,8 @@ from pik_mj.spatial import skew
 
 __all__ = ["ContactSupport", "drive_shortfalls", "holding_torques", "weight_torques"]
 
+_FREE = int(mujoco.mjtJoint.mjJNT_FREE)
+
 
 def holding_torques(
     scene: Physics,
@@ -140,24 +142,61 @@ class ContactSupport:
             for c in contacts
             if not c.self_contact and m.geom_bodyid[scene.geom_ids[c.robot_geom]] not in held
         ]
+        self._build(
+            scene,
+            data,
+            np.array([c.position for c in env], dtype=float).reshape(-1, 3),
+            np.array([c.normal for c in env], dtype=float).reshape(-1, 3),
+            np.array([c.friction for c in env], dtype=float),
+            np.array([m.geom_bodyid[scene.geom_ids[c.robot_geom]] for c in env], dtype=int),
+        )
+
+    @classmethod
+    def of_points(
+        cls,
+        scene: Physics,
+        data: mujoco.MjData,
+        points: np.ndarray,
+        normals: np.ndarray,
+        friction: np.ndarray,
+        bodies: np.ndarray,
+    ) -> ContactSupport:
+        """The support of environment contacts given as arrays: points ``p_i``
+        (n, 3) [m], unit normals into the robot (n, 3), sliding friction (n,) and
+        the robot's body of each (n,) (as the class, the contacts already those
+        that carry the robot)."""
+        support = cls.__new__(cls)
+        support._build(scene, data, points, normals, friction, bodies)
+        return support
+
+    def _build(
+        self,
+        scene: Physics,
+        data: mujoco.MjData,
+        points: np.ndarray,
+        normals: np.ndarray,
+        friction: np.ndarray,
+        bodies: np.ndarray,
+    ) -> None:
+        m = scene.model
         b = scene.robot.root_body_id
         j = int(m.body_jntadr[b])
-        self.env = env
-        self.active = bool(env) and j >= 0 and m.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE
+        self.active = len(points) > 0 and j >= 0 and int(m.jnt_type[j]) == _FREE
         if not self.active:
             return
-        self._dofs = m.jnt_dofadr[j] + np.arange(6)
+        a = int(m.jnt_dofadr[j])
+        self._dofs = slice(a, a + 6)  # the free joint's
         J_B = np.zeros((6, m.nv))
         mujoco.mj_jacBody(m, data, J_B[:3], J_B[3:], b)
         shift = np.eye(6)  # (f, n about p_WB) -> (f, n about the origin)
         shift[3:, :3] = skew(data.xpos[b])
         self._wrench = shift @ np.linalg.inv(J_B[:, self._dofs].T)  # (6, 6): τ_root -> w
-        J = np.zeros((3 * len(env), m.nv))
-        for i, c in enumerate(env):
-            body = m.geom_bodyid[scene.geom_ids[c.robot_geom]]
-            mujoco.mj_jac(m, data, J[3 * i : 3 * i + 3], None, c.position, body)
+        J = np.zeros((len(points), 3, m.nv))
+        for Ji, point, body in zip(J, points, bodies.tolist(), strict=True):
+            mujoco.mj_jac(m, data, Ji, None, point, body)
+        J = J.reshape(-1, m.nv)
         self._J = J
-        self._distribution = _distribution(env)
+        self._distribution = _distribution(points, normals, friction)
         self._carried: np.ndarray | None = None
 
     def wrench(self, tau: np.ndarray) -> np.ndarray:
@@ -191,13 +230,11 @@ _DISTRIBUTIONS: dict[bytes, ContactDistribution] = {}
 _DISTRIBUTIONS_KEPT = 256
 
 
-def _distribution(contacts: Sequence[ContactInfo]) -> ContactDistribution:
+def _distribution(points: np.ndarray, normals: np.ndarray, mu: np.ndarray) -> ContactDistribution:
     """:meth:`~pik_mj.dynamics.ContactDistribution.of_points` of the contacts'
-    points, normals and friction; the one of the same values is kept (with its
-    least-norm map, formed once)."""
-    points = np.array([c.position for c in contacts], dtype=float)
-    normals = np.array([c.normal for c in contacts], dtype=float)
-    mu = np.array([c.friction for c in contacts], dtype=float)
+    points (n, 3), normals (n, 3) and friction (n,); the one of the same values
+    is kept (with its least-norm map, formed once)."""
+    points, normals, mu = (np.ascontiguousarray(x, dtype=float) for x in (points, normals, mu))
     key = points.tobytes() + normals.tobytes() + mu.tobytes()
     found = _DISTRIBUTIONS.get(key)
     if found is None:

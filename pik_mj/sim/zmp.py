@@ -46,7 +46,7 @@ import numpy as np
 
 from pik_mj.dynamics import zmp_points
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.knots import Knot, PathDynamics, knot_times
+from pik_mj.sim.knots import PathDynamics
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 
@@ -142,29 +142,35 @@ def plan_zmp(
         dynamics = PathDynamics(scene, path, external, ramp)
     dof = int(rm.jnt_dofadr[free[0]])
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
-    sigmas, rows, frames, edges = [], [], [], []
+    knots, chosen, regions = dynamics.many(dynamics.sigma), [], []  # of knot_times(path)
     seen, region = np.zeros((0, 3)), None
-    for knot in dynamics.many(knot_times(path)):
-        sigma = knot.sigma
-        points = np.array([c.position for c in knot.contacts]).reshape(-1, 3)
+    up, cos_max = scene.up(), math.cos(GROUND_SLOPE)
+    for knot in knots:
+        contacts = knot.contacts
+        points = contacts.points
         if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
-            region, _ = scene.support(knot.contacts, np.zeros(3), GROUND_SLOPE)
+            ground = ~contacts.self_contact & (contacts.normals @ up >= cos_max)
+            region = scene.support_region(points[ground])  # as Physics.support
             seen = points
-        if region is None or region.halfplanes is None:
-            continue
-        sigmas.append(sigma)
-        rows.append([x[dof : dof + 6] for x in _parts(knot)])
-        frames.append((region, knot.xmat[body].reshape(3, 3), knot.xpos[body]))
-        edges.append((np.asarray(region.halfplanes.A), np.asarray(region.halfplanes.b)))
-    if not sigmas:
+        if region is not None and region.halfplanes is not None:
+            chosen.append(knot)
+            regions.append(region)
+    if not chosen:
         return None
-    Q = np.array(rows)  # (k, 4, 6): the free joint's rows of Q_s, Q_a, Q_v + Q_c, Q_d
-    R = np.array([region.R for region, _, _ in frames])  # (k, 3, 3)
-    R_B = np.array([R_Bk for _, R_Bk, _ in frames])
+    rest, inertia, velocity, curvature, damping = (
+        np.array([getattr(k, name) for k in chosen])[:, dof : dof + 6]
+        for name in ("rest", "inertia", "velocity", "curvature", "damping")
+    )
+    # (k, 4, 6): the free joint's rows of Q_s, Q_a, Q_v + Q_c, Q_d
+    Q = np.stack([rest, inertia, velocity + curvature, damping], axis=1)
+    R = np.array([region.R for region in regions])  # (k, 3, 3)
+    R_B = np.array([k.xmat[body] for k in chosen]).reshape(-1, 3, 3)
     force = Q[..., :3] @ R  # R^T F, row by row
     moment = (Q[..., 3:] @ np.transpose(R_B, (0, 2, 1))) @ R  # R^T R_B n
-    height = np.array([[0.0, 0.0, region.height] for region, _, _ in frames])
-    origin = np.einsum("kj,kji->ki", np.array([o for _, _, o in frames]), R) - height
+    height = np.array([[0.0, 0.0, region.height] for region in regions])
+    origin = np.einsum("kj,kji->ki", np.array([k.xpos[body] for k in chosen]), R) - height
+    sigmas = [k.sigma for k in chosen]
+    edges = [(np.asarray(r.halfplanes.A), np.asarray(r.halfplanes.b)) for r in regions]
     kept = force[:, 0, 2] > 0
     plan = ZmpPlan(
         np.array(sigmas)[kept],
@@ -178,11 +184,6 @@ def plan_zmp(
     zero = np.zeros(len(plan.sigma))
     plan.rest_margin = plan.margins(zero, zero)
     return plan
-
-
-def _parts(knot: Knot) -> list[np.ndarray]:
-    """``Q_s, Q_a, Q_v + Q_c, Q_d`` (nv each) of a knot."""
-    return [knot.rest, knot.inertia, knot.velocity + knot.curvature, knot.damping]
 
 
 def stretch_for_balance(
