@@ -304,12 +304,11 @@ class MotionReference:
         timing, law = self.timing, self._servos
         sigma, rate, accel = timing.progress(t)
         base, delta, slope, _ = self.path.offsets(sigma)
-        q = self.q[base].copy()
-        q[:, law.qadr] += delta[:, law.dof]
-        qd = slope * rate[:, None]
-        tau = None if self.torques is None else self.torques.at(sigma, rate, accel)
+        q = self.q[:, law.qadr][base] + delta[:, law.dof]  # the driven joints' columns only
+        qd = slope[:, law.dof] * rate[:, None]
+        tau = None if self.torques is None else self.torques.at(sigma, rate, accel)[:, law.dof]
         ctrl = np.tile(self._ctrl, (len(t), 1))
-        ctrl[:, law.ids] = law.controls(q, qd, tau)
+        ctrl[:, law.ids] = law.joint_controls(q, qd, tau)
         return ctrl
 
     def loads(self, t: np.ndarray) -> np.ndarray:
