@@ -146,15 +146,17 @@ class HeldPose:
         self.scene = scene
         self.q = np.asarray(q, dtype=float)
         self.tau = tau
-        self.data = mujoco.MjData(scene.model)
+        self.data: mujoco.MjData | None = None  # begin()'s
         rm = scene.robot.model
         self._servos = ServoLaw(scene.model, scene.position_actuators, scene.robot_nq, rm.nv)
 
-    def begin(self) -> None:
+    def begin(self, data: mujoco.MjData | None = None) -> None:
         """Reset the state (environment at ``qpos0``), write the pose with zero
-        velocity, the servo targets at it with the static torques."""
+        velocity, the servo targets at it with the static torques; the pose's
+        kinematics in ``data`` (default: a new data of the scene's model)."""
         scene = self.scene
         m, d = scene.model, scene.data
+        self.data = mujoco.MjData(m) if data is None else data
         mujoco.mj_resetData(m, d)
         scene.set_pose(self.q)
         if self.tau is not None:
@@ -260,7 +262,7 @@ def hold(
     external = inputs.wrenches(external, "external")
     q = scene.qpos_of(q)[: scene.robot_nq]
     allowed = scene.allowed(criteria.allowed)
-    tau = holding_torques(scene, q, external) if feedforward else None
+    tau = holding_torques(scene, q, external, data=scene.workspace()) if feedforward else None
     short = [] if tau is None else drive_shortfalls(scene, q, tau)
     if short:
         why = "the servos cannot hold this pose: " + "; ".join(s.describe() for s in short)
@@ -368,7 +370,7 @@ def hold_many(
     stances = []
     for i, q in enumerate(qs):
         q = scene.qpos_of(q)[: scene.robot_nq]
-        tau = holding_torques(scene, q) if feedforward else None
+        tau = holding_torques(scene, q, data=scene.workspace()) if feedforward else None
         short = [] if tau is None else drive_shortfalls(scene, q, tau)
         if short:
             why = "the servos cannot hold this pose: " + "; ".join(s.describe() for s in short)

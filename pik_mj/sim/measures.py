@@ -117,9 +117,11 @@ class Reference(Protocol):
     waypoint: int | None
     load: float
 
-    def begin(self) -> None:
+    def begin(self, data: mujoco.MjData | None = None) -> None:
         """Put the physics (the scene's data) at the reference's start, its
-        controls of time 0 written."""
+        controls of time 0 written; the reference's kinematics (:attr:`data`)
+        in ``data`` from now on (a data of the scene's model at its reset
+        state; default: a new one)."""
 
     def update(self, t: float) -> None:
         """Move the reference to time ``t`` [s] from its start: :attr:`data`,

@@ -169,6 +169,7 @@ class Physics:
         self._system_list = self._system_geom.tolist()
         self._kin_data = mujoco.MjData(model)
         self._workspace: mujoco.MjData | None = None
+        self._spare: list[mujoco.MjData] = []  # datas given back (borrow_data)
         self._regions: dict[bytes, balance.SupportRegion] = {}
         rm = robot.model
         servo_ids = [int(j) for j in robot.angle_joint_ids]
@@ -280,6 +281,20 @@ class Physics:
         if self._workspace is None:
             self._workspace = mujoco.MjData(self.model)
         return self._workspace
+
+    def borrow_data(self) -> mujoco.MjData:
+        """A data of :attr:`model` at its reset state (``mj_resetData``: as a new
+        one is), one given back before (:meth:`give_back`) or a new one: a run's
+        own data without making one each time (making an ``MjData`` costs about
+        0.7 ms, its arena of the model's memory; resetting one about 7 µs)."""
+        data = self._spare.pop() if self._spare else mujoco.MjData(self.model)
+        mujoco.mj_resetData(self.model, data)
+        return data
+
+    def give_back(self, data: mujoco.MjData) -> None:
+        """Give a data of :meth:`borrow_data` back: the caller reads it no more."""
+        if len(self._spare) < _SPARE_KEPT:
+            self._spare.append(data)
 
     def set_pose(self, q: ArrayLike) -> None:
         """Write the robot configuration ``q`` into the physics state: zero
@@ -540,6 +555,9 @@ class Physics:
         """
         self._guard.step(n, before_step=before_step)
 
+
+_SPARE_KEPT = 8
+"""Datas given back that :meth:`Physics.borrow_data` keeps for the next borrower."""
 
 _REGIONS_KEPT = 256
 """Support regions :meth:`Physics.support_region` keeps, by their points."""

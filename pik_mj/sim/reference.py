@@ -233,18 +233,21 @@ class MotionReference:
         self.duration = self.timing.duration
         self.times = self.timing.waypoint_times()
         self._start = start
-        self.data = mujoco.MjData(scene.model)  # the environment at qpos0
+        self.data: mujoco.MjData | None = None  # begin()'s: the environment at qpos0
         self.waypoint = 0
         self._servos = ServoLaw(scene.model, scene.position_actuators, scene.robot_nq, rm.nv)
         self._ctrl = np.zeros(scene.model.nu)
 
     # -- the loop's interface ------------------------------------------------
 
-    def begin(self) -> None:
+    def begin(self, data: mujoco.MjData | None = None) -> None:
         """Reset the physics to the first waypoint at rest (or continue from the
-        start state) and write the controls of time 0."""
+        start state) and write the controls of time 0; the reference's
+        kinematics in ``data`` (at its reset state: the environment at
+        ``qpos0``; default: a new data of the scene's model)."""
         scene = self.scene
         m, d = scene.model, scene.data
+        self.data = mujoco.MjData(m) if data is None else data
         if self._start is None:
             mujoco.mj_resetData(m, d)
             scene.set_pose(self.q[0])
@@ -278,6 +281,8 @@ class MotionReference:
         loads = self.loads(times)
         waypoints = np.searchsorted(self.times, times, side="right") - 1
         bases, deltas, _, _ = self.path.offsets(sigma)
+        if self.data is None:  # moved before begin(): a data of its own
+            self.data = mujoco.MjData(scene.model)
         for base, delta, load, waypoint in zip(
             bases.tolist(), deltas, loads.tolist(), waypoints.tolist(), strict=True
         ):

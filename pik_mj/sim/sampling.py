@@ -100,7 +100,7 @@ class Sampler:
     ):
         m = scene.model
         self.scene, self.model = scene, m
-        self.data = mujoco.MjData(m)
+        self.data = scene.borrow_data()  # given back by close()
         self.system = scene.system_geoms
         ids = scene.geom_ids
         self.allowed = np.zeros(m.ngeom, dtype=bool)
@@ -125,6 +125,10 @@ class Sampler:
         self.names = scene.geom_names
         self._contacts: list[tuple[int, float, np.ndarray, np.ndarray, np.ndarray]] = []
         self._ground: list[tuple[np.ndarray, ...]] = []
+
+    def close(self) -> None:
+        """Give the sampler's data back to the scene (no more reads)."""
+        self.scene.give_back(self.data)
 
     @property
     def watched(self) -> list[str]:

@@ -136,7 +136,7 @@ class Run:
         while self.settle_step * scene.model.opt.timestep < SETTLE:
             self.settle_step += self.record_every
         self._t_wall = time.perf_counter()
-        reference.begin()
+        reference.begin(scene.borrow_data())  # given back, with the sampler's, by finish()
         d = scene.data
         self.t0 = float(d.time)
         self.limits = criteria.fall_limits(scene, scene.com_height(d), scene.root_height(d))
@@ -256,6 +256,8 @@ class Run:
     def finish(self) -> Tracked:
         """The figures of the run (:func:`pik_mj.sim.figures.figures`)."""
         self.sampler.flush(self.record)
+        self.sampler.close()
+        self.scene.give_back(self.reference.data)
         out = figures(
             self.scene,
             self.record,
@@ -402,7 +404,7 @@ def track_many(
         for r, f in zip(references, feedback or [None] * len(references), strict=True)
     ]
     stepper = Stepper(scene.model, nthread=nthread)
-    states = [stepper.state(_start(scene, run)) for run in runs]
+    states = [_start(scene, run) for run in runs]
     try:
         while active := [i for i, run in enumerate(runs) if not run.done]:
             n = min(runs[i].chunk() for i in active)
@@ -418,19 +420,24 @@ def track_many(
     return [run.finish() for run in runs]
 
 
-def _start(scene: Physics, run: Run) -> mujoco.MjData:
-    """A data at ``run``'s start state (its reference began on the scene's data)."""
-    d = mujoco.MjData(scene.model)
+def _start(scene: Physics, run: Run) -> np.ndarray:
+    """The full physics state of ``run``'s start (its reference began on the
+    scene's data, :attr:`Run.start`)."""
+    d = scene.borrow_data()
     mujoco.mj_setState(scene.model, d, run.start, _INTEGRATION)
-    return d
+    state = np.empty(mujoco.mj_stateSize(scene.model, FULL))
+    mujoco.mj_getState(scene.model, d, state, FULL)
+    scene.give_back(d)
+    return state
 
 
 def _integration(scene: Physics, state: np.ndarray, controls: np.ndarray) -> np.ndarray:
     """The ``mjSTATE_INTEGRATION`` state of a full physics state and its controls."""
     m = scene.model
-    d = mujoco.MjData(m)
+    d = scene.borrow_data()
     mujoco.mj_setState(m, d, state, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     mujoco.mj_setState(m, d, controls, mujoco.mjtState.mjSTATE_CTRL)
     out = np.empty(mujoco.mj_stateSize(m, _INTEGRATION))
     mujoco.mj_getState(m, d, out, _INTEGRATION)
+    scene.give_back(d)
     return out
