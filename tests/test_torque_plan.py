@@ -400,3 +400,16 @@ def test_point_contacts_limits_are_their_friction_pyramids():
         np.testing.assert_allclose(problem.A @ x, total, atol=1e-12)
         checked += 1
     assert checked > 300 and verdicts == {True, False}
+
+
+def test_a_path_not_finite_is_refused_before_its_knots():
+    """The knots' poses are not checked one by one: a waypoint holding NaN is
+    refused when the reference is made, naming the waypoint and the joint."""
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    path = _reach(robot)
+    j = robot.model.joint(robot.limb("rarm").joints[0])
+    path.items[2].q[j.qposadr[0]] = np.nan
+    lower, upper = velocity_limits(scene)
+    with pytest.raises(InvalidInput, match=rf"waypoint 2 of 5 .*{j.name}"):
+        MotionReference(scene, path, lower, upper, speed=0.2)
