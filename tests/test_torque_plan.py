@@ -342,15 +342,18 @@ def test_knot_contacts_and_supports_equal_touching_s():
 
 def test_inverse_dynamics_of_many_configurations_is_each_one_s():
     """``inverse_dynamics_many`` equals ``inverse_dynamics`` configuration by
-    configuration (bitwise), calls ``each(i)`` with the kinematics of
-    configuration ``i`` (the bodies' poses of ``mj_kinematics`` there), and
-    leaves the constraint solver as it found it."""
+    configuration and each pair ``(q̇, q̈)`` alone (a whole ``mj_inverse``; the
+    second pair repeats the first's velocity: its velocity stage is skipped),
+    bitwise; it calls ``each(i)`` with the kinematics of configuration ``i``
+    (the bodies' poses of ``mj_kinematics`` there) and leaves the constraint
+    solver as it found it."""
     robot = Robot.from_model("sample_humanoid")
     m = robot.model
     rng = np.random.default_rng(3)
     q = np.tile(robot.configuration.q, (3, 1))
     q[:, 7:] += rng.uniform(-0.2, 0.2, (3, m.nq - 7))
     qvel, qacc = rng.normal(size=(3, 4, m.nv)), rng.normal(size=(3, 4, m.nv))
+    qvel[:, 1] = qvel[:, 0]
     data, check = mujoco.MjData(m), mujoco.MjData(m)
     seen = []
 
@@ -364,6 +367,9 @@ def test_inverse_dynamics_of_many_configurations_is_each_one_s():
     assert seen == [True, True, True] and m.opt.disableflags == flags
     for i in range(3):
         np.testing.assert_array_equal(many[i], dy.inverse_dynamics(m, data, q[i], qvel[i], qacc[i]))
+        for j in range(4):
+            alone = dy.inverse_dynamics(m, data, q[i], qvel[i, j : j + 1], qacc[i, j : j + 1])
+            np.testing.assert_array_equal(many[i, j], alone[0])
     Ma = np.zeros(m.nv)  # data at q[2]: at equal velocities the difference is M Δq̈
     mujoco.mj_mulM(m, data, Ma, qacc[2, 1] - qacc[2, 0])
     tau = dy.inverse_dynamics(m, data, q[2], qvel[2, :1].repeat(2, 0), qacc[2, :2])
@@ -400,3 +406,16 @@ def test_point_contacts_limits_are_their_friction_pyramids():
         np.testing.assert_allclose(problem.A @ x, total, atol=1e-12)
         checked += 1
     assert checked > 300 and verdicts == {True, False}
+
+
+def test_a_path_not_finite_is_refused_before_its_knots():
+    """The knots' poses are not checked one by one: a waypoint holding NaN is
+    refused when the reference is made, naming the waypoint and the joint."""
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    path = _reach(robot)
+    j = robot.model.joint(robot.limb("rarm").joints[0])
+    path.items[2].q[j.qposadr[0]] = np.nan
+    lower, upper = velocity_limits(scene)
+    with pytest.raises(InvalidInput, match=rf"waypoint 2 of 5 .*{j.name}"):
+        MotionReference(scene, path, lower, upper, speed=0.2)

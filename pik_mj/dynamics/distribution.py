@@ -227,6 +227,10 @@ class ContactDistribution:
     ) -> None:
         """``A``, ``W``, ``G``, ``h`` (class docstring) of contacts with the limits
         ``C, d`` (:func:`_limits`) at ``points``."""
+        rows = [len(d) for _, d in limits]
+        if limits and len(set(rows)) == 1 and all(C.shape[1] == 3 for C, _ in limits):
+            self._assemble_points(limits, points)
+            return
         widths = [C.shape[1] for C, _ in limits]
         n = sum(widths)
         starts = np.cumsum([0, *widths[:-1]]).astype(int) if widths else np.zeros(0, int)
@@ -241,19 +245,25 @@ class ContactDistribution:
                 A[3:, start + 3 : start + 6] = np.eye(3)
         self.A, self.n, self.cols, self.weights = A, n, cols, np.array(weights)
         self._points_only = n == 3 * len(cols)  # every contact a point: a force alone
-        rows = [len(d) for _, d in limits]
         self.h = np.concatenate([d for _, d in limits]) if limits else np.zeros(0)
-        if self._points_only and len(set(rows)) == 1:  # the same block on the diagonal
-            K, r = len(limits), rows[0]
-            G = np.zeros((K, r, K, 3))
-            G[np.arange(K), :, np.arange(K), :] = -np.array([C for C, _ in limits])
-            self.G = G.reshape(K * r, n)
-        else:
-            self.G = np.zeros((sum(rows), n))
-            r = 0
-            for (start, k), (C, _) in zip(cols, limits, strict=True):
-                self.G[r : r + len(C), start : start + k] = -C
-                r += len(C)
+        self.G = np.zeros((sum(rows), n))
+        r = 0
+        for (start, k), (C, _) in zip(cols, limits, strict=True):
+            self.G[r : r + len(C), start : start + k] = -C
+            r += len(C)
+        self._map: np.ndarray | bool | None = False
+
+    def _assemble_points(self, limits: list[tuple[np.ndarray, np.ndarray]], points) -> None:
+        """:meth:`_assemble` of point contacts whose limits have the same rows:
+        ``A`` the points' :func:`wrench_map`, unit weights, ``G`` block-diagonal."""
+        K, r = len(limits), len(limits[0][1])
+        self.A, self.n = wrench_map(points), 3 * K
+        self.cols, self.weights = [(3 * i, 3) for i in range(K)], np.ones(3 * K)
+        self._points_only = True  # a force alone each
+        self.h = np.concatenate([d for _, d in limits])
+        G = np.zeros((K, r, K, 3))
+        G[np.arange(K), :, np.arange(K), :] = -np.array([C for C, _ in limits])
+        self.G = G.reshape(K * r, 3 * K)
         self._map: np.ndarray | bool | None = False
 
     @classmethod

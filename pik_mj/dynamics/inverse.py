@@ -65,18 +65,22 @@ def inverse_dynamics_many(
 ) -> np.ndarray:
     """:func:`inverse_dynamics` at each configuration ``q[i]`` (k, nq) for its
     velocities ``qvel[i]`` and accelerations ``qacc[i]`` (k, p, nv): (k, p, nv);
-    ``each(i)``, when given, is called after configuration ``i``'s, ``data``
-    then holding its kinematics."""
+    the velocity stage is skipped too where a pair's velocity is the one before
+    (order the pairs so: equal velocities next to each other). ``each(i)``,
+    when given, is called after configuration ``i``'s, ``data`` then holding
+    its kinematics."""
     k, p = qvel.shape[:2]
     out = np.empty((k, p, model.nv))
     qpos, v, a, tau = data.qpos, data.qvel, data.qacc, data.qfrc_inverse
-    stage = int(mujoco.mjtStage.mjSTAGE_POS)
+    skip = np.full((k, p), int(mujoco.mjtStage.mjSTAGE_POS))
+    skip[:, 1:][np.all(qvel[:, 1:] == qvel[:, :-1], axis=2)] = int(mujoco.mjtStage.mjSTAGE_VEL)
+    stages = skip.tolist()
     saved = model.opt.disableflags
     model.opt.disableflags = saved | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     try:
         for i in range(k):
             qpos[:] = q[i]
-            for j in range(p):
+            for j, stage in enumerate(stages[i]):
                 v[:] = qvel[i, j]
                 a[:] = qacc[i, j]
                 if j == 0:

@@ -44,7 +44,7 @@ linear in ``σ`` between knots): they go through the actuators' controls
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -160,7 +160,9 @@ class _Knots:
         return servo_bounds(model, self.actuators, qpos)
 
 
-def _fits(plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+def _fits(
+    plan: TorquePlan, dofs: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Per knot, at rates ``(σ̇, σ̈)`` (k,) each: the moving torques
     ``τ_s + P M q' σ̈ + P c σ̇² + P D q' σ̇`` (:meth:`TorquePlan.at` at the knots
     themselves) are within ``ρ`` of the bounds (or no farther out than at rest)."""

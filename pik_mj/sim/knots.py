@@ -242,8 +242,8 @@ class PathDynamics:
             qpos[:, : scene.robot_nq] = q
         v, a, zero = np.zeros((k, m.nv)), np.zeros((k, m.nv)), np.zeros((k, m.nv))
         v[:, :nv], a[:, :nv] = d1, d2
-        rates = np.stack([zero, zero, v, -v, zero], axis=1)  # (q̇, q̈) of the five
-        accels = np.stack([zero, v, zero, zero, a], axis=1)
+        rates = np.stack([zero, zero, zero, v, -v], axis=1)  # (q̇, q̈) of the five
+        accels = np.stack([zero, v, a, zero, zero], axis=1)  # (the rest ones together)
         S = float(self.path.timing.nominal[-1])
         external, weight = np.zeros((k, m.nv)), np.zeros((k, m.nv))
         xpos, xmat = np.empty((k, m.nbody, 3)), np.empty((k, m.nbody, 9))
@@ -261,7 +261,7 @@ class PathDynamics:
         taus = inverse_dynamics_many(m, d, qpos, rates, accels, loads)
         probes = [scene.probe_contacts(x, friction=True) for x in qpos]
         contacts = robot_contacts(scene, probes)
-        g, accel, plus, minus, bend = np.transpose(taus, (1, 0, 2))
+        g, accel, bend, plus, minus = np.transpose(taus, (1, 0, 2))
         rest, inertia, curvature = g - external - weight, accel - g, bend - g
         velocity, damping = 0.5 * (plus + minus) - g, 0.5 * (plus - minus)
         return [

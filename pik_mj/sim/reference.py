@@ -182,6 +182,9 @@ class MotionReference:
         data: Kinematics of the reference now.
         waypoint: Index of the last waypoint passed.
         load: Scale of the external wrenches now.
+
+    Raises:
+        InvalidInput: A waypoint that is not finite (its index and joint).
     """
 
     moving = True
@@ -204,6 +207,7 @@ class MotionReference:
         self.load = 0.0 if self._ramp else 1.0
         rm = scene.robot.model
         self._rm = rm
+        path.check_finite(scene.model)  # the knots' poses are not checked one by one
         self.q = path.q
         n = len(self.q)
         self._dv = np.zeros((max(n - 1, 0), rm.nv))

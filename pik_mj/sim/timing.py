@@ -50,6 +50,11 @@ def min_jerk(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
+def _starts(durations: np.ndarray) -> np.ndarray:
+    """Start time [s] of each segment of ``durations`` (m,), and the end of the last."""
+    return np.concatenate([[0.0], np.cumsum(durations)])
+
+
 _INVERSE_TABLE = (np.linspace(0.0, 1.0, 4001), min_jerk(np.linspace(0.0, 1.0, 4001))[0])
 """``τ`` and ``m(τ)`` on a grid: the table :meth:`Timing.times_of` inverts ``m`` on."""
 
@@ -91,7 +96,7 @@ class Timing:
     @property
     def starts(self) -> np.ndarray:
         """Start time ``t_k`` [s] of each segment, and the end of the last (m + 1,)."""
-        return np.concatenate([[0.0], np.cumsum(self.durations)])
+        return _starts(self.durations)
 
     @property
     def duration(self) -> float:
@@ -100,15 +105,21 @@ class Timing:
 
     def segment_of(self, t: np.ndarray) -> np.ndarray:
         """Index of the segment running at each time ``t`` [s] (the last one after the end)."""
-        k = np.searchsorted(self.starts, np.asarray(t, float), side="right") - 1
-        return np.clip(k, 0, len(self.first) - 1)
+        return self._segments(t)[0]
+
+    def _segments(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`segment_of`, :attr:`durations` and :attr:`starts` (formed once)."""
+        durations = self.durations
+        starts = _starts(durations)
+        k = np.searchsorted(starts, np.asarray(t, float), side="right") - 1
+        return np.clip(k, 0, len(self.first) - 1), durations, starts
 
     def progress(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``σ(t)`` [s], ``dσ/dt`` [-] and ``d²σ/dt²`` [1/s] at times ``t`` [s]."""
         t = np.asarray(t, dtype=float)
-        k = self.segment_of(t)
-        D = self.durations[k]
-        (s0, s1), t0 = self.span[k].T, self.starts[k]
+        k, durations, starts = self._segments(t)
+        D = durations[k]
+        (s0, s1), t0 = self.span[k].T, starts[k]
         moving = D > 0
         tau = np.where(moving, (t - t0) / np.where(moving, D, 1.0), 1.0)
         m, dm, ddm = min_jerk(tau)
@@ -127,7 +138,8 @@ class Timing:
         table, m = _INVERSE_TABLE
         k = np.searchsorted(self.span[:, 1], sigma, side="left")
         k = np.clip(k, 0, len(self.first) - 1)
-        (s0, s1), t0, D = self.span[k].T, self.starts[k], self.durations[k]
+        durations = self.durations
+        (s0, s1), t0, D = self.span[k].T, _starts(durations)[k], durations[k]
         moving = s1 > s0
         frac = np.where(moving, (sigma - s0) / np.where(moving, s1 - s0, 1.0), 1.0)
         return t0 + D * np.interp(np.clip(frac, 0.0, 1.0), m, table)
@@ -147,7 +159,7 @@ class Timing:
         slowed, ``{k: c_k}``."""
         t = self.times_of(sigma)
         _, rate, accel = self.progress(t)
-        segment = self.segment_of(t)
+        segment = self._segments(t)[0]
         out = {}
         for k in np.unique(segment[~fits(rate, accel)]):
             mine = segment == k

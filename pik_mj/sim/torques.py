@@ -142,14 +142,13 @@ class ContactSupport:
             for c in contacts
             if not c.self_contact and m.geom_bodyid[scene.geom_ids[c.robot_geom]] not in held
         ]
-        self._build(
-            scene,
-            data,
+        arrays = (
             np.array([c.position for c in env], dtype=float).reshape(-1, 3),
             np.array([c.normal for c in env], dtype=float).reshape(-1, 3),
             np.array([c.friction for c in env], dtype=float),
             np.array([m.geom_bodyid[scene.geom_ids[c.robot_geom]] for c in env], dtype=int),
         )
+        self._build(scene, data, arrays)
 
     @classmethod
     def of_points(
@@ -166,18 +165,12 @@ class ContactSupport:
         the robot's body of each (n,) (as the class, the contacts already those
         that carry the robot)."""
         support = cls.__new__(cls)
-        support._build(scene, data, points, normals, friction, bodies)
+        support._build(scene, data, (points, normals, friction, bodies))
         return support
 
-    def _build(
-        self,
-        scene: Physics,
-        data: mujoco.MjData,
-        points: np.ndarray,
-        normals: np.ndarray,
-        friction: np.ndarray,
-        bodies: np.ndarray,
-    ) -> None:
+    def _build(self, scene: Physics, data: mujoco.MjData, contacts: tuple[np.ndarray, ...]) -> None:
+        """The maps of the contacts ``(points, normals, friction, bodies)``."""
+        points, normals, friction, bodies = contacts
         m = scene.model
         b = scene.robot.root_body_id
         j = int(m.body_jntadr[b])
