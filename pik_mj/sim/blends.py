@@ -69,13 +69,17 @@ class BlendedPath:
                 self.half_width[w] = 0.5 * min(steps[w - 1], steps[w])
         self._dv = np.asarray(dv, float)
 
-    def offsets(self, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def offsets(
+        self, sigma: np.ndarray, dofs: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """At nominal times ``σ`` (k,) [s]: the waypoint ``w`` (k,) and tangent
         offset ``δ`` (k, nv) with ``q(σ) = q_w ⊕ δ``, ``q'`` (k, nv) [rad/s] and
-        ``q''`` (k, nv) [rad/s²] (zero at and after the last waypoint)."""
+        ``q''`` (k, nv) [rad/s²] (zero at and after the last waypoint); with
+        ``dofs``, their columns of those dofs only (k, len(dofs))."""
         sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
         nominal, steps, b = self.timing.nominal, self.timing.steps, self.half_width
-        n, nv = len(self.q), self.model.nv
+        rates = self.rates if dofs is None else self.rates[:, dofs]
+        n, nv = len(self.q), rates.shape[1]
         i, _ = self.timing.piece(sigma)
         k = len(sigma)
         w, delta = i.copy(), np.zeros((k, nv))
@@ -89,13 +93,13 @@ class BlendedPath:
         before = inside & ~after & (s > T - bn) & (bn > 0)
         straight = inside & ~after & ~before
         if np.any(straight):
-            r = self.rates[i[straight]]
+            r = rates[i[straight]]
             delta[straight], d1[straight] = s[straight, None] * r, r
         blend = after | before
         if np.any(blend):  # the blend after waypoint i or before i + 1, both at once
             c = np.where(after, i, i + 1)[blend]
             bw = b[c][:, None]
-            v_in, v_out = self.rates[c - 1], self.rates[c]
+            v_in, v_out = rates[c - 1], rates[c]
             u = np.where(after, s, s - T)[blend][:, None] + bw  # σ - σ_w + b_w in [0, 2 b_w]
             turn, x = v_out - v_in, u / (2.0 * bw)
             w[blend] = c

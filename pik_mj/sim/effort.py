@@ -98,10 +98,17 @@ class TorquePlan:
     shortfalls: list[DriveShortfall] = field(default_factory=list)
     stretched: dict[int, float] = field(default_factory=dict)
 
-    def at(self, sigma: np.ndarray, rate: np.ndarray, accel: np.ndarray) -> np.ndarray | None:
+    def at(
+        self,
+        sigma: np.ndarray,
+        rate: np.ndarray,
+        accel: np.ndarray,
+        dofs: np.ndarray | None = None,
+    ) -> np.ndarray | None:
         """The feed-forward (n, nv) at nominal times ``σ`` [s] with ``σ̇`` [-] and
         ``σ̈`` [1/s]: each term linear in ``σ`` between knots, constant outside;
-        None without knots."""
+        with ``dofs``, its columns of those dofs only (n, len(dofs)); None
+        without knots."""
         if not len(self.sigma):
             return None
         sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
@@ -115,6 +122,7 @@ class TorquePlan:
         rate, accel = np.asarray(rate, float)[:, None], np.asarray(accel, float)[:, None]
 
         def lerp(a: np.ndarray) -> np.ndarray:
+            a = a if dofs is None else a[:, dofs]
             return (1 - w) * a[k] + w * a[nxt]
 
         return (

@@ -27,7 +27,6 @@ from pik_mj.sim.criteria import HoldCriteria, check_options
 from pik_mj.sim.falls import Fall
 from pik_mj.sim.measures import HoldSample, Tracked
 from pik_mj.sim.physics import External, Physics
-from pik_mj.sim.servos import ServoLaw
 from pik_mj.sim.stability import diagnose
 from pik_mj.sim.static import finite_or_none
 from pik_mj.sim.torques import drive_shortfalls, holding_torques
@@ -147,8 +146,7 @@ class HeldPose:
         self.q = np.asarray(q, dtype=float)
         self.tau = tau
         self.data: mujoco.MjData | None = None  # begin()'s
-        rm = scene.robot.model
-        self._servos = ServoLaw(scene.model, scene.position_actuators, scene.robot_nq, rm.nv)
+        self._servos = scene.servo_law
 
     def begin(self, data: mujoco.MjData | None = None) -> None:
         """Reset the state (environment at ``qpos0``), write the pose with zero

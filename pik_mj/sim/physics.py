@@ -22,6 +22,7 @@ contacts push at a distance).
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -40,7 +41,7 @@ from pik_mj.robot.ground import foot_geoms
 from pik_mj.sim.falls import foot_length
 from pik_mj.sim.grasp import Grasp
 from pik_mj.sim.guard import StateGuard
-from pik_mj.sim.servos import position_feedback, rest_controls
+from pik_mj.sim.servos import ServoLaw, position_feedback, rest_controls
 from pik_mj.spatial import matrix_to_quat
 
 __all__ = ["ContactInfo", "External", "Physics", "subtree_mask"]
@@ -281,6 +282,12 @@ class Physics:
         if self._workspace is None:
             self._workspace = mujoco.MjData(self.model)
         return self._workspace
+
+    @functools.cached_property
+    def servo_law(self) -> ServoLaw:
+        """The controls of the scene's position actuators on the robot's hinge and
+        slide joints (:class:`~pik_mj.sim.servos.ServoLaw`, made once; read only)."""
+        return ServoLaw(self.model, self.position_actuators, self.robot_nq, self.robot.model.nv)
 
     def borrow_data(self) -> mujoco.MjData:
         """A data of :attr:`model` at its reset state (``mj_resetData``: as a new

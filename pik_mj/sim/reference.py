@@ -58,7 +58,6 @@ from pik_mj.sim.effort import plan_torques
 from pik_mj.sim.knots import PathDynamics
 from pik_mj.sim.path import Waypoints
 from pik_mj.sim.physics import External, Physics
-from pik_mj.sim.servos import ServoLaw
 from pik_mj.sim.timing import Timing
 from pik_mj.sim.zmp import stretch_for_balance
 
@@ -239,7 +238,7 @@ class MotionReference:
         self._start = start
         self.data: mujoco.MjData | None = None  # begin()'s: the environment at qpos0
         self.waypoint = 0
-        self._servos = ServoLaw(scene.model, scene.position_actuators, scene.robot_nq, rm.nv)
+        self._servos = scene.servo_law
         self._ctrl = np.zeros(scene.model.nu)
 
     # -- the loop's interface ------------------------------------------------
@@ -307,13 +306,12 @@ class MotionReference:
         actuators' as :meth:`begin` found them."""
         timing, law = self.timing, self._servos
         sigma, rate, accel = timing.progress(t)
-        base, delta, slope, _ = self.path.offsets(sigma)
-        q = self.q[base].copy()
-        q[:, law.qadr] += delta[:, law.dof]
+        base, delta, slope, _ = self.path.offsets(sigma, law.dof)  # the driven joints' only
+        q = self.q[:, law.qadr][base] + delta
         qd = slope * rate[:, None]
-        tau = None if self.torques is None else self.torques.at(sigma, rate, accel)
+        tau = None if self.torques is None else self.torques.at(sigma, rate, accel, law.dof)
         ctrl = np.tile(self._ctrl, (len(t), 1))
-        ctrl[:, law.ids] = law.controls(q, qd, tau)
+        ctrl[:, law.ids] = law.joint_controls(q, qd, tau)
         return ctrl
 
     def loads(self, t: np.ndarray) -> np.ndarray:

@@ -214,10 +214,18 @@ class ServoLaw:
     def controls(self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
         """Controls (k, len(ids)) for references ``q`` (k, nq), ``qd`` (k, nv) and
         feed-forward ``tau`` (k, nv) [N·m or N] (None: none); single rows too."""
-        b0, b1, b2 = self.b.T
         q, qd = np.asarray(q, float), np.asarray(qd, float)
-        L, Ld = self.gear * q[..., self.qadr], self.gear * qd[..., self.dof]
+        tau = None if tau is None else np.asarray(tau, float)[..., self.dof]
+        return self.joint_controls(q[..., self.qadr], qd[..., self.dof], tau)
+
+    def joint_controls(
+        self, q: np.ndarray, qd: np.ndarray, tau: np.ndarray | None = None
+    ) -> np.ndarray:
+        """:meth:`controls` from the driven joints' values alone: ``q``, ``qd`` and
+        ``tau`` (k, len(ids)), each actuator's joint's (``qadr``, ``dof``)."""
+        b0, b1, b2 = self.b.T
+        L, Ld = self.gear * q, self.gear * qd
         u = -(b0 + b1 * L + b2 * Ld)
         if tau is not None:
-            u = u + np.where(self.feeds, np.asarray(tau, float)[..., self.dof] / self.gear, 0.0)
+            u = u + np.where(self.feeds, tau / self.gear, 0.0)
         return u / self.g0
