@@ -23,6 +23,7 @@ from pik_mj.balance import (
     convex_hull_2d,
     foot_contact,
     halfplanes_from_polygon,
+    hull_region,
     plane_basis,
     polygon_area,
     polygon_from_halfplanes,
@@ -199,6 +200,28 @@ def test_hull_matches_brute_force_and_scipy(seed):
     assert polygon_area(hull) == pytest.approx(ref.volume, rel=1e-12)
     if seed >= 3:
         assert len(hull) == 4  # the square grid: only its 4 corners
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_hull_region_is_hull_halfplanes_and_area(seed):
+    """hull_region's three results are convex_hull_2d's vertices (sorted-unique
+    start as np.unique), halfplanes_from_polygon's and polygon_area's, bit for bit;
+    degenerate sets give no half-planes."""
+    rng = np.random.default_rng(seed)
+    for pts in (rng.normal(size=(9, 2)), np.round(rng.normal(size=(30, 2)), 1)):
+        hull, hp, area = hull_region(pts, tol=1e-6)
+        assert np.array_equal(hull, convex_hull_2d(pts, tol=1e-6))
+        ref = halfplanes_from_polygon(hull)
+        assert np.array_equal(hp.A, ref.A) and np.array_equal(hp.b, ref.b)
+        assert area == polygon_area(hull) == pytest.approx(ConvexHull(pts).volume, rel=1e-12)
+        # the hull starts at the lexicographically smallest point, as np.unique sorts
+        assert np.array_equal(hull[0], np.unique(pts, axis=0)[0])
+    segment = np.array([[0.0, 0.0], [1.0, 1.0], [0.5, 0.5], [1.0, 1.0]])
+    hull, hp, area = hull_region(segment, allow_degenerate=True)
+    assert hp is None and area == 0.0
+    assert np.array_equal(np.sort(hull, axis=0), [[0.0, 0.0], [1.0, 1.0]])
+    with pytest.raises(InvalidInput, match="span no area"):
+        hull_region(segment)
 
 
 def test_signed_distance_vs_brute_force():

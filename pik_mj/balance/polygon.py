@@ -79,16 +79,20 @@ def convex_hull_2d(
         InvalidInput: Wrong shape, non-finite values, or fewer than 3 non-collinear
             points (unless ``allow_degenerate``).
     """
-    pts = finite_array(points, (None, 2), "points")
+    return _hull(finite_array(points, (None, 2), "points"), allow_degenerate, tol)
+
+
+def _hull(pts: np.ndarray, allow_degenerate: bool, tol: float | None) -> np.ndarray:
+    """:func:`convex_hull_2d` of finite points ``pts`` (n, 2)."""
     if len(pts) == 0:
         raise InvalidInput("points is empty: need at least 3 non-collinear points")
-    pts = np.unique(pts, axis=0)  # sorted lexicographically by (x, y)
-    extent = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
-    dist_tol = 1e-9 * extent if tol is None else real(tol, "tol")
+    # the distinct points sorted lexicographically by (x, y), as np.unique(pts, axis=0)
+    distinct = sorted(set(map(tuple, pts.tolist())))
+    pts = np.array(distinct, dtype=float).reshape(-1, 2)
+    dist_tol = 1e-9 * _extent(pts) if tol is None else real(tol, "tol")
     hull = pts
     if len(pts) >= 3:  # on Python floats: a few points, many small steps
-        sorted_points = [(x, y) for x, y in pts.tolist()]
-        lower, upper = _chain(sorted_points), _chain(sorted_points[::-1])
+        lower, upper = _chain(distinct), _chain(distinct[::-1])
         hull = np.array(_drop_flat_vertices(lower[:-1] + upper[:-1], dist_tol)).reshape(-1, 2)
     if len(hull) >= 3:
         return hull
@@ -98,13 +102,41 @@ def convex_hull_2d(
             f"coincident (within {dist_tol:.3g} m) and span no area; a convex hull "
             "needs at least 3 non-collinear points"
         )
-    if extent <= dist_tol:
+    if _extent(pts) <= dist_tol:
         return pts[:1]
     # Segment: the two extreme points along the principal direction.
     d = pts - pts.mean(axis=0)
     axis = np.linalg.svd(d, full_matrices=False)[2][0]
     s = d @ axis
     return pts[[int(np.argmin(s)), int(np.argmax(s))]]
+
+
+def _extent(pts: np.ndarray) -> float:
+    """The largest side [m] of the points' (n, 2) bounding box (0 for one point)."""
+    return float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
+
+
+def hull_region(
+    points: np.ndarray, *, allow_degenerate: bool = False, tol: float | None = None
+) -> tuple[np.ndarray, HalfPlanes | None, float]:
+    """The convex hull of planar points (:func:`convex_hull_2d`) and, when it
+    spans an area (3 vertices or more), its :func:`halfplanes_from_polygon`
+    and :func:`polygon_area` (else None and 0), the hull checked once.
+
+    Args:
+        points: Points ``(n, 2)`` [m].
+        allow_degenerate, tol: As :func:`convex_hull_2d`.
+
+    Returns:
+        ``(vertices (m, 2) counter-clockwise, half-planes or None, area [m²])``.
+
+    Raises:
+        InvalidInput: As :func:`convex_hull_2d` and :func:`halfplanes_from_polygon`.
+    """
+    hull = _hull(finite_array(points, (None, 2), "points"), allow_degenerate, tol)
+    if len(hull) < 3:
+        return hull, None, 0.0
+    return hull, _halfplanes(hull), _area(hull)
 
 
 def _next(a: np.ndarray) -> np.ndarray:
@@ -126,7 +158,11 @@ def polygon_area(vertices: np.ndarray) -> float:
     Returns:
         Area [m²].
     """
-    v = finite_array(vertices, (None, 2), "vertices")
+    return _area(finite_array(vertices, (None, 2), "vertices"))
+
+
+def _area(v: np.ndarray) -> float:
+    """:func:`polygon_area` of finite vertices ``v`` (m, 2)."""
     if len(v) < 3:
         return 0.0
     x, y = v[:, 0], v[:, 1]
@@ -176,7 +212,11 @@ def halfplanes_from_polygon(vertices_ccw: np.ndarray) -> HalfPlanes:
         InvalidInput: Fewer than 3 vertices, clockwise or non-convex order,
             repeated vertices.
     """
-    v = finite_array(vertices_ccw, (None, 2), "vertices_ccw")
+    return _halfplanes(finite_array(vertices_ccw, (None, 2), "vertices_ccw"))
+
+
+def _halfplanes(v: np.ndarray) -> HalfPlanes:
+    """:func:`halfplanes_from_polygon` of finite vertices ``v`` (m, 2)."""
     if len(v) < 3:
         raise InvalidInput(f"a polygon needs at least 3 vertices, got {len(v)}")
     edges = _next(v) - v

@@ -9,14 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pik_mj.balance.polygon import (
-    HalfPlanes,
-    convex_hull_2d,
-    halfplanes_from_polygon,
-    inset_vertices,
-    polygon_area,
-    signed_distance,
-)
+from pik_mj.balance.polygon import HalfPlanes, hull_region, inset_vertices, signed_distance
 from pik_mj.balance.values import finite_array
 from pik_mj.exceptions import InvalidInput
 
@@ -156,7 +149,7 @@ def support_polygon(
     R = plane_basis(normal)
     uv = pts @ R[:, :2]
     try:
-        hull = convex_hull_2d(uv, allow_degenerate=allow_degenerate, tol=tol)
+        hull, halfplanes, area = hull_region(uv, allow_degenerate=allow_degenerate, tol=tol)
     except InvalidInput as exc:
         raise InvalidInput(
             f"degenerate support polygon: the contact points projected along the "
@@ -164,12 +157,6 @@ def support_polygon(
         ) from exc
     height = float(np.mean(pts @ R[:, 2]))
     v3 = hull @ R[:, :2].T + height * R[:, 2]
-    area = len(hull) >= 3
     return SupportRegion(
-        vertices_2d=hull,
-        vertices_3d=v3,
-        halfplanes=halfplanes_from_polygon(hull) if area else None,
-        R=R,
-        height=height,
-        area=polygon_area(hull) if area else 0.0,
+        vertices_2d=hull, vertices_3d=v3, halfplanes=halfplanes, R=R, height=height, area=area
     )
