@@ -101,7 +101,7 @@ class ZmpPlan:
         (..., k) each."""
         s, a, v, d = self.parts
         Q = s + a * accel[..., None] + v * (rate**2)[..., None] + d * rate[..., None]
-        return zmp_points(Q[:, :3], Q[:, 3:], self.origin)
+        return zmp_points(Q[..., :3], Q[..., 3:], self.origin)
 
     def margins(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """Signed distance (..., k) [m] of each knot's ZMP to its polygon's edges
