@@ -28,14 +28,39 @@ WEIGHT = 500.0  # [N]
 def _qp_calls(monkeypatch) -> list[int]:
     """Counts the calls to the QP solver (the real one, called through)."""
     calls: list[int] = []
-    solve = qpsolvers.solve_qp
+    solve = distribution.daqp.solve
 
     def counted(*args, **kwargs):
         calls.append(1)
         return solve(*args, **kwargs)
 
-    monkeypatch.setattr(distribution.qpsolvers, "solve_qp", counted)
+    monkeypatch.setattr(distribution.daqp, "solve", counted)
     return calls
+
+
+@pytest.mark.parametrize("kind", ["points", "soles"])
+def test_the_qp_is_qpsolvers_daqp_problem(kind):
+    """The distribution's QP (DAQP called directly) gives qpsolvers'
+    ``solve_qp(W, 0, G, h, A, b, solver="daqp")`` bit for bit, in units of
+    ``|f|``, feasible or not (None)."""
+    rng = np.random.default_rng(5)
+    found = 0
+    for trial in range(20):
+        d = dy.ContactDistribution(_contacts(rng, kind))
+        f = np.array([*rng.normal(0, 0.3 if trial % 2 else 1.2, 2) * WEIGHT, WEIGHT])
+        total = np.concatenate([f, np.cross([*rng.normal(0, 0.2, 2), 0.9], f)])
+        scale = float(np.linalg.norm(total[:3]))
+        ref = qpsolvers.solve_qp(
+            np.diag(d.weights), np.zeros(d.n), G=d.G, h=d.h / scale, A=d.A, b=total / scale,
+            solver="daqp",
+        )  # fmt: skip
+        got = d.solve(total, solver="qp")
+        assert (got is None) == (ref is None)
+        if ref is not None:
+            found += 1
+            x = np.concatenate([got[i, :k] for i, (_, k) in enumerate(d.cols)])
+            assert np.array_equal(x, scale * ref)
+    assert 0 < found < 20  # feasible and infeasible totals
 
 
 def _contacts(rng: np.random.Generator, kind: str) -> list[balance.ContactConstraint]:

@@ -9,9 +9,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
 
+import daqp
 import mujoco
 import numpy as np
-import qpsolvers
 
 from pik_mj import inputs
 from pik_mj.balance.contacts import ContactConstraint, contact_from_normal, wrench_constraints
@@ -252,6 +252,7 @@ class ContactDistribution:
             self.G[r : r + len(C), start : start + k] = -C
             r += len(C)
         self._map: np.ndarray | bool | None = False
+        self._daqp: tuple[np.ndarray, ...] | None = None  # :meth:`_qp`'s
 
     def _assemble_points(self, limits: list[tuple[np.ndarray, np.ndarray]], points) -> None:
         """:meth:`_assemble` of point contacts whose limits have the same rows:
@@ -265,6 +266,7 @@ class ContactDistribution:
         G[np.arange(K), :, np.arange(K), :] = -np.array([C for C, _ in limits])
         self.G = G.reshape(K * r, 3 * K)
         self._map: np.ndarray | bool | None = False
+        self._daqp: tuple[np.ndarray, ...] | None = None  # :meth:`_qp`'s
 
     @classmethod
     def of_points(
@@ -277,16 +279,28 @@ class ContactDistribution:
         contact with the same ones, wherever it is."""
         if not (np.isfinite(moment_weight) and moment_weight > 0):
             raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
-        found: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray]] = {}
-        limits = []
         normals = np.asarray(normals, float).reshape(-1, 3).tolist()
-        for normal, friction in zip(normals, np.asarray(mu, float).tolist(), strict=True):
-            key = (*normal, friction)
-            if key not in found:
-                found[key] = _limits(_at_origin(*key))
-            limits.append(found[key])
+        keys = tuple(
+            (*normal, friction)
+            for normal, friction in zip(normals, np.asarray(mu, float).tolist(), strict=True)
+        )
+        points = np.asarray(points, float).reshape(-1, 3)
         distribution = cls.__new__(cls)
-        distribution._assemble(limits, np.asarray(points, float).reshape(-1, 3), moment_weight)
+        shared = _POINT_LIMITS.get((moment_weight, keys))
+        if shared is not None:  # A alone depends on the points
+            distribution.A = wrench_map(points)
+            distribution.n, distribution.cols, distribution.weights = shared[:3]
+            distribution._points_only, distribution.h, distribution.G = shared[3:]
+            distribution._map, distribution._daqp = False, None
+            return distribution
+        found = {key: _limits(_at_origin(*key)) for key in dict.fromkeys(keys)}
+        distribution._assemble([found[key] for key in keys], points, moment_weight)
+        if len(_POINT_LIMITS) >= 1024:
+            _POINT_LIMITS.clear()
+        d = distribution
+        for x in (d.weights, d.h, d.G):
+            x.flags.writeable = False
+        _POINT_LIMITS[moment_weight, keys] = (d.n, d.cols, d.weights, d._points_only, d.h, d.G)
         return distribution
 
     @property
@@ -317,10 +331,7 @@ class ContactDistribution:
         if x is not None and not np.all(self.G @ x <= h):
             x = None
         if x is None:
-            x = qpsolvers.solve_qp(
-                np.diag(self.weights), np.zeros(self.n), G=self.G, h=h, A=self.A, b=b,
-                solver="daqp",
-            )  # fmt: skip
+            x = self._qp(h, b)
         if x is None:
             return None
         out = np.zeros((len(self.cols), 6))
@@ -330,6 +341,26 @@ class ContactDistribution:
         for i, (start, k) in enumerate(self.cols):
             out[i, :k] = scale * x[start : start + k]
         return out
+
+    def _qp(self, h: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+        """DAQP on ``min ½ xᵀ W x`` s.t. ``G x ≤ h``, ``A x = b`` (the rows of
+        ``G`` then of ``A``, the latter equalities: ``sense`` 5, lower bounds
+        ``-1e30``, as qpsolvers' ``solve_qp(..., solver="daqp")`` poses it); the
+        solution, or None (``exitflag ≤ 0``)."""
+        if self._daqp is None:
+            rows = len(self.G) + len(self.A)
+            sense = np.zeros(rows, dtype=np.intc)
+            sense[len(self.G) :] = 5
+            self._daqp = (
+                np.diag(self.weights),
+                np.zeros(self.n),
+                np.vstack([self.G, self.A]),
+                np.full(rows, -1e30),
+                sense,
+            )
+        H, f, C, lower, sense = self._daqp
+        x, _, exitflag, _ = daqp.solve(H, f, C, np.concatenate([h, b]), lower, sense)
+        return x if exitflag > 0 else None
 
 
 def wrench_map(points: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
@@ -352,6 +383,11 @@ def _at_origin(nx: float, ny: float, nz: float, mu: float) -> ContactConstraint:
 
 
 _LIMITS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+_POINT_LIMITS: dict[tuple, tuple] = {}
+"""What :meth:`ContactDistribution.of_points` builds of the contacts' normals
+and friction alone (``n``, ``cols``, ``weights``, points only, ``h``, ``G``;
+read-only), by ``moment_weight`` and their values."""
 
 
 def _limits(contact: ContactConstraint) -> tuple[np.ndarray, np.ndarray]:
