@@ -207,3 +207,37 @@ def _least_zmp_margin(scene: Scene, region, reference: MotionReference) -> float
         p = _zmp_direct(scene, qs[k], qvel, qacc, data)
         margins.append(region.signed_distance(np.array([p[0], p[1], 0.0])))
     return float(np.min(margins))
+
+
+def test_stretch_until_is_the_plain_bisection():
+    """Timing.stretch_until (several halvings per call of fits) gives the
+    stretch of a plain 30-halving bisection called knot by knot, bit for bit,
+    on three segments whose knots need different slowdowns (one none)."""
+    rng = np.random.default_rng(4)
+    labels = ["a", "a", "a", "b", "b", "c", "c"]
+    for trial in range(5):
+        timing = Timing(rng.uniform(0.2, 0.6, 6), labels)
+        reference = Timing(timing.steps.copy(), labels)
+        sigma = np.linspace(0.0, timing.nominal[-1], 31)
+        need = rng.uniform(0.5, 3.0, (2, len(sigma)))
+        need[:, sigma < timing.nominal[2]] = 0.1 * (trial % 2)  # segment a: fits at once
+
+        def fits(rate, accel, need=need):
+            return rate**2 * need[0] + np.abs(accel) * need[1] <= 1.0
+
+        got = timing.stretch_until(sigma, fits, 10.0)
+        t = reference.times_of(sigma)
+        _, rate, accel = reference.progress(t)
+        segment = reference.segment_of(t)
+        expected = {}
+        for k in np.unique(segment[~fits(rate, accel)]):
+            mine = segment == k
+            low, high = 1.0, 10.0
+            for _ in range(30):
+                c = 0.5 * (low + high)
+                ok = fits(np.where(mine, rate / c, rate), np.where(mine, accel / c**2, accel))
+                low, high = (low, c) if np.all(ok[mine]) else (c, high)
+            reference.stretch[k] *= high
+            expected[int(k)] = float(reference.stretch[k])
+        assert got == expected and np.array_equal(timing.stretch, reference.stretch)
+        assert len(got) >= 2 and max(got.values()) > 1.5

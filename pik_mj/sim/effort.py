@@ -173,7 +173,8 @@ def _fits(
 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Per knot, at rates ``(σ̇, σ̈)`` (k,) each: the moving torques
     ``τ_s + P M q' σ̈ + P c σ̇² + P D q' σ̇`` (:meth:`TorquePlan.at` at the knots
-    themselves) are within ``ρ`` of the bounds (or no farther out than at rest)."""
+    themselves) are within ``ρ`` of the bounds (or no farther out than at rest);
+    rates with leading axes (..., k) give (..., k)."""
     rest, inertia, velocity, damping = (
         x[:, dofs] for x in (plan.rest, plan.inertia, plan.velocity, plan.damping)
     )
@@ -181,9 +182,9 @@ def _fits(
     bottom = np.minimum(DRIVE_RESERVE * lo, rest) - 1e-9
 
     def fits(rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
-        rate, accel = rate[:, None], accel[:, None]
+        rate, accel = rate[..., None], accel[..., None]
         tau = rest + inertia * accel + velocity * rate**2 + damping * rate
-        return np.all((tau <= top) & (tau >= bottom), axis=1)
+        return np.all((tau <= top) & (tau >= bottom), axis=-1)
 
     return fits
 
@@ -207,46 +208,60 @@ def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
     tolerance's scale is planned on a few knots; a turn at a waypoint, or a
     torque that bends, gets the grid's knots around it."""
     done: dict[int, tuple] = {}
+    servo: dict[int, tuple[np.ndarray, float] | None] = {}  # the servo joints' columns
 
-    def get(i: int) -> tuple:
+    def get(i: int) -> tuple[np.ndarray, float] | None:
+        evaluated(i)
+        if i not in servo:
+            part = done[i][1]
+            servo[i] = None if part is None else _servo_part(part, dofs)
+        return servo[i]
+
+    def evaluated(i: int) -> None:
         if i not in done:
             done[i] = evaluate(float(grid[i]))
-        return done[i]
 
     dofs = knots.scene.servo_dofs
     _, rate, accel = knots.timing.progress(knots.timing.times_of(grid))
     ends = np.searchsorted(grid, np.unique(knots.timing.span))
     stack = [(int(a), int(b)) for a, b in itertools.pairwise(ends)]
-    get(int(ends[0]))
+    evaluated(int(ends[0]))
     while stack:
         a, b = stack.pop()
         if b - a < 2:
-            get(b)
+            evaluated(b)
             continue
         m = (a + b) // 2
-        parts = [get(a)[1], get(m)[1], get(b)[1]]
+        parts = [get(a), get(m), get(b)]
         if any(p is None for p in parts) or not _linear(
-            grid[[a, m, b]], parts, (rate[m], accel[m]), dofs
+            grid[[a, m, b]], parts, (rate[m], accel[m])
         ):
             stack += [(a, m), (m, b)]
     return done
 
 
+def _servo_part(part: np.ndarray, dofs: np.ndarray) -> tuple[np.ndarray, float]:
+    """A knot's terms (4, nv) on the servo joints' dofs (4, servos) and
+    ``max |τ_s|`` over them (:func:`_linear`'s scale)."""
+    servo = part[:, dofs]
+    return servo, np.abs(servo[0]).max(initial=0.0)
+
+
 def _linear(
-    sigma: np.ndarray, parts: list[np.ndarray], rates: tuple[float, float], dofs: np.ndarray
+    sigma: np.ndarray, parts: list[tuple[np.ndarray, float]], rates: tuple[float, float]
 ) -> bool:
     """The plan linear between the knots ``σ_a``, ``σ_b`` gives ``σ_m``'s
     feed-forward at ``(σ̇, σ̈)`` within :data:`KNOT_TOLERANCE` (:func:`_refined`):
     ``|Σ_i g_i ((1 - w) a_i + w b_i - m_i)| ≤ tol · max(|a_0|, |b_0|)`` on the
-    servo joints, ``g = (1, σ̈, σ̇², σ̇)``, ``w = (σ_m - σ_a) / (σ_b - σ_a)``."""
-    a, m, b = (p[:, dofs] for p in parts)
+    servo joints, ``g = (1, σ̈, σ̇², σ̇)``, ``w = (σ_m - σ_a) / (σ_b - σ_a)``;
+    ``parts``: the knots' :func:`_servo_part`."""
+    (a, scale_a), (m, _), (b, scale_b) = parts
     w = (sigma[1] - sigma[0]) / (sigma[2] - sigma[0])
     rate, accel = rates
     gains = np.array([[1.0], [accel], [rate**2], [rate]])
     term = gains * ((1 - w) * a + w * b - m)
     error = term[0] + term[1] + term[2] + term[3]
-    scale = max(np.abs(a[0]).max(initial=0.0), np.abs(b[0]).max(initial=0.0))
-    return bool(np.all(np.abs(error) <= KNOT_TOLERANCE * scale))
+    return bool(np.all(np.abs(error) <= KNOT_TOLERANCE * max(scale_a, scale_b)))
 
 
 def plan_torques(

@@ -50,6 +50,26 @@ def min_jerk(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     )
 
 
+_HALVINGS_AT_ONCE = 3
+"""Halvings of :meth:`Timing.stretch_until`'s bisection tried in one call of
+its ``fits`` (the ``2^l - 1`` midpoints of ``l`` levels)."""
+
+
+def _midpoints(low: float, high: float, levels: int) -> list[float]:
+    """The midpoints ``½ (a + b)`` a bisection of ``[low, high]`` may try in
+    its next ``levels`` halvings, as a binary heap (node ``i``'s lower half at
+    ``2 i + 1``, its upper half at ``2 i + 2``)."""
+    spans, out = [(low, high)], []
+    for _ in range(levels):
+        halves = []
+        for a, b in spans:
+            c = 0.5 * (a + b)
+            out.append(c)
+            halves += [(a, c), (c, b)]
+        spans = halves
+    return out
+
+
 def _starts(durations: np.ndarray) -> np.ndarray:
     """Start time [s] of each segment of ``durations`` (m,), and the end of the last."""
     return np.concatenate([[0.0], np.cumsum(durations)])
@@ -155,8 +175,10 @@ class Timing:
         (bisection, 30 halvings) at which ``fits(σ̇', σ̈')`` holds on every knot of
         the segment, its rates ``σ̇ / c`` and ``σ̈ / c²`` (the other knots' as they
         are). ``fits`` gives, per knot at nominal times ``sigma`` [s], whether it
-        fits at rates ``(σ̇, σ̈)`` (k,) each, knot by knot. Returns the segments
-        slowed, ``{k: c_k}``."""
+        fits at rates ``(σ̇, σ̈)`` (..., k) each, knot by knot (any leading axes:
+        the halvings are tried :data:`_HALVINGS_AT_ONCE` levels at a time, every
+        midpoint of those levels in one call). Returns the segments slowed,
+        ``{k: c_k}``."""
         t = self.times_of(sigma)
         _, rate, accel = self.progress(t)
         segment = self._segments(t)[0]
@@ -164,10 +186,16 @@ class Timing:
         for k in np.unique(segment[~fits(rate, accel)]):
             mine = segment == k
             low, high = 1.0, max_stretch
-            for _ in range(30):
-                c = 0.5 * (low + high)
-                ok = fits(np.where(mine, rate / c, rate), np.where(mine, accel / c**2, accel))
-                low, high = (low, c) if np.all(ok[mine]) else (c, high)
+            for levels in (_HALVINGS_AT_ONCE,) * (30 // _HALVINGS_AT_ONCE):
+                tree = _midpoints(low, high, levels)
+                c = np.array(tree)[:, None]
+                c2 = np.array([x**2 for x in tree])[:, None]
+                ok = fits(np.where(mine, rate / c, rate), np.where(mine, accel / c2, accel))
+                ok = np.all(ok[:, mine], axis=1)
+                node = 0  # the bisection's path down the tree
+                for _ in range(levels):
+                    low, high = (low, tree[node]) if ok[node] else (tree[node], high)
+                    node = 2 * node + (1 if ok[node] else 2)
             self.stretch[k] *= high
             out[int(k)] = float(self.stretch[k])
         return out

@@ -97,13 +97,15 @@ class ZmpPlan:
     _stacked: tuple[np.ndarray, np.ndarray] | None = field(default=None, init=False, repr=False)
 
     def points(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
-        """The ZMPs (k, 2) [m] in the polygons' planes at ``(σ̇, σ̈)`` (k,) each."""
+        """The ZMPs (..., k, 2) [m] in the polygons' planes at ``(σ̇, σ̈)``
+        (..., k) each."""
         s, a, v, d = self.parts
-        Q = s + a * accel[:, None] + v * (rate**2)[:, None] + d * rate[:, None]
-        return zmp_points(Q[:, :3], Q[:, 3:], self.origin)
+        Q = s + a * accel[..., None] + v * (rate**2)[..., None] + d * rate[..., None]
+        return zmp_points(Q[..., :3], Q[..., 3:], self.origin)
 
     def margins(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
-        """Signed distance (k,) [m] of each knot's ZMP to its polygon's edges."""
+        """Signed distance (..., k) [m] of each knot's ZMP to its polygon's edges
+        at ``(σ̇, σ̈)`` (..., k)."""
         p = self.points(rate, accel)
         if self._stacked is None:  # every knot's half-planes, padded with b = inf
             E = max(len(b) for _, b in self.edges)
@@ -112,11 +114,12 @@ class ZmpPlan:
                 A[k, : len(bk)], b[k, : len(bk)] = Ak, bk
             self._stacked = (A, b)
         A, b = self._stacked
-        return np.min(A[..., 0] * p[:, None, 0] + A[..., 1] * p[:, None, 1] + b, axis=1)
+        return np.min(A[..., 0] * p[..., None, 0] + A[..., 1] * p[..., None, 1] + b, axis=-1)
 
     def fits(self, rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         """Per knot: the ZMP keeps :data:`ZMP_RESERVE` of a positive rest margin
-        (module docstring; True where the rest margin is not positive)."""
+        (module docstring; True where the rest margin is not positive); rates
+        (..., k), result (..., k)."""
         d_s = self.rest_margin
         return (d_s <= 0) | (self.margins(rate, accel) >= ZMP_RESERVE * d_s - 1e-9)
 
