@@ -16,6 +16,10 @@ saying so), built as a user builds it (``Robot.from_model``,
   ``--repeats`` plans);
 * the same two with ``record_every=1`` (every step sampled: the per-step path)
   and their figures beside the sampled ones;
+* **solved reach**: the playback of a motion as a solve makes it, the iterates
+  of ``bench_robots``' first hand target (seed 0, with the balance and the
+  collision avoidance), its plan and its own physics, against ``mj_step`` of
+  its steps from its first pose;
 * **recorded** (the first robot, ``--recorded``): the 3 s hold with a
   recorder's ``hold_logger()`` writing to a file, called at the logger's own
   rate (its ``call_every``) and, beside a callback that declares no rate, at
@@ -51,6 +55,7 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from bench_robots import Setup
 
 from pik_mj import Robot, Scene
 from pik_mj.record import Recorder
@@ -93,11 +98,21 @@ def _path(robot: Robot) -> Waypoints:
     return path
 
 
+def _solved_path(name: str) -> Waypoints:
+    """A solved reach: the iterates of ``bench_robots``' first hand target (seed 0)
+    reached from the standing pose with the balance and collision avoidance."""
+    setup = Setup(name)
+    (target,) = setup.targets(1, 0)
+    path = Waypoints(setup.robot, "reach")
+    path.finish(setup.solve(target, True, "osqp", path))
+    return path
+
+
 def _motion_physics(scene: Scene, path: Waypoints, steps: int) -> np.ndarray:
     """Wall and CPU time [s] of the motion's own physics: the controls of its
     ``steps`` steps (its reference's, computed beforehand) stepped from its start
     in one rollout, no checks."""
-    lower, upper = velocity_limits(scene)
+    lower, upper = velocity_limits(scene, None, path.velocity_bounds)
     reference = MotionReference(scene, path, lower, upper, speed=DEFAULT_SPEED)
     reference.begin()
     controls = reference.controls(np.arange(steps) * scene.model.opt.timestep)
@@ -139,29 +154,38 @@ def run_robot(name: str, repeats: int) -> dict:
             lambda: _raw(scene, q0, n_hold),
             repeats,
         )
-    path = _path(robot)
-    lower, upper = velocity_limits(scene)
+    row.update(_motion(scene, _path(robot), repeats, per_step=True))
+    row["solved"] = _motion(scene, _solved_path(name), repeats, per_step=False)
+    return row
+
+
+def _motion(scene: Scene, path: Waypoints, repeats: int, per_step: bool) -> dict:
+    """``path`` played (``"play"``; with ``per_step`` also every step checked,
+    ``"play per step"``), its plan and its own physics timed, each beside the
+    raw ``mj_step`` of the same steps from its first pose."""
+    lower, upper = velocity_limits(scene, None, path.velocity_bounds)
     plans = []
     for _ in range(repeats):
         t = _clock()
         MotionReference(scene, path, lower, upper, speed=DEFAULT_SPEED)
         plans.append(_clock() - t)
-    row["plan"], row["plan cpu"] = np.median(plans, axis=0)
-    for label, every in (("play", None), ("play per step", 1)):
+    out: dict = {}
+    out["plan"], out["plan cpu"] = np.median(plans, axis=0)
+    for label, every in (("play", None), ("play per step", 1))[: 2 if per_step else 1]:
         options = {} if every is None else {"record_every": every}
         first = scene.play(path, **options)
-        row[label] = _timed(
+        out[label] = _timed(
             lambda o=options: scene.play(path, **o),
             lambda n=first.steps: _raw(scene, path.q[0], n),
             repeats,
         )
-    steps = row["play"]["report"].steps
+    steps = out["play"]["report"].steps
     physics, raws = [], []
     for _ in range(repeats):  # alternating with the raw run, as _timed does
         physics.append(_motion_physics(scene, path, steps))
         raws.append(_raw(scene, path.q[0], steps))
-    row["physics"], row["physics cpu"] = np.median(physics, axis=0) / np.median(raws, axis=0)
-    return row
+    out["physics"], out["physics cpu"] = np.median(physics, axis=0) / np.median(raws, axis=0)
+    return out
 
 
 def run_recorded(name: str, repeats: int) -> dict:
@@ -233,6 +257,25 @@ def _table(rows: list[dict], clock: str, wall: bool) -> None:
         )
 
 
+def _solved_table(rows: list[dict]) -> None:
+    """The solved reaches' playback against raw ``mj_step`` (CPU time)."""
+    print("\nsolved reach (bench_robots' first target, seed 0), CPU time of this process:")
+    print(
+        f"{'robot':16} {'steps':>6} {'play [ms]':>10} {'mj_step':>8} {'ratio':>6} "
+        f"{'plan [ms]':>10} {'play - plan':>12} {'plan / raw':>11} {'physics / raw':>14} passed"
+    )
+    for r in rows:
+        s = r["solved"]
+        p = s["play"]
+        print(
+            f"{r['robot']:16} {p['report'].steps:>6} {1e3 * p['cpu']:>10.1f} "
+            f"{1e3 * p['raw cpu']:>8.1f} {p['cpu ratio']:>5.2f}x {1e3 * s['plan cpu']:>10.1f} "
+            f"{(p['cpu'] - s['plan cpu']) / p['raw cpu']:>11.2f}x "
+            f"{s['plan cpu'] / p['raw cpu']:>10.2f}x {s['physics cpu']:>13.2f}x "
+            f"{p['report'].passed}"
+        )
+
+
 def _available(name: str) -> bool:
     return name not in menagerie_models() or menagerie_available(name)
 
@@ -252,6 +295,7 @@ def main(argv: list[str] | None = None) -> dict:
             skipped.append(name)
     for clock, wall in (("CPU time of this process", False), ("wall time", True)):
         _table(rows, clock, wall)
+    _solved_table(rows)
     print(f"\nfigures, sampled every {RECORD_EVERY} steps | every step:")
     for r in rows:
         for kind in ("hold", "play"):

@@ -119,6 +119,8 @@ class Physics:
             geoms as touching.
         servo_joints: Joints with a position servo (the robot's hinge/slide joints).
         servo_dofs: Their dof addresses (read-only array).
+        servo_qposadr: Their ``qpos`` addresses (read-only array; the robot's
+            coordinates come first in the world's).
         position_actuators: Ids of the actuators that pull towards a position
             (:func:`pik_mj.sim.servos.position_feedback`; read-only array).
         robot_bodies: Mask (nbody,) of the robot's bodies (read-only array).
@@ -176,6 +178,7 @@ class Physics:
         servo_ids = [int(j) for j in robot.angle_joint_ids]
         self.servo_joints = [rm.joint(j).name for j in servo_ids]
         self.servo_dofs = _frozen(np.array(rm.jnt_dofadr[servo_ids], dtype=int))
+        self.servo_qposadr = _frozen(np.array(rm.jnt_qposadr[servo_ids], dtype=int))
         self.position_actuators = _frozen(np.flatnonzero(position_feedback(model)))
         # Collision-only copy whose robot geoms carry the contact tolerance.
         self._probe_model = copy.copy(model)

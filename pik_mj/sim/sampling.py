@@ -121,7 +121,7 @@ class Sampler:
         self.frames = list(frames)
         self.max_slope = float(max_slope)
         self.root = scene.robot.root_body_id
-        self.qadr = np.array([m.joint(j).qposadr[0] for j in scene.servo_joints], dtype=int)
+        self.qadr = scene.servo_qposadr
         self.names = scene.geom_names
         self._contacts: list[tuple[int, float, np.ndarray, np.ndarray, np.ndarray]] = []
         self._ground: list[tuple[np.ndarray, ...]] = []
@@ -161,13 +161,13 @@ class Sampler:
         record.root_pos.append(d.xpos[root].copy())
         record.root_mat.append(d.xmat[root].copy())
         record.com.append(self.scene.com(d))
-        record.q.append(qpos[self.qadr].copy())
-        record.geoms.append(d.geom_xpos[self.watch].copy())
+        record.q.append(qpos[self.qadr])  # indexing copies
+        record.geoms.append(d.geom_xpos[self.watch])
         if moving or not record.ref_q:
             record.ref_root_pos.append(ref.xpos[root].copy())
             record.ref_root_mat.append(ref.xmat[root].copy())
-            record.ref_q.append(ref.qpos[self.qadr].copy())
-            record.ref_geoms.append(ref.geom_xpos[self.watch].copy())
+            record.ref_q.append(ref.qpos[self.qadr])
+            record.ref_geoms.append(ref.geom_xpos[self.watch])
         else:  # a constant reference: the same rows
             record.ref_root_pos.append(record.ref_root_pos[-1])
             record.ref_root_mat.append(record.ref_root_mat[-1])
