@@ -219,20 +219,22 @@ def _halfplanes(v: np.ndarray) -> HalfPlanes:
     """:func:`halfplanes_from_polygon` of finite vertices ``v`` (m, 2)."""
     if len(v) < 3:
         raise InvalidInput(f"a polygon needs at least 3 vertices, got {len(v)}")
-    edges = _next(v) - v
-    lengths = np.linalg.norm(edges, axis=1)
-    scale = max(float(np.max(np.ptp(v, axis=0))), 1e-300)
-    if np.any(lengths <= 1e-12 * scale):
-        raise InvalidInput("vertices_ccw has repeated consecutive vertices")
-    t = edges / lengths[:, None]
-    t_next = _next(t)
-    turns = t[:, 0] * t_next[:, 1] - t[:, 1] * t_next[:, 0]
-    if np.any(turns <= 0.0):
+    # on Python floats, as numpy's elementwise steps: a few vertices
+    points = v.tolist()
+    scale = max(max(max(c) - min(c) for c in zip(*points, strict=True)), 1e-300)
+    t = []
+    for (x0, y0), (x1, y1) in zip(points, points[1:] + points[:1], strict=True):
+        ex, ey = x1 - x0, y1 - y0
+        length = math.sqrt(ex * ex + ey * ey)  # as np.linalg.norm(edges, axis=1)
+        if length <= 1e-12 * scale:
+            raise InvalidInput("vertices_ccw has repeated consecutive vertices")
+        t.append((ex / length, ey / length))
+    if any(a[0] * b[1] - a[1] * b[0] <= 0.0 for a, b in zip(t, t[1:] + t[:1], strict=True)):
         raise InvalidInput(
             "vertices_ccw must be a strictly convex polygon in counter-clockwise "
             "order (use convex_hull_2d to obtain one)"
         )
-    A = np.column_stack([-t[:, 1], t[:, 0]])
+    A = np.array([(-ty, tx) for tx, ty in t])
     b = -np.einsum("ij,ij->i", A, v)
     return HalfPlanes(A, b)
 

@@ -5,6 +5,7 @@ wrenches within their limits that hold a static pose, and its joint torques."""
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal, NamedTuple
@@ -314,8 +315,9 @@ class ContactDistribution:
                 L = AW.T @ np.linalg.inv(AW @ self.A.T)
             except np.linalg.LinAlgError:
                 L = None
-            ok = L is not None and np.all(np.isfinite(L))
-            self._map = L if ok and np.max(np.abs(self.A @ L - np.eye(6))) <= 1e-9 else None
+            # a non-finite L leaves A L non-finite (A has the identity on each force)
+            ok = L is not None and np.max(np.abs(self.A @ L - _EYE6)) <= 1e-9
+            self._map = L if ok else None
         return self._map
 
     def solve(self, total: np.ndarray, solver: Literal["auto", "qp"] = "auto") -> np.ndarray | None:
@@ -323,7 +325,8 @@ class ContactDistribution:
         wrenches (contacts, 6), or None."""
         if solver not in ("auto", "qp"):
             raise InvalidInput(f"solver must be 'auto' or 'qp', got {solver!r}")
-        scale = float(np.linalg.norm(total[:3])) or 1.0
+        force = total[:3].ravel(order="K")
+        scale = math.sqrt(force.dot(force)) or 1.0  # |f| as np.linalg.norm
         b = total / scale
         h = self.h / scale
         L = self.least_norm_map if solver == "auto" else None
@@ -369,7 +372,7 @@ def wrench_map(points: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:
     P = np.asarray(points, dtype=float).reshape(-1, 3)
     x, y, z = P.T
     A = np.zeros((6, len(P), 3))
-    A[:3] = np.eye(3)[:, None, :]
+    A[:3] = _EYE3
     A[3, :, 1], A[3, :, 2] = -z, y
     A[4, :, 0], A[4, :, 2] = z, -x
     A[5, :, 0], A[5, :, 1] = -y, x
@@ -383,6 +386,9 @@ def _at_origin(nx: float, ny: float, nz: float, mu: float) -> ContactConstraint:
 
 
 _LIMITS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+_EYE6 = np.eye(6)
+_EYE3 = np.eye(3)[:, None, :]  # (3, 1, 3): the forces' rows of A, broadcast over the points
 
 _POINT_LIMITS: dict[tuple, tuple] = {}
 """What :meth:`ContactDistribution.of_points` builds of the contacts' normals

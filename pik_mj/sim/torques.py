@@ -13,7 +13,6 @@ from numpy.typing import ArrayLike
 from pik_mj.dynamics import ContactDistribution, joint_torques
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
-from pik_mj.spatial import skew
 
 __all__ = ["ContactSupport", "drive_shortfalls", "holding_torques", "weight_torques"]
 
@@ -181,8 +180,17 @@ class ContactSupport:
         self._dofs = slice(a, a + 6)  # the free joint's
         J_B = np.zeros((6, m.nv))
         mujoco.mj_jacBody(m, data, J_B[:3], J_B[3:], b)
-        shift = np.eye(6)  # (f, n about p_WB) -> (f, n about the origin)
-        shift[3:, :3] = skew(data.xpos[b])
+        x, y, z = data.xpos[b].tolist()
+        shift = np.array(  # (f, n about p_WB) -> (f, n about the origin): [[I, 0], [[p]×, I]]
+            [
+                [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+                [0.0, -z, y, 1.0, 0.0, 0.0],
+                [z, 0.0, -x, 0.0, 1.0, 0.0],
+                [-y, x, 0.0, 0.0, 0.0, 1.0],
+            ]
+        )
         self._wrench = shift @ np.linalg.inv(J_B[:, self._dofs].T)  # (6, 6): τ_root -> w
         J = np.zeros((len(points), 3, m.nv))
         for Ji, point, body in zip(J, points, bodies.tolist(), strict=True):
