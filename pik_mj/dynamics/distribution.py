@@ -325,6 +325,25 @@ class ContactDistribution:
         wrenches (contacts, 6), or None."""
         if solver not in ("auto", "qp"):
             raise InvalidInput(f"solver must be 'auto' or 'qp', got {solver!r}")
+        found = self.solve_unknowns(total, solver)
+        if found is None:
+            return None
+        scale, x = found
+        out = np.zeros((len(self.cols), 6))
+        if self._points_only:  # forces alone, three columns each
+            out[:, :3] = (scale * x).reshape(-1, 3)
+            return out
+        for i, (start, k) in enumerate(self.cols):
+            out[i, :k] = scale * x[start : start + k]
+        return out
+
+    def solve_unknowns(
+        self, total: np.ndarray, solver: Literal["auto", "qp"] = "auto"
+    ) -> tuple[float, np.ndarray] | None:
+        """:meth:`solve` as the unknowns ``x`` (n,) in units of ``s = |f_total|``
+        (1 for a pure moment) and ``s``: the wrenches are ``s x`` (a force per
+        point contact, a force and a moment per flat one, :attr:`cols`); None
+        without a solution (``solver`` unchecked)."""
         force = total[:3].ravel(order="K")
         scale = math.sqrt(force.dot(force)) or 1.0  # |f| as np.linalg.norm
         b = total / scale
@@ -335,15 +354,7 @@ class ContactDistribution:
             x = None
         if x is None:
             x = self._qp(h, b)
-        if x is None:
-            return None
-        out = np.zeros((len(self.cols), 6))
-        if self._points_only:  # forces alone, three columns each
-            out[:, :3] = (scale * x).reshape(-1, 3)
-            return out
-        for i, (start, k) in enumerate(self.cols):
-            out[i, :k] = scale * x[start : start + k]
-        return out
+        return None if x is None else (scale, x)
 
     def _qp(self, h: np.ndarray, b: np.ndarray) -> np.ndarray | None:
         """DAQP on ``min ½ xᵀ W x`` s.t. ``G x ≤ h``, ``A x = b`` (the rows of

@@ -92,26 +92,50 @@ def torque_bounds(
     Returns:
         Two arrays (k, len(actuators)); ``±inf`` where nothing limits.
     """
-    a = np.asarray(actuators, dtype=int)
-    qpos = np.atleast_2d(np.asarray(qpos, float))
+    drives = _drives(model, np.asarray(actuators, dtype=int))
+    return _bounds(drives, np.atleast_2d(np.asarray(qpos, float)), qvel)
+
+
+def _drives(model: mujoco.MjModel, a: np.ndarray) -> dict[str, np.ndarray]:
+    """The model's values :func:`torque_bounds` reads of the actuators ``a``:
+    joints, gears, gains, biases and the three clamps."""
     joints = model.actuator_trnid[a, 0]
     gear = model.actuator_gear[a, 0]
-    g0, b = model.actuator_gainprm[a, 0], model.actuator_biasprm[a, :3]
-    q = qpos[:, model.jnt_qposadr[joints]]
-    qd = 0.0 if qvel is None else np.atleast_2d(qvel)[:, model.jnt_dofadr[joints]]
+    return {
+        "qposadr": model.jnt_qposadr[joints],
+        "dofadr": model.jnt_dofadr[joints],
+        "gear": gear,
+        "g0": model.actuator_gainprm[a, 0],
+        "b": model.actuator_biasprm[a, :3],
+        "u": np.where(
+            model.actuator_ctrllimited[a].astype(bool)[None],
+            model.actuator_ctrlrange[a].T,
+            [[-np.inf], [np.inf]],
+        ),  # (2, n)
+        "force": np.sort(gear[:, None] * model.actuator_forcerange[a], axis=1),
+        "force_limited": model.actuator_forcelimited[a].astype(bool),
+        "joint_limited": model.jnt_actfrclimited[joints].astype(bool),
+        "joint_range": model.jnt_actfrcrange[joints],
+    }
+
+
+def _bounds(
+    drives: dict[str, np.ndarray], qpos: np.ndarray, qvel: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`torque_bounds` of the :func:`_drives` at ``qpos`` (k, nq)."""
+    gear, b = drives["gear"], drives["b"]
+    q = qpos[:, drives["qposadr"]]
+    qd = 0.0 if qvel is None else np.atleast_2d(qvel)[:, drives["dofadr"]]
     bias = b[:, 0] + b[:, 1] * gear * q + b[:, 2] * gear * qd
-    limited_u = model.actuator_ctrllimited[a].astype(bool)[None]
-    u = np.where(limited_u, model.actuator_ctrlrange[a].T, [[-np.inf], [np.inf]])  # (2, n)
     with np.errstate(invalid="ignore"):
-        ends = gear * (g0 * u[:, None, :] + bias[None])  # (2, k, n)
+        ends = gear * (drives["g0"] * drives["u"][:, None, :] + bias[None])  # (2, k, n)
     lo, hi = np.fmin(ends[0], ends[1]), np.fmax(ends[0], ends[1])
-    force = np.sort(gear[:, None] * model.actuator_forcerange[a], axis=1)
-    limited = model.actuator_forcelimited[a].astype(bool)
+    force, limited = drives["force"], drives["force_limited"]
     lo = np.where(limited, np.maximum(lo, force[:, 0]), lo)
     hi = np.where(limited, np.minimum(hi, force[:, 1]), hi)
-    joint_limited = model.jnt_actfrclimited[joints].astype(bool)
-    lo = np.where(joint_limited, np.maximum(lo, model.jnt_actfrcrange[joints, 0]), lo)
-    hi = np.where(joint_limited, np.minimum(hi, model.jnt_actfrcrange[joints, 1]), hi)
+    joint_limited, joint_range = drives["joint_limited"], drives["joint_range"]
+    lo = np.where(joint_limited, np.maximum(lo, joint_range[:, 0]), lo)
+    hi = np.where(joint_limited, np.minimum(hi, joint_range[:, 1]), hi)
     return lo, hi
 
 
@@ -123,14 +147,14 @@ def servo_bounds(
     m] from the configurations ``qpos`` (k, nq): the widest of :func:`torque_bounds`
     at ``q_j ± give`` on each servo joint (module docstring: a servo at its control
     range's end holds by sagging)."""
-    a = np.asarray(actuators, dtype=int)
+    drives = _drives(model, np.asarray(actuators, dtype=int))
     qpos = np.atleast_2d(np.asarray(qpos, float))
-    adr = model.jnt_qposadr[model.actuator_trnid[a, 0]]
+    adr = drives["qposadr"]
     ends = []
     for sign in (-1.0, 1.0):
         moved = qpos.copy()
         moved[:, adr] += sign * give
-        ends.append(torque_bounds(model, a, moved))
+        ends.append(_bounds(drives, moved, None))
     (lo_minus, hi_minus), (lo_plus, hi_plus) = ends
     return np.minimum(lo_minus, lo_plus), np.maximum(hi_minus, hi_plus)
 

@@ -189,7 +189,12 @@ class PathDynamics:
     def at(self, sigma: float, support: bool = False) -> Knot:
         """The knot at nominal time ``σ`` [s]; ``support``: with its
         :class:`~pik_mj.sim.torques.ContactSupport`."""
-        return self.many([sigma], support)[0]
+        knot = self._knots.get(float(sigma))
+        if knot is None:
+            return self.many([sigma], support)[0]
+        if support and knot.support is None:
+            knot.support = self._support(knot)
+        return knot
 
     def many(self, sigmas: Sequence[float], support: bool = False) -> list[Knot]:
         """The knots at the nominal times ``σ`` [s] (as :meth:`at`), those not

@@ -210,10 +210,11 @@ class ContactSupport:
         None when no such forces apply ``w(τ)``."""
         if not self.active:
             return tau
-        solved = self._distribution.solve(self.wrench(tau))
+        solved = self._distribution.solve_unknowns(self.wrench(tau))
         if solved is None:
             return None
-        return tau - self._J.T @ solved[:, :3].reshape(-1)
+        scale, x = solved  # the points' forces (3 n,) in units of scale
+        return tau - self._J.T @ (scale * x)
 
     def carry(self, tau: np.ndarray) -> np.ndarray:
         """``P τ`` (class docstring)."""
