@@ -269,19 +269,6 @@ class PathDynamics:
         g, accel, bend, plus, minus = np.transpose(taus, (1, 0, 2))
         rest, inertia, curvature = g - external - weight, accel - g, bend - g
         velocity, damping = 0.5 * (plus + minus) - g, 0.5 * (plus - minus)
-        return [
-            Knot(
-                sigma,
-                q[i],
-                qpos[i],
-                contacts[i],
-                rest[i],
-                inertia[i],
-                velocity[i],
-                damping[i],
-                curvature[i],
-                xpos[i],
-                xmat[i],
-            )
-            for i, sigma in enumerate(sigmas)
-        ]
+        terms = (rest, inertia, velocity, damping, curvature)
+        rows = zip(sigmas, q, qpos, contacts, *terms, xpos, xmat, strict=True)
+        return [Knot(*row) for row in rows]  # the arrays' rows (views), iterated in C
