@@ -108,7 +108,7 @@ def _solved_path(name: str) -> Waypoints:
     return path
 
 
-def _motion_physics(scene: Scene, path: Waypoints, steps: int) -> np.ndarray:
+def motion_physics(scene: Scene, path: Waypoints, steps: int) -> np.ndarray:
     """Wall and CPU time [s] of the motion's own physics: the controls of its
     ``steps`` steps (its reference's, computed beforehand) stepped from its start
     in one rollout, no checks."""
@@ -182,7 +182,7 @@ def _motion(scene: Scene, path: Waypoints, repeats: int, per_step: bool) -> dict
     steps = out["play"]["report"].steps
     physics, raws = [], []
     for _ in range(repeats):  # alternating with the raw run, as _timed does
-        physics.append(_motion_physics(scene, path, steps))
+        physics.append(motion_physics(scene, path, steps))
         raws.append(_raw(scene, path.q[0], steps))
     out["physics"], out["physics cpu"] = np.median(physics, axis=0) / np.median(raws, axis=0)
     return out

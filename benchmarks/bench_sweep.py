@@ -42,7 +42,9 @@ and each case's CPU time is split: the solve, the static check, the motion's
 plan (:class:`~pik_mj.sim.motion.MotionReference`: the torque and ZMP plans),
 its playback (``scene.play``, the plan included) and the hold, each beside
 the raw physics of the same steps from the same pose (``mujoco.mj_step(m, d,
-n)``, one C call). The floor of a case, the solve plus the raw physics of its
+n)``, one C call), and the motion's own physics (its controls stepped in one
+rollout, no checks: what its moving contacts cost MuJoCo beyond the raw run's
+standing robot). The floor of a case, the solve plus the raw physics of its
 motion and hold, bounds the cases per CPU-second whatever the checks cost
 (``--workers 0``: the floor alone, no sweep).
 
@@ -63,6 +65,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import ray
+from bench_physics import motion_physics
 
 from pik_mj.sim import Waypoints
 from pik_mj.sim.motion import MotionReference, velocity_limits
@@ -144,6 +147,7 @@ def floor(sweep: Sweep, n: int, hold: float) -> dict:
         t0 = clock()
         motion = scene.play(path)
         play = clock() - t0
+        physics = motion_physics(scene, waypoints, motion.steps)[1]
         t0 = clock()
         held = scene.hold(q, hold, criteria=worker.criteria)
         hold_cpu = clock() - t0
@@ -153,8 +157,13 @@ def floor(sweep: Sweep, n: int, hold: float) -> dict:
             t0 = clock()
             mujoco.mj_step(scene.model, scene.data, steps)
             raws.append(clock() - t0)
-        parts.append((solve, static, plan, play, hold_cpu, *raws, motion.steps, held.steps))
-    keys = ("solve", "static", "plan", "play", "hold", "raw play", "raw hold", "steps", "held")
+        parts.append(
+            (solve, static, plan, play, hold_cpu, *raws, physics, motion.steps, held.steps)
+        )
+    keys = (
+        "solve", "static", "plan", "play", "hold", "raw play", "raw hold", "physics", "steps",
+        "held",
+    )  # fmt: skip
     mean = dict(zip(keys, np.mean(parts, axis=0).tolist(), strict=True))
     case = mean["solve"] + mean["static"] + mean["play"] + mean["hold"]
     bound = mean["solve"] + mean["raw play"] + mean["raw hold"]
@@ -164,7 +173,8 @@ def floor(sweep: Sweep, n: int, hold: float) -> dict:
         f"  solve {mean['solve']:.3f}, static {mean['static']:.3f}, motion {mean['play']:.3f} "
         f"(plan {mean['plan']:.3f}; raw mj_step {mean['raw play']:.3f} for "
         f"{mean['steps']:.0f} steps: {mean['play'] / mean['raw play']:.2f}x, without the plan "
-        f"{(mean['play'] - mean['plan']) / mean['raw play']:.2f}x), hold {mean['hold']:.3f} "
+        f"{(mean['play'] - mean['plan']) / mean['raw play']:.2f}x; its own physics in one "
+        f"rollout {mean['physics'] / mean['raw play']:.2f}x), hold {mean['hold']:.3f} "
         f"(raw {mean['raw hold']:.3f}: {mean['hold'] / mean['raw hold']:.2f}x)\n"
         f"  a case {case:.3f} s: {1 / case:.2f} cases per CPU-second; the floor (solve + raw "
         f"physics) {bound:.3f} s: at most {1 / bound:.2f} cases per CPU-second"
