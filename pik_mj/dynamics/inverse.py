@@ -70,19 +70,26 @@ def inverse_dynamics_many(
     when given, is called after configuration ``i``'s, ``data`` then holding
     its kinematics."""
     k, p = qvel.shape[:2]
+    mjSTAGE_VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
     out = np.empty((k, p, model.nv))
     qpos, v, a, tau = data.qpos, data.qvel, data.qacc, data.qfrc_inverse
     skip = np.full((k, p), int(mujoco.mjtStage.mjSTAGE_POS))
-    skip[:, 1:][np.all(qvel[:, 1:] == qvel[:, :-1], axis=2)] = int(mujoco.mjtStage.mjSTAGE_VEL)
+    same_v = np.all(qvel[:, 1:] == qvel[:, :-1], axis=2)
+    skip[:, 1:][same_v] = mjSTAGE_VEL
     stages = skip.tolist()
+    new_a = np.ones((k, p), dtype=bool)  # data.qacc to write (not the pair before's)
+    new_a[:, 1:] = ~np.all(qacc[:, 1:] == qacc[:, :-1], axis=2)
+    writes = new_a.tolist()
     saved = model.opt.disableflags
     model.opt.disableflags = saved | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     try:
         for i in range(k):
             qpos[:] = q[i]
-            for j, stage in enumerate(stages[i]):
-                v[:] = qvel[i, j]
-                a[:] = qacc[i, j]
+            for j, (stage, write_a) in enumerate(zip(stages[i], writes[i], strict=True)):
+                if j == 0 or stage != mjSTAGE_VEL:  # else the pair before's velocity
+                    v[:] = qvel[i, j]
+                if j == 0 or write_a:
+                    a[:] = qacc[i, j]
                 if j == 0:
                     mujoco.mj_inverse(model, data)
                 else:
