@@ -213,8 +213,7 @@ class ContactDistribution:
         *,
         points: np.ndarray | None = None,
     ):
-        if not (np.isfinite(moment_weight) and moment_weight > 0):
-            raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
+        _check_moment_weight(moment_weight)
         for i, c in enumerate(contacts):
             if not isinstance(c, ContactConstraint):
                 raise InvalidInput(
@@ -252,8 +251,7 @@ class ContactDistribution:
         for (start, k), (C, _) in zip(cols, limits, strict=True):
             self.G[r : r + len(C), start : start + k] = -C
             r += len(C)
-        self._map: np.ndarray | bool | None = False
-        self._daqp: tuple[np.ndarray, ...] | None = None  # :meth:`_qp`'s
+        self._clear_solvers()
 
     def _assemble_points(self, limits: list[tuple[np.ndarray, np.ndarray]], points) -> None:
         """:meth:`_assemble` of point contacts whose limits have the same rows:
@@ -266,8 +264,13 @@ class ContactDistribution:
         G = np.zeros((K, r, K, 3))
         G[np.arange(K), :, np.arange(K), :] = -np.array([C for C, _ in limits])
         self.G = G.reshape(K * r, 3 * K)
+        self._clear_solvers()
+
+    def _clear_solvers(self) -> None:
+        """No least-norm map (:attr:`least_norm_map`) nor DAQP problem (:meth:`_qp`)
+        formed yet."""
         self._map: np.ndarray | bool | None = False
-        self._daqp: tuple[np.ndarray, ...] | None = None  # :meth:`_qp`'s
+        self._daqp: tuple[np.ndarray, ...] | None = None
 
     @classmethod
     def of_points(
@@ -278,8 +281,7 @@ class ContactDistribution:
         (:func:`pik_mj.balance.contact_from_normal`). A contact's limits depend
         on its normal and friction only: the constraints are shared by every
         contact with the same ones, wherever it is."""
-        if not (np.isfinite(moment_weight) and moment_weight > 0):
-            raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
+        _check_moment_weight(moment_weight)
         normals = np.asarray(normals, float).reshape(-1, 3).tolist()
         keys = tuple(
             (*normal, friction)
@@ -292,7 +294,7 @@ class ContactDistribution:
             distribution.A = wrench_map(points)
             distribution.n, distribution.cols, distribution.weights = shared[:3]
             distribution._points_only, distribution.h, distribution.G = shared[3:]
-            distribution._map, distribution._daqp = False, None
+            distribution._clear_solvers()
             return distribution
         found = {key: _limits(_at_origin(*key)) for key in dict.fromkeys(keys)}
         distribution._assemble([found[key] for key in keys], points, moment_weight)
@@ -375,6 +377,16 @@ class ContactDistribution:
         H, f, C, lower, sense = self._daqp
         x, _, exitflag, _ = daqp.solve(H, f, C, np.concatenate([h, b]), lower, sense)
         return x if exitflag > 0 else None
+
+
+def _check_moment_weight(moment_weight: float) -> None:
+    """``ρ`` > 0, finite.
+
+    Raises:
+        InvalidInput: It is not.
+    """
+    if not (np.isfinite(moment_weight) and moment_weight > 0):
+        raise InvalidInput(f"moment_weight must be > 0 [1/m²], got {moment_weight}")
 
 
 def wrench_map(points: Sequence[np.ndarray] | np.ndarray) -> np.ndarray:

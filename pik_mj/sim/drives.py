@@ -30,6 +30,7 @@ stands for the robot's drive, not for a stronger one.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -96,44 +97,62 @@ def torque_bounds(
     return _bounds(drives, np.atleast_2d(np.asarray(qpos, float)), qvel)
 
 
-def _drives(model: mujoco.MjModel, a: np.ndarray) -> dict[str, np.ndarray]:
-    """The model's values :func:`torque_bounds` reads of the actuators ``a``:
-    joints, gears, gains, biases and the three clamps."""
+class _Drives(NamedTuple):
+    """The model's values :func:`torque_bounds` reads of some actuators (n,):
+    their joints' ``qpos`` and dof addresses, gears, gains ``g_0``, biases
+    ``b`` (n, 3), control range ``u`` (2, n) (``±inf`` unlimited), sorted force
+    range ``γ f`` (n, 2) and whether it limits, the joints' actuator force
+    range (n, 2) and whether it limits."""
+
+    qposadr: np.ndarray
+    dofadr: np.ndarray
+    gear: np.ndarray
+    g0: np.ndarray
+    b: np.ndarray
+    u: np.ndarray
+    force: np.ndarray
+    force_limited: np.ndarray
+    joint_limited: np.ndarray
+    joint_range: np.ndarray
+
+
+def _drives(model: mujoco.MjModel, a: np.ndarray) -> _Drives:
+    """The :class:`_Drives` of the actuators ``a``."""
     joints = model.actuator_trnid[a, 0]
     gear = model.actuator_gear[a, 0]
-    return {
-        "qposadr": model.jnt_qposadr[joints],
-        "dofadr": model.jnt_dofadr[joints],
-        "gear": gear,
-        "g0": model.actuator_gainprm[a, 0],
-        "b": model.actuator_biasprm[a, :3],
-        "u": np.where(
+    return _Drives(
+        qposadr=model.jnt_qposadr[joints],
+        dofadr=model.jnt_dofadr[joints],
+        gear=gear,
+        g0=model.actuator_gainprm[a, 0],
+        b=model.actuator_biasprm[a, :3],
+        u=np.where(
             model.actuator_ctrllimited[a].astype(bool)[None],
             model.actuator_ctrlrange[a].T,
             [[-np.inf], [np.inf]],
-        ),  # (2, n)
-        "force": np.sort(gear[:, None] * model.actuator_forcerange[a], axis=1),
-        "force_limited": model.actuator_forcelimited[a].astype(bool),
-        "joint_limited": model.jnt_actfrclimited[joints].astype(bool),
-        "joint_range": model.jnt_actfrcrange[joints],
-    }
+        ),
+        force=np.sort(gear[:, None] * model.actuator_forcerange[a], axis=1),
+        force_limited=model.actuator_forcelimited[a].astype(bool),
+        joint_limited=model.jnt_actfrclimited[joints].astype(bool),
+        joint_range=model.jnt_actfrcrange[joints],
+    )
 
 
 def _bounds(
-    drives: dict[str, np.ndarray], qpos: np.ndarray, qvel: np.ndarray | None
+    drives: _Drives, qpos: np.ndarray, qvel: np.ndarray | None
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`torque_bounds` of the :func:`_drives` at ``qpos`` (k, nq)."""
-    gear, b = drives["gear"], drives["b"]
-    q = qpos[:, drives["qposadr"]]
-    qd = 0.0 if qvel is None else np.atleast_2d(qvel)[:, drives["dofadr"]]
+    gear, b = drives.gear, drives.b
+    q = qpos[:, drives.qposadr]
+    qd = 0.0 if qvel is None else np.atleast_2d(qvel)[:, drives.dofadr]
     bias = b[:, 0] + b[:, 1] * gear * q + b[:, 2] * gear * qd
     with np.errstate(invalid="ignore"):
-        ends = gear * (drives["g0"] * drives["u"][:, None, :] + bias[None])  # (2, k, n)
+        ends = gear * (drives.g0 * drives.u[:, None, :] + bias[None])  # (2, k, n)
     lo, hi = np.fmin(ends[0], ends[1]), np.fmax(ends[0], ends[1])
-    force, limited = drives["force"], drives["force_limited"]
+    force, limited = drives.force, drives.force_limited
     lo = np.where(limited, np.maximum(lo, force[:, 0]), lo)
     hi = np.where(limited, np.minimum(hi, force[:, 1]), hi)
-    joint_limited, joint_range = drives["joint_limited"], drives["joint_range"]
+    joint_limited, joint_range = drives.joint_limited, drives.joint_range
     lo = np.where(joint_limited, np.maximum(lo, joint_range[:, 0]), lo)
     hi = np.where(joint_limited, np.minimum(hi, joint_range[:, 1]), hi)
     return lo, hi
@@ -149,7 +168,7 @@ def servo_bounds(
     range's end holds by sagging)."""
     drives = _drives(model, np.asarray(actuators, dtype=int))
     qpos = np.atleast_2d(np.asarray(qpos, float))
-    adr = drives["qposadr"]
+    adr = drives.qposadr
     ends = []
     for sign in (-1.0, 1.0):
         moved = qpos.copy()

@@ -103,18 +103,12 @@ class KnotContacts:
 def robot_contacts(scene: Physics, probes: Sequence[tuple[np.ndarray, ...]]) -> list[KnotContacts]:
     """The :class:`KnotContacts` of each probe's contacts
     (:meth:`~pik_mj.sim.physics.Physics.probe_contacts` with friction), all
-    read at once: a contact with a geom of the robot (or a grasped object),
-    ``dist`` within the scene's ``contact_tolerance``, not excluded; its
-    normal turned into the robot's geom (MuJoCo's ``frame[0:3]`` points from
-    geom1 to geom2)."""
+    read at once (:meth:`~pik_mj.sim.physics.Physics.robot_contact_rows`)."""
     ends = np.cumsum([len(p[1]) for p in probes]).tolist()
-    g, dist, exclude, frame, pos, mu = (np.concatenate([p[i] for p in probes]) for i in range(6))
-    g = g.reshape(-1, 2)
-    system = scene.system_geoms
-    r1, r2 = system[g[:, 0]], system[g[:, 1]]
-    keep = (dist <= scene.contact_tolerance) & ((exclude == 0) | (exclude == 1)) & (r1 | r2)
-    normal = np.where(r2[:, None], frame, -frame)
-    parts = [x[keep] for x in (np.where(r2, g[:, 1], g[:, 0]), pos, normal, mu, r1 & r2)]
+    stacked = tuple(np.concatenate([p[i] for p in probes]) for i in range(6))
+    keep, robot, other, normal = scene.robot_contact_rows(*stacked[:4])
+    self_contact = scene.system_geoms[other]
+    parts = [x[keep] for x in (robot, stacked[4], normal, stacked[5], self_contact)]
     ends = np.concatenate([[0], np.cumsum(keep)])[ends].tolist()  # of the kept, per probe
     starts = [0, *ends[:-1]]
     return [KnotContacts(*(x[a:b] for x in parts)) for a, b in zip(starts, ends, strict=True)]

@@ -250,13 +250,13 @@ def planned_contacts(scene: Physics, path: Waypoints) -> list[tuple[str, str]]:
     is planned with its partner only: a hand meant to touch a handle that
     sweeps through the counter makes an unexpected contact."""
     pairs: dict[tuple[str, str], None] = {}
-    tolerance, system, names = scene.contact_tolerance, scene.system_geoms, scene.geom_names
+    names = scene.geom_names
     for w in path.items:  # MuJoCo's contact arrays of each waypoint, read at once
         geom, dist, exclude, _, _ = scene.probe_contacts(scene.qpos_of(w.q))
-        near = (np.abs(dist) <= tolerance) & ((exclude == 0) | (exclude == 1))
-        for g1, g2 in geom[near].tolist():
-            if system[g1] or system[g2]:  # the robot's geom first
-                pairs.setdefault((names[g2], names[g1]) if system[g2] else (names[g1], names[g2]))
+        keep, robot, other, _ = scene.robot_contact_rows(geom, dist, exclude)
+        keep &= dist >= -scene.contact_tolerance
+        for r, o in zip(robot[keep].tolist(), other[keep].tolist(), strict=True):
+            pairs.setdefault((names[r], names[o]))
     return list(pairs)
 
 

@@ -360,42 +360,61 @@ class Physics:
         self, data: mujoco.MjData | None = None, max_dist: float = 0.0
     ) -> list[ContactInfo]:
         """Robot contacts (with the environment and self-contacts) in ``data``
-        (default: physics; or :meth:`probe`'s state) with ``dist <= max_dist`` [m]."""
+        (default: physics; or :meth:`probe`'s state) with ``dist <= max_dist`` [m]
+        (:meth:`robot_contact_rows`)."""
         d = self.data if data is None else data
         if not d.ncon:
             return []
-        system, geoms = self._system_list, self.geom_names
         con = d.contact  # MuJoCo's contact arrays, read at once
-        dist, exclude = con.dist.tolist(), con.exclude.tolist()
-        keep, pairs = [], []
-        for i, (g1, g2) in enumerate(con.geom.tolist()):
-            r1, r2 = system[g1], system[g2]
-            if dist[i] <= max_dist and exclude[i] in (0, 1) and (r1 or r2):
-                keep.append(i)
-                pairs.append((g1, g2, r1, r2))
-        if not keep:
+        keep, robot, other, normal = self.robot_contact_rows(
+            con.geom, con.dist, con.exclude, con.frame[:, :3], max_dist
+        )
+        rows = np.flatnonzero(keep)
+        if not len(rows):
             return []
-        # MuJoCo's normal frame[0:3] points from geom1 to geom2: it pushes geom2.
-        normal = con.frame[keep, :3]
-        flip = [k for k, (_, _, _, r2) in enumerate(pairs) if not r2]
-        normal[flip] = -normal[flip]
-        position, friction = con.pos[keep], con.friction[keep, 0].tolist()
-        out: list[ContactInfo] = []
-        for k, (g1, g2, r1, r2) in enumerate(pairs):
-            robot, other = (g2, g1) if r2 else (g1, g2)
-            out.append(
-                ContactInfo(
-                    robot_geom=geoms[robot],
-                    other_geom=geoms[other],
-                    other_body=self._geom_body_names[other],
-                    position=position[k],
-                    normal=normal[k],
-                    dist=dist[keep[k]],
-                    friction=friction[k],
-                    self_contact=r1 and r2,
-                )
+        position, normal = con.pos[rows], normal[rows]
+        dist, friction = con.dist[rows].tolist(), con.friction[rows, 0].tolist()
+        system, geoms, bodies = self._system_list, self.geom_names, self._geom_body_names
+        return [
+            ContactInfo(
+                robot_geom=geoms[r],
+                other_geom=geoms[o],
+                other_body=bodies[o],
+                position=position[k],
+                normal=normal[k],
+                dist=dist[k],
+                friction=friction[k],
+                self_contact=system[o],
             )
-        return out
+            for k, (r, o) in enumerate(zip(robot[rows].tolist(), other[rows].tolist(), strict=True))
+        ]
+
+    def robot_contact_rows(
+        self,
+        geom: np.ndarray,
+        dist: np.ndarray,
+        exclude: np.ndarray,
+        frame: np.ndarray | None = None,
+        max_dist: float | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """Of MuJoCo's contacts given as arrays, ``geom`` (n, 2), ``dist`` (n,)
+        [m], ``exclude`` (n,) and the normals ``frame[:, :3]`` (n, 3) (of
+        :meth:`probe_contacts`, rows of several stacked, or a data's
+        ``contact``): which are the robot's (a geom of the robot or of a grasped
+        object, not excluded) with ``dist <= max_dist`` [m] (default
+        ``contact_tolerance``); and of every row, the robot's geom and the other
+        geom (the robot's geom2 when both are) and, with ``frame``, the normal
+        into the robot's geom (MuJoCo's ``frame[0:3]`` points from geom1 to
+        geom2: it pushes geom2). The other geom is the robot's too in a
+        self-contact (:attr:`system_geoms`)."""
+        g = np.asarray(geom).reshape(-1, 2)
+        r2 = self._system_geom[g[:, 1]]
+        mine = self._system_geom[g[:, 0]] | r2
+        limit = self.contact_tolerance if max_dist is None else max_dist
+        keep = (dist <= limit) & ((exclude == 0) | (exclude == 1)) & mine
+        robot, other = np.where(r2, g[:, 1], g[:, 0]), np.where(r2, g[:, 0], g[:, 1])
+        normal = None if frame is None else np.where(r2[:, None], frame, -frame)
+        return keep, robot, other, normal
 
     def probe(self, q: ArrayLike) -> mujoco.MjData:
         """The state of the probe model (robot geoms with ``margin =
@@ -521,15 +540,8 @@ class Physics:
         several of them stacked) are ground contacts: robot (or grasped object)
         with the environment, within ``contact_tolerance``, the normal into the
         robot within ``max_slope`` [rad] of up."""
-        g, dist, exclude, frame = contacts[:4]
-        r1, r2 = self._system_geom[g[:, 0]], self._system_geom[g[:, 1]]
-        normal = frame * np.where(r2, 1.0, -1.0)[:, None]  # into the robot
-        return (
-            (dist <= self.contact_tolerance)
-            & ((exclude == 0) | (exclude == 1))
-            & (r1 != r2)
-            & (normal @ self.up() >= math.cos(max_slope))
-        )
+        keep, _, other, normal = self.robot_contact_rows(*contacts[:4])
+        return keep & ~self._system_geom[other] & (normal @ self.up() >= math.cos(max_slope))
 
     @property
     def system_geoms(self) -> np.ndarray:

@@ -219,17 +219,13 @@ class Sampler:
         geom = np.concatenate([r[2] for r in rows])
         dist = np.concatenate([r[3] for r in rows])
         exclude = np.concatenate([r[4] for r in rows])
-        keep = (dist <= 0.0) & ((exclude == 0) | (exclude == 1))
-        index = index[keep]
-        g1, g2 = geom[keep].T
-        r1, r2 = self.system[g1], self.system[g2]
-        robot, other = np.where(r2, g2, g1), np.where(r2, g1, g2)
-        mine = r1 | r2
-        self_contact = r1 & r2
+        keep, robot, other, _ = self.scene.robot_contact_rows(geom, dist, exclude, max_dist=0.0)
+        index, robot, other = index[keep], robot[keep], other[keep]
+        self_contact = self.system[other]
         planned = self.planned[robot, other]
         fine = planned | (~self_contact & self.allowed[robot]) | (self_contact & self.allow_self)
-        touch = mine & ~self_contact & (self.allowed[robot] | planned)
+        touch = ~self_contact & (self.allowed[robot] | planned)
         touching[index[touch], self.column[robot[touch]]] = True
-        bad = mine & ~fine
+        bad = ~fine
         for i, a, b in zip(index[bad], robot[bad], other[bad], strict=True):
             record.unexpected.setdefault((self.names[a], self.names[b]), rows[i][1])
