@@ -176,9 +176,6 @@ class PathDynamics:
         self.sigma = knot_times(path)
         self._row = {s: i for i, s in enumerate(self.sigma.tolist())}
         self._poses = path.many(self.sigma)
-        m = scene.model
-        self._held = np.array([body for _, body in scene.held_objects], dtype=int)
-        self._robot_body = m.geom_bodyid  # of each contact's robot geom
 
     def at(self, sigma: float, support: bool = False) -> Knot:
         """The knot at nominal time ``σ`` [s]; ``support``: with its
@@ -213,13 +210,10 @@ class PathDynamics:
         d.qpos[:] = knot.qpos
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
-        arrays = (c.points, c.normals, c.friction, self._robot_body[c.geom])
-        env = ~c.self_contact
-        if len(self._held):
-            env &= ~np.isin(arrays[3], self._held)
-        if not env.all():
-            arrays = tuple(x[env] for x in arrays)
-        return ContactSupport.of_points(self.scene, d, *arrays)
+        bodies = self.scene.model.geom_bodyid[c.geom]
+        return ContactSupport.of_points(
+            self.scene, d, c.points, c.normals, c.friction, bodies, c.self_contact
+        )
 
     def _poses_of(self, sigmas: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``q``, ``q'``, ``q''`` at the nominal times (those of :func:`knot_times`
@@ -246,7 +240,7 @@ class PathDynamics:
         S = float(self.path.timing.nominal[-1])
         external, weight = np.zeros((k, m.nv)), np.zeros((k, m.nv))
         xpos, xmat = np.empty((k, m.nbody, 3)), np.empty((k, m.nbody, 9))
-        held, ramp = len(self._held), self.ramp and S > 0
+        held, ramp = bool(scene.grasps), self.ramp and S > 0
 
         def loads(i: int) -> None:  # d holds the kinematics at qpos[i]
             if self.external:

@@ -134,20 +134,14 @@ class ContactSupport:
     """
 
     def __init__(self, scene: Physics, data: mujoco.MjData, contacts: Sequence[ContactInfo]):
-        m = scene.model
-        held = {body for _, body in scene.held_objects}
-        env = [
-            c
-            for c in contacts
-            if not c.self_contact and m.geom_bodyid[scene.geom_ids[c.robot_geom]] not in held
-        ]
+        bodies = scene.model.geom_bodyid
         arrays = (
-            np.array([c.position for c in env], dtype=float).reshape(-1, 3),
-            np.array([c.normal for c in env], dtype=float).reshape(-1, 3),
-            np.array([c.friction for c in env], dtype=float),
-            np.array([m.geom_bodyid[scene.geom_ids[c.robot_geom]] for c in env], dtype=int),
+            np.array([c.position for c in contacts], dtype=float).reshape(-1, 3),
+            np.array([c.normal for c in contacts], dtype=float).reshape(-1, 3),
+            np.array([c.friction for c in contacts], dtype=float),
+            np.array([bodies[scene.geom_ids[c.robot_geom]] for c in contacts], dtype=int),
         )
-        self._build(scene, data, arrays)
+        self._build(scene, data, _carrying(scene, arrays, [c.self_contact for c in contacts]))
 
     @classmethod
     def of_points(
@@ -158,13 +152,18 @@ class ContactSupport:
         normals: np.ndarray,
         friction: np.ndarray,
         bodies: np.ndarray,
+        self_contact: np.ndarray | None = None,
     ) -> ContactSupport:
-        """The support of environment contacts given as arrays: points ``p_i``
-        (n, 3) [m], unit normals into the robot (n, 3), sliding friction (n,) and
-        the robot's body of each (n,) (as the class, the contacts already those
-        that carry the robot)."""
+        """The support of the robot's contacts given as arrays: points ``p_i``
+        (n, 3) [m], unit normals into the robot (n, 3), sliding friction (n,),
+        the robot's body of each (n,) and, when some may be, which are
+        self-contacts (n,) (None: the contacts are those that carry the robot;
+        else those that do not are left out, as the class says)."""
+        arrays = (points, normals, friction, bodies)
+        if self_contact is not None:
+            arrays = _carrying(scene, arrays, self_contact)
         support = cls.__new__(cls)
-        support._build(scene, data, (points, normals, friction, bodies))
+        support._build(scene, data, arrays)
         return support
 
     def _build(self, scene: Physics, data: mujoco.MjData, contacts: tuple[np.ndarray, ...]) -> None:
@@ -226,6 +225,19 @@ class ContactSupport:
                 L = np.linalg.pinv(self._distribution.A)
             self._carried = self._J.T @ L @ self._wrench  # (nv, 6)
         return tau - self._carried @ tau[self._dofs]
+
+
+def _carrying(
+    scene: Physics, contacts: tuple[np.ndarray, ...], self_contact: ArrayLike
+) -> tuple[np.ndarray, ...]:
+    """The rows of ``contacts`` ``(points, normals, friction, bodies)`` that carry
+    the robot: not self-contacts, not on a grasped object's body
+    (:class:`ContactSupport`)."""
+    keep = ~np.asarray(self_contact, dtype=bool)
+    held = [body for _, body in scene.held_objects]
+    if held:
+        keep &= ~np.isin(contacts[3], held)
+    return contacts if keep.all() else tuple(x[keep] for x in contacts)
 
 
 _DISTRIBUTIONS: dict[bytes, ContactDistribution] = {}
