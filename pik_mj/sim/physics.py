@@ -541,7 +541,15 @@ class Physics:
         with the environment, within ``contact_tolerance``, the normal into the
         robot within ``max_slope`` [rad] of up."""
         keep, _, other, normal = self.robot_contact_rows(*contacts[:4])
-        return keep & ~self._system_geom[other] & (normal @ self.up() >= math.cos(max_slope))
+        return keep & self.on_ground(normal, self._system_geom[other], max_slope)
+
+    def on_ground(
+        self, normals: np.ndarray, self_contact: np.ndarray, max_slope: float
+    ) -> np.ndarray:
+        """Which of the robot's contacts, their normals into the robot (n, 3) and
+        whether each is a self-contact (n,), stand on the ground: with the
+        environment, the normal within ``max_slope`` [rad] of up."""
+        return ~self_contact & (normals @ self.up() >= math.cos(max_slope))
 
     @property
     def system_geoms(self) -> np.ndarray:

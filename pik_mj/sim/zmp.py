@@ -147,12 +147,11 @@ def plan_zmp(
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
     knots, chosen, regions = dynamics.many(dynamics.sigma), [], []  # of knot_times(path)
     seen, region = np.zeros((0, 3)), None
-    up, cos_max = scene.up(), math.cos(GROUND_SLOPE)
     for knot in knots:
         contacts = knot.contacts
         points = contacts.points
         if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
-            ground = ~contacts.self_contact & (contacts.normals @ up >= cos_max)
+            ground = scene.on_ground(contacts.normals, contacts.self_contact, GROUND_SLOPE)
             region = scene.support_region(points[ground])  # as Physics.support
             seen = points
         if region is not None and region.halfplanes is not None:
