@@ -20,7 +20,12 @@ from pik_mj.sim import effort, knots, zmp
 from pik_mj.sim.motion import MotionReference, velocity_limits
 from pik_mj.sim.path import Waypoint, Waypoints
 from pik_mj.sim.static import point_contacts
-from pik_mj.sim.torques import ContactSupport, holding_torques
+from pik_mj.sim.torques import (
+    ContactSupport,
+    holding_torques,
+    root_free_dofs,
+    root_wrench_maps,
+)
 
 WEIGHT = 500.0  # [N]
 
@@ -363,6 +368,32 @@ def test_knot_contacts_and_supports_equal_touching_s():
         np.testing.assert_array_equal(knot.support.hold(knot.rest), reference.hold(knot.rest))
         for term in (knot.inertia, knot.velocity, knot.damping):
             np.testing.assert_array_equal(knot.support.carry(term), reference.carry(term))
+
+
+def test_the_knots_root_wrench_maps_give_the_wrench_of_the_free_joint_rows():
+    """Each knot's ``T J_B^{-T}`` (:func:`pik_mj.sim.torques.root_wrench_maps`,
+    formed for all knots at once) maps the free joint's rows ``τ_root`` to a
+    wrench ``(f, n about the origin)`` whose moment about the root body's origin,
+    ``n - p_WB × f``, through ``J_Bᵀ`` (``mj_jacBody`` at the knot's pose) gives
+    ``τ_root`` back; and it is the map one knot's own kinematics give."""
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    lower, upper = velocity_limits(scene)
+    ref = MotionReference(scene, _reach(robot), lower, upper, speed=0.5)
+    dynamics = knots.PathDynamics(scene, ref.path)
+    m, data = scene.model, mujoco.MjData(scene.model)
+    b, dofs = robot.root_body_id, root_free_dofs(scene)
+    rng = np.random.default_rng(3)
+    for knot in dynamics.many(dynamics.sigma[::4]):
+        scene.kinematics(knot.q, data)
+        J_B = np.zeros((6, m.nv))
+        mujoco.mj_jacBody(m, data, J_B[:3], J_B[3:], b)
+        alone = root_wrench_maps(J_B[None, :, dofs], data.xpos[b][None])[0]
+        np.testing.assert_array_equal(knot.root_wrench, alone)
+        tau = rng.normal(0.0, 100.0, 6)
+        f, n = np.split(knot.root_wrench @ tau, 2)
+        about_body = np.concatenate([f, n - np.cross(data.xpos[b], f)])
+        np.testing.assert_allclose(J_B[:, dofs].T @ about_body, tau, rtol=0, atol=1e-9)
 
 
 def test_inverse_dynamics_of_many_configurations_is_each_one_s():

@@ -13,6 +13,10 @@ from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
 
+_STAGE_POS = int(mujoco.mjtStage.mjSTAGE_POS)
+_STAGE_VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
+_NO_CONSTRAINT = int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+
 ExternalSpec = tuple[str, Sequence[float] | np.ndarray, Sequence[float] | np.ndarray]
 """``(frame name, force (3,) [N], moment (3,) [N·m])``, world frame, acting on the robot
 at the frame's origin."""
@@ -70,31 +74,33 @@ def inverse_dynamics_many(
     when given, is called after configuration ``i``'s, ``data`` then holding
     its kinematics."""
     k, p = qvel.shape[:2]
-    mjSTAGE_VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
     out = np.empty((k, p, model.nv))
     qpos, v, a, tau = data.qpos, data.qvel, data.qacc, data.qfrc_inverse
-    skip = np.full((k, p), int(mujoco.mjtStage.mjSTAGE_POS))
-    same_v = np.all(qvel[:, 1:] == qvel[:, :-1], axis=2)
-    skip[:, 1:][same_v] = mjSTAGE_VEL
-    stages = skip.tolist()
-    new_a = np.ones((k, p), dtype=bool)  # data.qacc to write (not the pair before's)
-    new_a[:, 1:] = ~np.all(qacc[:, 1:] == qacc[:, :-1], axis=2)
-    writes = new_a.tolist()
+    # each pair after the first: its velocity, its acceleration new (else the
+    # pair before's stays in data), the stage mj_inverseSkip skips
+    new_v = ~np.all(qvel[:, 1:] == qvel[:, :-1], axis=2)
+    new_a = ~np.all(qacc[:, 1:] == qacc[:, :-1], axis=2)
+    skip = np.where(new_v, _STAGE_POS, _STAGE_VEL)
+    later = [
+        list(zip(range(1, p), *rows, strict=True))
+        for rows in zip(new_v.tolist(), new_a.tolist(), skip.tolist(), strict=True)
+    ]
     saved = model.opt.disableflags
-    model.opt.disableflags = saved | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    model.opt.disableflags = saved | _NO_CONSTRAINT
     try:
         for i in range(k):
             qpos[:] = q[i]
-            for j, (stage, write_a) in enumerate(zip(stages[i], writes[i], strict=True)):
-                if j == 0 or stage != mjSTAGE_VEL:  # else the pair before's velocity
-                    v[:] = qvel[i, j]
-                if j == 0 or write_a:
-                    a[:] = qacc[i, j]
-                if j == 0:
-                    mujoco.mj_inverse(model, data)
-                else:
-                    mujoco.mj_inverseSkip(model, data, stage, 1)
-                out[i, j] = tau
+            vel, acc, tau_i = qvel[i], qacc[i], out[i]
+            v[:], a[:] = vel[0], acc[0]
+            mujoco.mj_inverse(model, data)
+            tau_i[0] = tau
+            for j, write_v, write_a, stage in later[i]:
+                if write_v:
+                    v[:] = vel[j]
+                if write_a:
+                    a[:] = acc[j]
+                mujoco.mj_inverseSkip(model, data, stage, 1)
+                tau_i[j] = tau
             if each is not None:
                 each(i)
     finally:

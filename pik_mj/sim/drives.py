@@ -168,14 +168,12 @@ def servo_bounds(
     range's end holds by sagging)."""
     drives = _drives(model, np.asarray(actuators, dtype=int))
     qpos = np.atleast_2d(np.asarray(qpos, float))
-    adr = drives.qposadr
-    ends = []
-    for sign in (-1.0, 1.0):
-        moved = qpos.copy()
-        moved[:, adr] += sign * give
-        ends.append(_bounds(drives, moved, None))
-    (lo_minus, hi_minus), (lo_plus, hi_plus) = ends
-    return np.minimum(lo_minus, lo_plus), np.maximum(hi_minus, hi_plus)
+    k = len(qpos)
+    moved = np.concatenate([qpos, qpos])  # the joints at -give, then at +give
+    moved[:k, drives.qposadr] += -give
+    moved[k:, drives.qposadr] += give
+    lo, hi = _bounds(drives, moved, None)
+    return np.minimum(lo[:k], lo[k:]), np.maximum(hi[:k], hi[k:])
 
 
 @dataclass(frozen=True)

@@ -282,8 +282,8 @@ def plan_torques(
         path = BlendedPath(scene.robot.model, q, dv, timing)
         dynamics = PathDynamics(scene, path, external, ramp)
     knots = _Knots(scene, timing, dynamics)
-    grid = knot_grid(timing)  # _refined picks the knots
-    found = _refined(grid, knots, knots.parts)
+    grid = dynamics.grid if dynamics.path.timing is timing else knot_grid(timing)
+    found = _refined(grid, knots, knots.parts)  # _refined picks the knots
     kept, parts, poses = [], [], []
     for i in sorted(found):
         qk, part = found[i]

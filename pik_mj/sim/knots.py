@@ -48,7 +48,12 @@ from pik_mj.dynamics import external_torques, inverse_dynamics_many
 from pik_mj.sim.blends import BlendedPath
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
-from pik_mj.sim.torques import ContactSupport, weight_torques
+from pik_mj.sim.torques import (
+    ContactSupport,
+    root_free_dofs,
+    root_wrench_maps,
+    weight_torques,
+)
 
 __all__ = [
     "KNOT_SPACING",
@@ -72,12 +77,14 @@ def knot_grid(timing: Timing) -> np.ndarray:
     return np.unique(np.concatenate([grid, nominal]))
 
 
-def knot_times(path: BlendedPath) -> np.ndarray:
-    """:func:`knot_grid` and the blends' ends (just inside each blend) [s]."""
+def knot_times(path: BlendedPath, grid: np.ndarray | None = None) -> np.ndarray:
+    """:func:`knot_grid` (``grid`` when formed already) and the blends' ends
+    (just inside each blend) [s]."""
     nominal, b = path.timing.nominal, path.half_width
     inner = 0.999 * b[b > 0]
     ends = np.concatenate([nominal[b > 0] - inner, nominal[b > 0] + inner])
-    return np.unique(np.concatenate([knot_grid(path.timing), ends]))
+    grid = knot_grid(path.timing) if grid is None else grid
+    return np.unique(np.concatenate([grid, ends]))
 
 
 @dataclass
@@ -127,6 +134,8 @@ class Knot:
         rest, inertia, velocity, damping, curvature: ``Q_s``, ``Q_a``, ``Q_v``,
             ``Q_d``, ``Q_c``.
         xpos, xmat: The bodies' positions (nbody, 3) and orientations (nbody, 9).
+        root_wrench: The root's ``T J_B^{-T}`` (6, 6)
+            (:func:`~pik_mj.sim.torques.root_wrench_maps`), None without a free joint.
         support: The contacts' :class:`~pik_mj.sim.torques.ContactSupport`
             (None unless asked for).
     """
@@ -142,6 +151,7 @@ class Knot:
     curvature: np.ndarray
     xpos: np.ndarray
     xmat: np.ndarray
+    root_wrench: np.ndarray | None
     support: ContactSupport | None = None
 
 
@@ -156,6 +166,7 @@ class PathDynamics:
         ramp: The wrenches grow with the path's progress ``σ / S``.
 
     Attributes:
+        grid: The nominal times [s] of :func:`knot_grid` of ``path``'s timing.
         sigma: The nominal times [s] of :func:`knot_times` of ``path``.
         evaluations: Knots evaluated so far (each ``mj_inverse`` batch counts once).
     """
@@ -173,7 +184,8 @@ class PathDynamics:
         self.data = scene.workspace()  # every evaluation writes qpos, qvel, qacc
         self._knots: dict[float, Knot] = {}
         self.evaluations = 0
-        self.sigma = knot_times(path)
+        self.grid = knot_grid(path.timing)
+        self.sigma = knot_times(path, self.grid)
         self._row = {s: i for i, s in enumerate(self.sigma.tolist())}
         self._poses = path.many(self.sigma)
 
@@ -212,7 +224,7 @@ class PathDynamics:
         mujoco.mj_comPos(m, d)
         bodies = self.scene.model.geom_bodyid[c.geom]
         return ContactSupport.of_points(
-            self.scene, d, c.points, c.normals, c.friction, bodies, c.self_contact
+            self.scene, d, c.points, c.normals, c.friction, bodies, c.self_contact, knot.root_wrench
         )
 
     def _poses_of(self, sigmas: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -231,25 +243,32 @@ class PathDynamics:
         if scene.grasps:  # the grasped objects in their frames
             qpos = np.array([scene.qpos_of(qk) for qk in q])
         else:  # the path's waypoints were checked: no check per knot
-            qpos = np.tile(m.qpos0, (k, 1))
+            qpos = np.empty((k, m.nq))
+            qpos[:] = m.qpos0
             qpos[:, : scene.robot_nq] = q
-        v, a, zero = np.zeros((k, m.nv)), np.zeros((k, m.nv)), np.zeros((k, m.nv))
-        v[:, :nv], a[:, :nv] = d1, d2
-        rates = np.stack([zero, zero, zero, v, -v], axis=1)  # (q̇, q̈) of the five
-        accels = np.stack([zero, v, a, zero, zero], axis=1)  # (the rest ones together)
+        rates = np.zeros((k, 5, m.nv))  # (q̇, q̈) of the five: (0, 0), (0, q'), (0, q''),
+        accels = np.zeros((k, 5, m.nv))  # (q', 0), (-q', 0) (the rest ones together)
+        accels[:, 1, :nv], accels[:, 2, :nv] = d1, d2
+        rates[:, 3, :nv] = d1
+        rates[:, 4] = -rates[:, 3]
         S = float(self.path.timing.nominal[-1])
         external, weight = np.zeros((k, m.nv)), np.zeros((k, m.nv))
         xpos, xmat = np.empty((k, m.nbody, 3)), np.empty((k, m.nbody, 9))
-        held, ramp = bool(scene.grasps), self.ramp and S > 0
+        held, ramp, pushed = bool(scene.grasps), self.ramp and S > 0, bool(self.external)
+        xpos_now, xmat_now = d.xpos, d.xmat
+        root, dofs = scene.robot.root_body_id, root_free_dofs(scene)
+        J_B = np.zeros((k, 6, m.nv)) if dofs is not None else None
 
         def loads(i: int) -> None:  # d holds the kinematics at qpos[i]
-            if self.external:
+            if pushed:
                 s = sigmas[i] / S if ramp else 1.0
                 wrenches = [(f, s * F, s * M) for f, F, M in self.external]
                 external[i] = external_torques(m, d, wrenches)
             if held:
                 weight[i] = weight_torques(scene, d)
-            xpos[i], xmat[i] = d.xpos, d.xmat
+            xpos[i], xmat[i] = xpos_now, xmat_now
+            if J_B is not None:
+                mujoco.mj_jacBody(m, d, J_B[i, :3], J_B[i, 3:], root)
 
         taus = inverse_dynamics_many(m, d, qpos, rates, accels, loads)
         probes = [scene.probe_contacts(x, friction=True) for x in qpos]
@@ -258,5 +277,6 @@ class PathDynamics:
         rest, inertia, curvature = g - external - weight, accel - g, bend - g
         velocity, damping = 0.5 * (plus + minus) - g, 0.5 * (plus - minus)
         terms = (rest, inertia, velocity, damping, curvature)
-        rows = zip(sigmas, q, qpos, contacts, *terms, xpos, xmat, strict=True)
+        roots = [None] * k if J_B is None else root_wrench_maps(J_B[:, :, dofs], xpos[:, root])
+        rows = zip(sigmas, q, qpos, contacts, *terms, xpos, xmat, roots, strict=True)
         return [Knot(*row) for row in rows]  # the arrays' rows (views), iterated in C

@@ -14,7 +14,14 @@ from pik_mj.dynamics import ContactDistribution, joint_torques
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
 
-__all__ = ["ContactSupport", "drive_shortfalls", "holding_torques", "weight_torques"]
+__all__ = [
+    "ContactSupport",
+    "drive_shortfalls",
+    "holding_torques",
+    "root_free_dofs",
+    "root_wrench_maps",
+    "weight_torques",
+]
 
 _FREE = int(mujoco.mjtJoint.mjJNT_FREE)
 
@@ -102,6 +109,34 @@ def weight_torques(scene: Physics, data: mujoco.MjData) -> np.ndarray:
     return out
 
 
+def root_free_dofs(scene: Physics) -> slice | None:
+    """The dofs (a slice of 6) of the free joint of the robot's root body in the
+    scene's model, or None when the root is not on a free joint (a fixed base)."""
+    m = scene.model
+    j = int(m.body_jntadr[scene.robot.root_body_id])
+    if j < 0 or int(m.jnt_type[j]) != _FREE:
+        return None
+    a = int(m.jnt_dofadr[j])
+    return slice(a, a + 6)
+
+
+def root_wrench_maps(J_B: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    r"""``T J_B^{-T}`` (k, 6, 6) at k poses: the map from the free joint's rows
+    of a generalized force to the wrench ``(f, n about the world origin)``
+    [N, N·m] the contacts must apply for them (:class:`ContactSupport`).
+    ``J_B`` (k, 6, 6): the root body's Jacobian ``[J_p; J_ω]`` on its free
+    joint's dofs (``mj_jacBody``); ``origin`` (k, 3): its position ``p_WB``
+    [m]; ``T = [[I, 0], [[p_WB]_×, I]]`` takes ``(f, n about p_WB)`` to
+    ``(f, n about the origin)``."""
+    x, y, z = np.asarray(origin, dtype=float).T
+    shift = np.zeros((len(x), 6, 6))
+    shift[:, range(6), range(6)] = 1.0
+    shift[:, 3, 1], shift[:, 3, 2] = -z, y
+    shift[:, 4, 0], shift[:, 4, 2] = z, -x
+    shift[:, 5, 0], shift[:, 5, 1] = -y, x
+    return shift @ np.linalg.inv(np.transpose(J_B, (0, 2, 1)))
+
+
 class ContactSupport:
     r"""The robot's environment contacts (within the scene's
     ``contact_tolerance``, self-contacts and the grasped objects' contacts left
@@ -153,44 +188,44 @@ class ContactSupport:
         friction: np.ndarray,
         bodies: np.ndarray,
         self_contact: np.ndarray | None = None,
+        wrench: np.ndarray | None = None,
     ) -> ContactSupport:
         """The support of the robot's contacts given as arrays: points ``p_i``
         (n, 3) [m], unit normals into the robot (n, 3), sliding friction (n,),
         the robot's body of each (n,) and, when some may be, which are
         self-contacts (n,) (None: the contacts are those that carry the robot;
-        else those that do not are left out, as the class says)."""
+        else those that do not are left out, as the class says); ``wrench``:
+        the pose's ``T J_B^{-T}`` (6, 6) when formed already
+        (:func:`root_wrench_maps`; default: formed here)."""
         arrays = (points, normals, friction, bodies)
         if self_contact is not None:
             arrays = _carrying(scene, arrays, self_contact)
         support = cls.__new__(cls)
-        support._build(scene, data, arrays)
+        support._build(scene, data, arrays, wrench)
         return support
 
-    def _build(self, scene: Physics, data: mujoco.MjData, contacts: tuple[np.ndarray, ...]) -> None:
-        """The maps of the contacts ``(points, normals, friction, bodies)``."""
+    def _build(
+        self,
+        scene: Physics,
+        data: mujoco.MjData,
+        contacts: tuple[np.ndarray, ...],
+        wrench: np.ndarray | None = None,
+    ) -> None:
+        """The maps of the contacts ``(points, normals, friction, bodies)``;
+        ``wrench``: ``T J_B^{-T}`` when formed already (:func:`root_wrench_maps`)."""
         points, normals, friction, bodies = contacts
         m = scene.model
-        b = scene.robot.root_body_id
-        j = int(m.body_jntadr[b])
-        self.active = len(points) > 0 and j >= 0 and int(m.jnt_type[j]) == _FREE
+        dofs = root_free_dofs(scene)
+        self.active = len(points) > 0 and dofs is not None
         if not self.active:
             return
-        a = int(m.jnt_dofadr[j])
-        self._dofs = slice(a, a + 6)  # the free joint's
-        J_B = np.zeros((6, m.nv))
-        mujoco.mj_jacBody(m, data, J_B[:3], J_B[3:], b)
-        x, y, z = data.xpos[b].tolist()
-        shift = np.array(  # (f, n about p_WB) -> (f, n about the origin): [[I, 0], [[p]×, I]]
-            [
-                [1.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-                [0.0, 1.0, 0.0, 0.0, 0.0, 0.0],
-                [0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
-                [0.0, -z, y, 1.0, 0.0, 0.0],
-                [z, 0.0, -x, 0.0, 1.0, 0.0],
-                [-y, x, 0.0, 0.0, 0.0, 1.0],
-            ]
-        )
-        self._wrench = shift @ np.linalg.inv(J_B[:, self._dofs].T)  # (6, 6): τ_root -> w
+        self._dofs = dofs  # the free joint's
+        if wrench is None:
+            b = scene.robot.root_body_id
+            J_B = np.zeros((1, 6, m.nv))
+            mujoco.mj_jacBody(m, data, J_B[0, :3], J_B[0, 3:], b)
+            wrench = root_wrench_maps(J_B[:, :, dofs], data.xpos[b][None])[0]
+        self._wrench = wrench  # (6, 6): τ_root -> w
         J = np.zeros((len(points), 3, m.nv))
         for Ji, point, body in zip(J, points, bodies.tolist(), strict=True):
             mujoco.mj_jac(m, data, Ji, None, point, body)
