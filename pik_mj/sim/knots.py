@@ -112,13 +112,18 @@ def robot_contacts(scene: Physics, probes: Sequence[tuple[np.ndarray, ...]]) -> 
     (:meth:`~pik_mj.sim.physics.Physics.probe_contacts` with friction), all
     read at once (:meth:`~pik_mj.sim.physics.Physics.robot_contact_rows`)."""
     ends = np.cumsum([len(p[1]) for p in probes]).tolist()
-    stacked = tuple(np.concatenate([p[i] for p in probes]) for i in range(6))
-    keep, robot, other, normal = scene.robot_contact_rows(*stacked[:4])
-    self_contact = scene.system_geoms[other]
-    parts = [x[keep] for x in (robot, stacked[4], normal, stacked[5], self_contact)]
+    geom, dist, exclude, frame, pos, friction = (
+        np.concatenate(x) for x in zip(*probes, strict=True)
+    )
+    keep, robot, other, normal = scene.robot_contact_rows(geom, dist, exclude, frame)
+    g, p, n, f = robot[keep], pos[keep], normal[keep], friction[keep]
+    s = scene.system_geoms[other[keep]]
     ends = np.concatenate([[0], np.cumsum(keep)])[ends].tolist()  # of the kept, per probe
     starts = [0, *ends[:-1]]
-    return [KnotContacts(*(x[a:b] for x in parts)) for a, b in zip(starts, ends, strict=True)]
+    return [
+        KnotContacts(g[a:b], p[a:b], n[a:b], f[a:b], s[a:b])
+        for a, b in zip(starts, ends, strict=True)
+    ]
 
 
 @dataclass

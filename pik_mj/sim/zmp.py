@@ -108,11 +108,7 @@ class ZmpPlan:
         at ``(σ̇, σ̈)`` (..., k)."""
         p = self.points(rate, accel)
         if self._stacked is None:  # every knot's half-planes, padded with b = inf
-            E = max(len(b) for _, b in self.edges)
-            A, b = np.zeros((len(self.edges), E, 2)), np.full((len(self.edges), E), np.inf)
-            for k, (Ak, bk) in enumerate(self.edges):
-                A[k, : len(bk)], b[k, : len(bk)] = Ak, bk
-            self._stacked = (A, b)
+            self._stacked = _padded(self.edges)
         A, b = self._stacked
         return np.min(A[..., 0] * p[..., None, 0] + A[..., 1] * p[..., None, 1] + b, axis=-1)
 
@@ -122,6 +118,24 @@ class ZmpPlan:
         (..., k), result (..., k)."""
         d_s = self.rest_margin
         return (d_s <= 0) | (self.margins(rate, accel) >= ZMP_RESERVE * d_s - 1e-9)
+
+
+def _padded(edges: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """The half-planes ``(A, b)`` of each knot stacked, (k, E, 2) and (k, E),
+    padded with ``A = 0``, ``b = inf`` to the most edges ``E`` (the knots that
+    share a polygon share its rows, padded once)."""
+    E = max(len(b) for _, b in edges)
+    rows: dict[tuple[int, int], int] = {}  # a polygon's row in the padded arrays
+    polygons: list[tuple[np.ndarray, np.ndarray]] = []
+    for A_k, b_k in edges:
+        if (id(A_k), id(b_k)) not in rows:
+            rows[id(A_k), id(b_k)] = len(polygons)
+            polygons.append((A_k, b_k))
+    A, b = np.zeros((len(polygons), E, 2)), np.full((len(polygons), E), np.inf)
+    for k, (A_k, b_k) in enumerate(polygons):
+        A[k, : len(b_k)], b[k, : len(b_k)] = A_k, b_k
+    index = [rows[id(A_k), id(b_k)] for A_k, b_k in edges]
+    return A[index], b[index]
 
 
 def plan_zmp(
@@ -138,7 +152,7 @@ def plan_zmp(
     a segment, or carried with ``F_3 ≤ 0``) are left out; a knot whose contact
     points are within :data:`SAME_SUPPORT` of the knot before's keeps its polygon."""
     m, rm = scene.model, scene.robot.model
-    free = [j for j in range(rm.njnt) if int(rm.jnt_type[j]) == _FREE]
+    free = np.flatnonzero(rm.jnt_type == _FREE).tolist()
     if not free:
         return None
     if dynamics is None:
@@ -159,9 +173,9 @@ def plan_zmp(
             regions.append(region)
     if not chosen:
         return None
-    rest, inertia, velocity, curvature, damping = (
-        np.array([getattr(k, name) for k in chosen])[:, dof : dof + 6]
-        for name in ("rest", "inertia", "velocity", "curvature", "damping")
+    terms = np.array([(k.rest, k.inertia, k.velocity, k.curvature, k.damping) for k in chosen])
+    rest, inertia, velocity, curvature, damping = np.transpose(
+        terms[:, :, dof : dof + 6], (1, 0, 2)
     )
     # (k, 4, 6): the free joint's rows of Q_s, Q_a, Q_v + Q_c, Q_d
     Q = np.stack([rest, inertia, velocity + curvature, damping], axis=1)
