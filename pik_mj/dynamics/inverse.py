@@ -81,10 +81,7 @@ def inverse_dynamics_many(
     new_v = ~np.all(qvel[:, 1:] == qvel[:, :-1], axis=2)
     new_a = ~np.all(qacc[:, 1:] == qacc[:, :-1], axis=2)
     skip = np.where(new_v, _STAGE_POS, _STAGE_VEL)
-    later = [
-        list(zip(range(1, p), *rows, strict=True))
-        for rows in zip(new_v.tolist(), new_a.tolist(), skip.tolist(), strict=True)
-    ]
+    later = np.stack([new_v, new_a, skip], axis=2).tolist()  # (k, p - 1, 3)
     saved = model.opt.disableflags
     model.opt.disableflags = saved | _NO_CONSTRAINT
     try:
@@ -94,7 +91,7 @@ def inverse_dynamics_many(
             v[:], a[:] = vel[0], acc[0]
             mujoco.mj_inverse(model, data)
             tau_i[0] = tau
-            for j, write_v, write_a, stage in later[i]:
+            for j, (write_v, write_a, stage) in enumerate(later[i], 1):
                 if write_v:
                     v[:] = vel[j]
                 if write_a:
