@@ -25,9 +25,12 @@ import pytest
 from pik_mj.record import Recorder, screenshot
 from pik_mj.record.reader import verify
 
-pytestmark = pytest.mark.skipif(
-    not Path("/proc/net/tcp").is_file(), reason="reads listening sockets from Linux's /proc"
-)
+pytestmark = [
+    pytest.mark.process,  # sockets and signals, not MuJoCo's version
+    pytest.mark.skipif(
+        not Path("/proc/net/tcp").is_file(), reason="reads listening sockets from Linux's /proc"
+    ),
+]
 
 TINY = '''
 """A tiny scenario: a few points."""

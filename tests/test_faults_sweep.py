@@ -30,6 +30,8 @@ from pik_mj.exceptions import InvalidInput, OutputError, WriterBusy
 from pik_mj.sweep import Grid, Sweep, read_rows, run_sweep
 from pik_mj.sweep.dataset import RESULT_FIELDS, Dataset, make_row
 
+pytestmark = pytest.mark.process  # locks, addresses, disks: not MuJoCo's version
+
 SWEEP = Sweep(Grid({"x": [0.45, 0.6], "y": [-0.2], "z": [1.0]}), stacks=("balanced",), hold=0.2)
 N = len(SWEEP)
 
