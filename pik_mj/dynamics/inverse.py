@@ -13,6 +13,7 @@ from pik_mj import inputs
 from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
 
+_STAGE_NONE = int(mujoco.mjtStage.mjSTAGE_NONE)
 _STAGE_POS = int(mujoco.mjtStage.mjSTAGE_POS)
 _STAGE_VEL = int(mujoco.mjtStage.mjSTAGE_VEL)
 _NO_CONSTRAINT = int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
@@ -54,8 +55,9 @@ def inverse_dynamics(
     ``q`` (nq,) for the velocities ``qvel`` and accelerations ``qacc`` (k, nv):
     ``mj_inverse`` with the constraint solver disabled (no contact forces),
     unchecked (the callers' inputs are); the position stage (kinematics, mass
-    matrix) computed once, for the first pair. ``data`` ends with the kinematics
-    at ``q``."""
+    matrix) computed once, for the first pair; the sensors not evaluated
+    (``mj_inverseSkip``: ``sensordata`` is not written). ``data`` ends with the
+    kinematics at ``q``."""
     return inverse_dynamics_many(model, data, np.asarray(q)[None], qvel[None], qacc[None])[0]
 
 
@@ -89,7 +91,7 @@ def inverse_dynamics_many(
             qpos[:] = q[i]
             vel, acc, tau_i = qvel[i], qacc[i], out[i]
             v[:], a[:] = vel[0], acc[0]
-            mujoco.mj_inverse(model, data)
+            mujoco.mj_inverseSkip(model, data, _STAGE_NONE, 1)  # mj_inverse, no sensors
             tau_i[0] = tau
             for j, (write_v, write_a, stage) in enumerate(later[i], 1):
                 if write_v:

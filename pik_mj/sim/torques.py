@@ -269,9 +269,8 @@ def _carrying(
     the robot: not self-contacts, not on a grasped object's body
     (:class:`ContactSupport`)."""
     keep = ~np.asarray(self_contact, dtype=bool)
-    held = [body for _, body in scene.held_objects]
-    if held:
-        keep &= ~np.isin(contacts[3], held)
+    if scene.grasps:
+        keep &= ~np.isin(contacts[3], [body for _, body in scene.held_objects])
     return contacts if keep.all() else tuple(x[keep] for x in contacts)
 
 
