@@ -16,12 +16,19 @@ SLOW_MARKS = ("long", "process")
 """Marks of the slowest tests (H1's walks take minutes): their files run first."""
 
 
+def pytest_configure(config: pytest.Config) -> None:
+    """``pytest-xdist`` hands the files out in collection order
+    (:func:`pytest_collection_modifyitems`'s), not by their number of tests
+    (``--no-loadscope-reorder``)."""
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Put the files holding a ``long`` or ``process`` test first, the rest in
-    collection order. ``pytest-xdist`` (``--dist loadfile``, with
-    ``--no-loadscope-reorder`` in ``addopts``) hands the files to the workers in
-    this order: the slowest start first instead of last, so no worker runs a
-    minutes-long file alone while the others have finished."""
+    collection order: ``pytest-xdist`` (``--dist loadfile``) hands the files to
+    the workers in this order, the slowest start first instead of last, and no
+    worker runs a minutes-long file alone while the others have finished."""
     slow = {item.path for item in items if any(item.get_closest_marker(m) for m in SLOW_MARKS)}
     items.sort(key=lambda item: item.path not in slow)  # stable: False (slow) first
 
