@@ -352,7 +352,7 @@ class ContactDistribution:
         h = self.h / scale
         L = self.least_norm_map if solver == "auto" else None
         x = None if L is None else L @ b
-        if x is not None and not np.all(self.G @ x <= h):
+        if x is not None and not (self.G @ x <= h).all():
             x = None
         if x is None:
             x = self._qp(h, b)

@@ -184,7 +184,7 @@ def _fits(
     def fits(rate: np.ndarray, accel: np.ndarray) -> np.ndarray:
         rate, accel = rate[..., None], accel[..., None]
         tau = rest + inertia * accel + velocity * rate**2 + damping * rate
-        return np.all((tau <= top) & (tau >= bottom), axis=-1)
+        return ((tau <= top) & (tau >= bottom)).all(axis=-1)
 
     return fits
 
@@ -223,6 +223,7 @@ def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
 
     dofs = knots.scene.servo_dofs
     _, rate, accel = knots.timing.progress(knots.timing.times_of(grid))
+    sigma = grid.tolist()
     ends = np.searchsorted(grid, np.unique(knots.timing.span))
     stack = [(int(a), int(b)) for a, b in itertools.pairwise(ends)]
     evaluated(int(ends[0]))
@@ -234,7 +235,7 @@ def _refined(grid: np.ndarray, knots: _Knots, evaluate) -> dict[int, tuple]:
         m = (a + b) // 2
         parts = [get(a), get(m), get(b)]
         if any(p is None for p in parts) or not _linear(
-            grid[[a, m, b]], parts, (rate[m], accel[m])
+            (sigma[a], sigma[m], sigma[b]), parts, (rate[m], accel[m])
         ):
             stack += [(a, m), (m, b)]
     return done
@@ -248,7 +249,9 @@ def _servo_part(part: np.ndarray, dofs: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def _linear(
-    sigma: np.ndarray, parts: list[tuple[np.ndarray, float]], rates: tuple[float, float]
+    sigma: tuple[float, float, float],
+    parts: list[tuple[np.ndarray, float]],
+    rates: tuple[float, float],
 ) -> bool:
     """The plan linear between the knots ``σ_a``, ``σ_b`` gives ``σ_m``'s
     feed-forward at ``(σ̇, σ̈)`` within :data:`KNOT_TOLERANCE` (:func:`_refined`):
@@ -261,7 +264,7 @@ def _linear(
     gains = np.array([[1.0], [accel], [rate**2], [rate]])
     term = gains * ((1 - w) * a + w * b - m)
     error = term[0] + term[1] + term[2] + term[3]
-    return bool(np.all(np.abs(error) <= KNOT_TOLERANCE * max(scale_a, scale_b)))
+    return bool((np.abs(error) <= KNOT_TOLERANCE * max(scale_a, scale_b)).all())
 
 
 def plan_torques(
