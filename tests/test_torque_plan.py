@@ -6,6 +6,8 @@ matrix."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import mujoco
 import numpy as np
 import pytest
@@ -394,6 +396,52 @@ def test_the_knots_root_wrench_maps_give_the_wrench_of_the_free_joint_rows():
         f, n = np.split(knot.root_wrench @ tau, 2)
         about_body = np.concatenate([f, n - np.cross(data.xpos[b], f)])
         np.testing.assert_allclose(J_B[:, dofs].T @ about_body, tau, rtol=0, atol=1e-9)
+
+
+def test_knot_regions_are_the_knot_by_knot_rule_s(monkeypatch):
+    """``zmp.knot_regions`` on knots whose contacts drift slowly (past
+    ``SAME_SUPPORT`` only over several knots), jump, change in number, vanish
+    and come back: the same region for each knot, and as many regions formed,
+    as the rule knot by knot (a knot keeps the region of the knot whose region
+    was formed last while as many points lie within ``SAME_SUPPORT``)."""
+    robot = Robot.from_model("sample_humanoid")
+    scene = Scene.from_robot(robot)
+    formed: list[int] = []
+    support_region = scene.support_region
+
+    def counted(points):
+        formed.append(len(points))
+        return support_region(points)
+
+    monkeypatch.setattr(scene, "support_region", counted)
+    square = np.array([[0, 0, 0], [0.2, 0, 0], [0.2, 0.1, 0], [0, 0.1, 0]], float)
+    rng = np.random.default_rng(5)
+    points, shift = [], np.zeros(3)
+    for k in range(60):
+        shift[:2] += 0.4 * zmp.SAME_SUPPORT * rng.normal(size=2)  # a slow drift
+        if k in (20, 21, 40):
+            shift[0] += 0.01  # a jump
+        n = 3 if 30 <= k < 35 else 0 if 45 <= k < 48 else 4
+        points.append((square + shift)[:n])
+    knots_ = [
+        SimpleNamespace(
+            contacts=knots.KnotContacts(
+                np.zeros(len(p), int), p, np.tile([0.0, 0.0, 1.0], (len(p), 1)),
+                np.ones(len(p)), np.zeros(len(p), bool),
+            )
+        )
+        for p in points
+    ]  # fmt: skip
+    found = zmp.knot_regions(scene, knots_)
+    formed_found, formed[:] = list(formed), []
+    expected, seen, region = [], np.zeros((0, 3)), None
+    for p in points:  # the rule, knot by knot
+        if p.shape != seen.shape or np.abs(p - seen).max(initial=0) > zmp.SAME_SUPPORT:
+            region, seen = support_region(p) if len(p) else None, p
+            formed.append(len(p))
+        expected.append(region)
+    assert [r is e for r, e in zip(found, expected, strict=True)] == [True] * len(points)
+    assert formed_found == formed and 8 < len(formed) < 40
 
 
 def test_inverse_dynamics_of_many_configurations_is_each_one_s():

@@ -44,9 +44,10 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from pik_mj.balance import SupportRegion
 from pik_mj.dynamics import zmp_points
 from pik_mj.sim.blends import BlendedPath
-from pik_mj.sim.knots import PathDynamics
+from pik_mj.sim.knots import Knot, PathDynamics
 from pik_mj.sim.physics import External, Physics
 from pik_mj.sim.timing import Timing
 
@@ -56,6 +57,7 @@ __all__ = [
     "SAME_SUPPORT",
     "ZMP_RESERVE",
     "ZmpPlan",
+    "knot_regions",
     "plan_zmp",
     "stretch_for_balance",
 ]
@@ -138,6 +140,40 @@ def _padded(edges: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.
     return A[index], b[index]
 
 
+def knot_regions(scene: Physics, knots: Sequence[Knot]) -> list[SupportRegion | None]:
+    """The support region of each knot: the polygon of its ground contacts
+    (:meth:`~pik_mj.sim.physics.Physics.support_region`, as
+    :meth:`~pik_mj.sim.physics.Physics.support`; None without them), formed
+    again only where the knot's contact points are not within
+    :data:`SAME_SUPPORT` of those of the knot whose region was formed last (as
+    many points, each coordinate within). The knots with as many points in a
+    row are compared with that knot together."""
+    regions: list[SupportRegion | None] = []
+    seen, region = np.zeros((0, 3)), None  # the points of the region formed last
+    points = [knot.contacts.points for knot in knots]
+    start = 0
+    while start < len(knots):  # the run of knots with as many points as knot start
+        stop = start + 1
+        while stop < len(knots) and len(points[stop]) == len(points[start]):
+            stop += 1
+        run, i = np.array(points[start:stop]), 0  # (stop - start, n, 3)
+        while i < len(run):
+            if run[i].shape == seen.shape:  # the region kept up to the first knot off seen
+                off = np.abs(run[i:] - seen).max(axis=(1, 2), initial=0) > SAME_SUPPORT
+                kept = int(np.argmax(off)) if off.any() else len(run) - i
+                regions += [region] * kept
+                i += kept
+                if i == len(run):
+                    break
+            contacts = knots[start + i].contacts
+            ground = scene.on_ground(contacts.normals, contacts.self_contact, GROUND_SLOPE)
+            region, seen = scene.support_region(contacts.points[ground]), contacts.points
+            regions.append(region)
+            i += 1
+        start = stop
+    return regions
+
+
 def plan_zmp(
     scene: Physics,
     path: BlendedPath,
@@ -160,14 +196,7 @@ def plan_zmp(
     dof = int(rm.jnt_dofadr[free[0]])
     body = m.body(rm.body(int(rm.jnt_bodyid[free[0]])).name).id
     knots, chosen, regions = dynamics.many(dynamics.sigma), [], []  # of knot_times(path)
-    seen, region = np.zeros((0, 3)), None
-    for knot in knots:
-        contacts = knot.contacts
-        points = contacts.points
-        if points.shape != seen.shape or np.abs(points - seen).max(initial=0) > SAME_SUPPORT:
-            ground = scene.on_ground(contacts.normals, contacts.self_contact, GROUND_SLOPE)
-            region = scene.support_region(points[ground])  # as Physics.support
-            seen = points
+    for knot, region in zip(knots, knot_regions(scene, knots), strict=True):
         if region is not None and region.halfplanes is not None:
             chosen.append(knot)
             regions.append(region)
