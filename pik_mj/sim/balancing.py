@@ -40,6 +40,7 @@ import numpy as np
 from pik_mj.sim.physics import Physics
 from pik_mj.sim.servos import position_actuators
 from pik_mj.sim.stabilizer import TiltStabilizer, ankle_joints, tilt_stabilizer
+from pik_mj.spatial import cross_rows
 
 __all__ = [
     "FEEDBACK_PERIOD",
@@ -219,7 +220,7 @@ def stance(scene: Physics, q: np.ndarray) -> Stance | None:
         return None
     up = scene.up()
     a, b = (np.mean([data.xanchor[j] for j in ids], axis=0) for ids in ankles.values())
-    across = np.cross(up, np.cross(a - b, up))
+    across = cross_rows(up, cross_rows(a - b, up))
     if np.linalg.norm(across) < 1e-9:
         return None
     across /= np.linalg.norm(across)

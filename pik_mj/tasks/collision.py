@@ -75,6 +75,7 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput
+from pik_mj.spatial import cross_rows
 from pik_mj.tasks.collision_pairs import (
     GeomPair,
     collision_pairs,
@@ -407,11 +408,13 @@ class CollisionAvoidanceTask(Task):
             x = world[k, j]
             # J_p(x) = J_p(x_B) - [x - x_B]_x J_r(B), so
             # n^T J_p(x) = n^T J_p(x_B) + ((x - x_B) x n)^T J_r(B)  (mj_jacBody at x_B)
-            unique, body_of = np.unique(bodies[k], return_inverse=True)
-            jacp, jacr = np.empty((2, len(unique), 3, m.nv))
-            for u, body in enumerate(unique.tolist()):
+            moved = bodies[k].tolist()  # each body's Jacobian once
+            slot = {body: u for u, body in enumerate(dict.fromkeys(moved))}
+            body_of = np.array([slot[body] for body in moved])
+            jacp, jacr = np.empty((2, len(slot), 3, m.nv))
+            for body, u in slot.items():
                 mujoco.mj_jacBody(m, data, jacp[u], jacr[u], body)
-            arm = np.cross(x - data.xpos[bodies[k]], n)
+            arm = cross_rows(x - data.xpos[bodies[k]], n)
             row = (2 * rows[apart[k]] + side) * RECALL + j
             C[row] = np.einsum("pi,piv->pv", n, jacp[body_of] - J[apart[k], 1 - side]) + np.einsum(
                 "pi,piv->pv", arm, jacr[body_of]
