@@ -1,6 +1,6 @@
-"""Small spatial helpers: the cross-product matrix, rotations about z,
-quaternion <-> matrix (MuJoCo's own conversions), planar headings, and the
-SO(3) logarithm and its inverse left Jacobian.
+"""Small spatial helpers: the cross-product matrix, row-wise cross products,
+rotations about z, quaternion <-> matrix (MuJoCo's own conversions), planar
+headings, and the SO(3) logarithm and its inverse left Jacobian.
 
 Quaternions are (w, x, y, z), as MuJoCo stores them; angles in [rad].
 """
@@ -41,7 +41,8 @@ def skew(v: ArrayLike) -> np.ndarray:
 
 
 def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross products ``a × b`` of rows (k, 3) and (k, 3) (or (3,) against (k, 3)):
+    """Cross products ``a × b`` of vectors along the last axis (..., 3), broadcast
+    as numpy does (rows against rows, one vector against rows, two vectors):
     ``(a_1 b_2 - a_2 b_1, a_2 b_0 - a_0 b_2, a_0 b_1 - a_1 b_0)``, the same
     products and differences as ``np.cross`` (bitwise), without its axis
     handling, which costs more than the products on a few rows."""

@@ -227,7 +227,7 @@ class PathDynamics:
         d.qpos[:] = knot.qpos
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
-        bodies = self.scene.model.geom_bodyid[c.geom]
+        bodies = m.geom_bodyid[c.geom]
         return ContactSupport.of_points(
             self.scene, d, c.points, c.normals, c.friction, bodies, c.self_contact, knot.root_wrench
         )

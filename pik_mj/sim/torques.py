@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pik_mj.dynamics import ContactDistribution, joint_torques
+from pik_mj.dynamics import ContactDistribution, joint_torques, wrench_map
 from pik_mj.sim.drives import DriveShortfall, servo_bounds, shortfalls
 from pik_mj.sim.physics import ContactInfo, External, Physics
 
@@ -128,12 +128,10 @@ def root_wrench_maps(J_B: np.ndarray, origin: np.ndarray) -> np.ndarray:
     joint's dofs (``mj_jacBody``); ``origin`` (k, 3): its position ``p_WB``
     [m]; ``T = [[I, 0], [[p_WB]_×, I]]`` takes ``(f, n about p_WB)`` to
     ``(f, n about the origin)``."""
-    x, y, z = np.asarray(origin, dtype=float).T
-    shift = np.zeros((len(x), 6, 6))
-    shift[:, range(6), range(6)] = 1.0
-    shift[:, 3, 1], shift[:, 3, 2] = -z, y
-    shift[:, 4, 0], shift[:, 4, 2] = z, -x
-    shift[:, 5, 0], shift[:, 5, 1] = -y, x
+    k = len(origin)
+    shift = np.zeros((k, 6, 6))
+    shift[:, :, :3] = wrench_map(origin).reshape(6, k, 3).transpose(1, 0, 2)  # [I; [p_WB]×]
+    shift[:, 3:, 3:] = np.eye(3)
     return shift @ np.linalg.inv(np.transpose(J_B, (0, 2, 1)))
 
 

@@ -408,9 +408,9 @@ class CollisionAvoidanceTask(Task):
             x = world[k, j]
             # J_p(x) = J_p(x_B) - [x - x_B]_x J_r(B), so
             # n^T J_p(x) = n^T J_p(x_B) + ((x - x_B) x n)^T J_r(B)  (mj_jacBody at x_B)
-            moved = bodies[k].tolist()  # each body's Jacobian once
-            slot = {body: u for u, body in enumerate(dict.fromkeys(moved))}
-            body_of = np.array([slot[body] for body in moved])
+            point_bodies = bodies[k].tolist()  # each body's Jacobian once
+            slot = {body: u for u, body in enumerate(dict.fromkeys(point_bodies))}
+            body_of = np.array([slot[body] for body in point_bodies])
             jacp, jacr = np.empty((2, len(slot), 3, m.nv))
             for body, u in slot.items():
                 mujoco.mj_jacBody(m, data, jacp[u], jacr[u], body)
