@@ -196,6 +196,47 @@ def test_scfr_empty_region_raises(sample):
         task.compute_rows(cfg)
 
 
+def test_evaluate_is_rows_error_and_stop_test_of_one_configuration(sample):
+    """The balance tasks and the joint limits evaluate once per iteration: the
+    rows, error norm and stop test of ``evaluate`` are bit for bit those of
+    ``compute_rows``, ``compute_error`` and ``is_satisfied``, in postures inside
+    and outside the margins and limits (an empty SCFR region: the same error)."""
+    verdicts: dict[str, set[bool]] = {}
+    for seed in range(6):
+        q = random_posture(sample, seed)
+        if seed % 2:  # beyond the joints' limits
+            hinge = sample.jnt_type != mujoco.mjtJoint.mjJNT_FREE
+            q[sample.jnt_qposadr[hinge]] += 2.0 * (seed - 3)
+        cfg = configured(sample, q)
+        margin = 0.3 * (seed % 3) - 0.1  # inside, beyond and far beyond the polygon's edges
+        tasks = [
+            SupportPolygonTask(cfg, [("rleg_end", SOLE), ("lleg_end", SOLE)], margin=margin),
+            ScfrTask(
+                cfg,
+                [("rleg_end", SOLE_CONTACT), ("lleg_end", SOLE_CONTACT)],
+                margin=margin,
+                bounds=(-2.0, 2.0, -2.0, 2.0),
+            ),
+            JointLimitTask.all_limited(cfg),
+        ]
+        for task in tasks:
+            try:
+                rows, error = task.compute_rows(cfg), task.compute_error(cfg)
+            except PikError:  # tilted feet no friction holds: the same error either way
+                with pytest.raises(PikError, match="empty"):
+                    task.evaluate(cfg)
+                continue
+            state = task.evaluate(cfg)
+            for got, expected in zip(state.rows, rows, strict=True):
+                np.testing.assert_array_equal(got, expected)
+            assert state.error == float(np.linalg.norm(error))
+            assert state.satisfied is task.is_satisfied(cfg)
+            verdicts.setdefault(type(task).__name__, set()).add(state.satisfied)
+    assert verdicts["SupportPolygonTask"] == {True, False}
+    assert verdicts["JointLimitTask"] == {True, False}
+    assert "ScfrTask" in verdicts
+
+
 # --------------------------------------------------------------------------- stacks
 
 

@@ -233,6 +233,7 @@ class CollisionAvoidanceTask(Task):
         self._g1 = np.array([p.geom1 for p in self.pairs], dtype=int)
         self._g2 = np.array([p.geom2 for p in self.pairs], dtype=int)
         self._g1_list, self._g2_list = self._g1.tolist(), self._g2.tolist()
+        self._geoms = np.concatenate([self._g1, self._g2])
         types = model.geom_type
         self._plane1 = types[self._g1] == int(mujoco.mjtGeom.mjGEOM_PLANE)
         self._plane2 = types[self._g2] == int(mujoco.mjtGeom.mjGEOM_PLANE)
@@ -293,16 +294,16 @@ class CollisionAvoidanceTask(Task):
         field has no bound: its pairs are always measured.
         """
         m = self.model
-        g1, g2 = self._g1, self._g2
-        c1, c2 = data.geom_xpos[g1], data.geom_xpos[g2]
-        lower = np.linalg.norm(c1 - c2, axis=1) - m.geom_rbound[g1] - m.geom_rbound[g2]
-        R1 = data.geom_xmat[g1].reshape(-1, 3, 3)
-        R2 = data.geom_xmat[g2].reshape(-1, 3, 3)
-        a1 = c1 + np.einsum("nij,nj->ni", R1, m.geom_aabb[g1, :3])
-        a2 = c2 + np.einsum("nij,nj->ni", R2, m.geom_aabb[g2, :3])
-        h1 = np.einsum("nij,nj->ni", np.abs(R1), m.geom_aabb[g1, 3:])
-        h2 = np.einsum("nij,nj->ni", np.abs(R2), m.geom_aabb[g2, 3:])
-        box_gap = np.linalg.norm(np.maximum(np.abs(a1 - a2) - h1 - h2, 0.0), axis=1)
+        g1, g2, both = self._g1, self._g2, self._geoms  # both: g1's, then g2's
+        c = data.geom_xpos[both]
+        R = data.geom_xmat[both].reshape(-1, 3, 3)
+        rbound, aabb = m.geom_rbound[both], m.geom_aabb[both]
+        n = len(g1)
+        c1, c2, R1, R2 = c[:n], c[n:], R[:n], R[n:]
+        lower = np.linalg.norm(c1 - c2, axis=1) - rbound[:n] - rbound[n:]
+        a = c + np.einsum("nij,nj->ni", R, aabb[:, :3])
+        h = np.einsum("nij,nj->ni", np.abs(R), aabb[:, 3:])
+        box_gap = np.linalg.norm(np.maximum(np.abs(a[:n] - a[n:]) - h[:n] - h[n:], 0.0), axis=1)
         bound = np.maximum(lower, box_gap)
         for on, plane, other, R_plane in ((self._plane1, g1, g2, R1), (self._plane2, g2, g1, R2)):
             if on.any():
@@ -348,8 +349,12 @@ class CollisionAvoidanceTask(Task):
         m, data = configuration.model, configuration.data
         index = measured.index
         self.row_pairs = np.union1d(self.row_pairs, index)
-        C = np.zeros((len(self.row_pairs), m.nv))
-        lower = np.full(len(self.row_pairs), -self.yellow)
+        n = len(self.row_pairs)  # the witness rows, then 2 RECALL rows per pair
+        C_all, lower_all = (
+            np.zeros((n + 2 * RECALL * n, m.nv)),
+            np.full(n + 2 * RECALL * n, -self.yellow),
+        )
+        C, lower = C_all[:n], lower_all[:n]
         if len(index):
             g1, g2 = self._g1[index], self._g2[index]
             b1, b2 = m.geom_bodyid[g1], m.geom_bodyid[g2]
@@ -363,16 +368,8 @@ class CollisionAvoidanceTask(Task):
             C[rows] = np.einsum("ki,kiv->kv", normal, J[:, 0] - J[:, 1])
             lower[rows] = -self.gain * (measured.distance - self.bounds[index])
             self._remember(configuration, measured, b1, b2)
-            recalled = self._recalled_rows(configuration, measured, rows, normal, J)
-        else:
-            recalled = (np.zeros((0, m.nv)), np.zeros(0))
-        C_r, lower_r = recalled
-        size = 2 * RECALL * len(self.row_pairs)
-        C_all, lower_all = np.zeros((size, m.nv)), np.full(size, -self.yellow)
-        C_all[: len(C_r)], lower_all[: len(lower_r)] = C_r, lower_r
-        return TaskRows.inequality(
-            np.vstack([C, C_all]), np.concatenate([lower, lower_all]), np.inf, self.weight
-        )
+            self._recalled_rows(configuration, measured, rows, normal, J, C_all[n:], lower_all[n:])
+        return TaskRows.inequality(C_all, lower_all, np.inf, self.weight)
 
     def _recalled_rows(
         self,
@@ -381,47 +378,45 @@ class CollisionAvoidanceTask(Task):
         rows: np.ndarray,
         normal: np.ndarray,
         J: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The rows of the remembered witness points of the measured pairs that are
-        apart (module docstring): ``C`` and lower bounds, row ``(2 r + s) RECALL + j``
-        for point ``j`` on side ``s`` of the pair whose witness row is ``r``; rows
-        of pairs not measured, of missing points and of points at the current
-        witness are inactive (``0 x >= -d_y``)."""
+        C: np.ndarray,
+        lower: np.ndarray,
+    ) -> None:
+        """Write the rows of the remembered witness points of the measured pairs
+        that are apart (module docstring) into ``C`` and ``lower`` (inactive rows,
+        ``0 x >= -d_y``, as given): row ``(2 r + s) RECALL + j`` for point ``j`` on
+        side ``s`` of the pair whose witness row is ``r``; rows of pairs not
+        measured, of missing points and of points at the current witness stay
+        inactive."""
         m, data = configuration.model, configuration.data
-        size = 2 * RECALL * (int(rows.max()) + 1) if len(rows) else 0
-        C, lower = np.zeros((size, m.nv)), np.full(size, -self.yellow)
         apart = np.flatnonzero(measured.distance >= 0.0)  # penetrating: the witness row pushes
         pairs = measured.index[apart]
-        for side, geoms in enumerate((self._g1, self._g2)):
-            bodies = m.geom_bodyid[geoms[pairs]]
-            points = self._recalled[pairs, side]  # (k, RECALL, 3) in the bodies' frames
-            R = data.xmat[bodies].reshape(-1, 3, 3)
-            world = data.xpos[bodies][:, None, :] + np.einsum("kij,krj->kri", R, points)
-            own = measured.fromto[apart, 3 * side : 3 * side + 3]
-            other = measured.fromto[apart, 3 - 3 * side : 6 - 3 * side]
-            far = np.linalg.norm(world - own[:, None, :], axis=2) >= SAME_POINT  # nan: False
-            k, j = np.nonzero(far)
-            if not len(k):
-                continue
-            sign = 1.0 if side == 0 else -1.0  # n points from b to a
-            n = sign * normal[apart[k]]
-            x = world[k, j]
-            # J_p(x) = J_p(x_B) - [x - x_B]_x J_r(B), so
-            # n^T J_p(x) = n^T J_p(x_B) + ((x - x_B) x n)^T J_r(B)  (mj_jacBody at x_B)
-            point_bodies = bodies[k].tolist()  # each body's Jacobian once
-            slot = {body: u for u, body in enumerate(dict.fromkeys(point_bodies))}
-            body_of = np.array([slot[body] for body in point_bodies])
-            jacp, jacr = np.empty((2, len(slot), 3, m.nv))
-            for body, u in slot.items():
-                mujoco.mj_jacBody(m, data, jacp[u], jacr[u], body)
-            arm = cross_rows(x - data.xpos[bodies[k]], n)
-            row = (2 * rows[apart[k]] + side) * RECALL + j
-            C[row] = np.einsum("pi,piv->pv", n, jacp[body_of] - J[apart[k], 1 - side]) + np.einsum(
-                "pi,piv->pv", arm, jacr[body_of]
-            )
-            gap = np.einsum("pi,pi->p", n, x - other[k])
-            lower[row] = -self.gain * (gap - self.bounds[pairs[k]])
-        return C, lower
+        # both sides at once: [k, s] is side s (0: geom 1, 1: geom 2) of pair k
+        bodies = m.geom_bodyid[np.stack([self._g1[pairs], self._g2[pairs]], axis=1)]
+        points = self._recalled[pairs]  # (k, 2, RECALL, 3) in the bodies' frames
+        R = data.xmat[bodies].reshape(-1, 2, 3, 3)
+        world = data.xpos[bodies][:, :, None, :] + np.einsum("ksij,ksrj->ksri", R, points)
+        ends = measured.fromto[apart].reshape(-1, 2, 3)  # [k, s]: side s's witness point
+        far = np.linalg.norm(world - ends[:, :, None, :], axis=3) >= SAME_POINT  # nan: False
+        k, side, j = np.nonzero(far)
+        if not len(k):
+            return
+        n = (1.0 - 2.0 * side)[:, None] * normal[apart[k]]  # n points from b to a
+        x = world[k, side, j]
+        point_bodies = bodies[k, side]
+        # J_p(x) = J_p(x_B) - [x - x_B]_x J_r(B), so
+        # n^T J_p(x) = n^T J_p(x_B) + ((x - x_B) x n)^T J_r(B)  (mj_jacBody at x_B)
+        slot = {body: u for u, body in enumerate(dict.fromkeys(point_bodies.tolist()))}
+        body_of = np.array([slot[body] for body in point_bodies.tolist()])
+        jacp, jacr = np.empty((2, len(slot), 3, m.nv))
+        for body, u in slot.items():  # each body's Jacobian once
+            mujoco.mj_jacBody(m, data, jacp[u], jacr[u], body)
+        arm = cross_rows(x - data.xpos[point_bodies], n)
+        row = (2 * rows[apart[k]] + side) * RECALL + j
+        C[row] = np.einsum("pi,piv->pv", n, jacp[body_of] - J[apart[k], 1 - side]) + np.einsum(
+            "pi,piv->pv", arm, jacr[body_of]
+        )
+        gap = np.einsum("pi,pi->p", n, x - ends[k, 1 - side])
+        lower[row] = -self.gain * (gap - self.bounds[pairs[k]])
 
     def _remember(
         self,
@@ -449,13 +444,12 @@ class CollisionAvoidanceTask(Task):
             return
         apart = measured.distance >= 0.0
         pairs = measured.index[apart]
-        local = []
-        for side, bodies in enumerate((b1[apart], b2[apart])):
-            R = data.xmat[bodies].reshape(-1, 3, 3)
-            p = measured.fromto[apart, 3 * side : 3 * side + 3] - data.xpos[bodies]
-            local.append(np.einsum("kji,kj->ki", R, p))  # Rᵀ (p − x_body)
+        bodies = np.concatenate([b1[apart], b2[apart]])  # side 0's points, then side 1's
+        fromto = measured.fromto[apart]
+        p = np.concatenate([fromto[:, :3], fromto[:, 3:]]) - data.xpos[bodies]
+        local = np.einsum("kji,kj->ki", data.xmat[bodies].reshape(-1, 3, 3), p)  # Rᵀ (p − x_body)
         sides = np.repeat([0, 1], len(pairs))
-        points = (np.concatenate([pairs, pairs]), sides, np.concatenate(local))
+        points = (np.concatenate([pairs, pairs]), sides, local)
         self._pending = (configuration.q.copy(), points)
 
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:

@@ -34,7 +34,7 @@ import mujoco
 import numpy as np
 
 from pik_mj.exceptions import InvalidInput, UnknownName
-from pik_mj.tasks.task import Task, TaskRows, diagonal_weights
+from pik_mj.tasks.task import Task, TaskRows, TaskState, diagonal_weights
 
 JOINT_TYPES = {
     int(mujoco.mjtJoint.mjJNT_FREE): "free",
@@ -283,18 +283,34 @@ class JointLimitTask(Task):
 
     # -- cascade contract ---------------------------------------------------
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
-        values, C = self._values_and_rows(configuration)
+        return self._rows(*self._values_and_rows(configuration))
+
+    def _rows(self, values: np.ndarray, C: np.ndarray) -> TaskRows:
         ball = np.array([jr.kind == "ball" for jr in self.joints])
         lower = np.where(ball, -np.inf, self.min_angle - values)
         return TaskRows.inequality(C, lower, self.max_angle - values, self.w)
 
     def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
         """Per-joint violation ``max(θ_min - θ, 0) + max(θ - θ_max, 0)`` [rad or m]."""
-        v = self.values(configuration)
+        return self._error(self.values(configuration))
+
+    def _error(self, v: np.ndarray) -> np.ndarray:
         return np.maximum(self.min_angle - v, 0.0) + np.maximum(v - self.max_angle, 0.0)
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
         return bool(np.all(self.compute_error(configuration) <= self.check_margin))
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, error norm and stop test from one reading of the joints (the
+        values of :meth:`compute_rows`, :meth:`compute_error` and
+        :meth:`is_satisfied`)."""
+        values, C = self._values_and_rows(configuration)
+        error = self._error(values)
+        return TaskState(
+            self._rows(values, C),
+            float(np.linalg.norm(error)),
+            bool(np.all(error <= self.check_margin)),
+        )
 
     def __repr__(self) -> str:
         shown = [j.name for j in self.joints[:4]] + (["..."] if len(self.joints) > 4 else [])

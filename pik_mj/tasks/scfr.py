@@ -31,7 +31,7 @@ from pik_mj.balance import ContactConstraint, ExternalWrench, Region, scfr
 from pik_mj.exceptions import InvalidInput, PikError
 from pik_mj.frames import Frame
 from pik_mj.tasks.com import com_jacobian, com_position, robot_root_body, vector3
-from pik_mj.tasks.task import Task, TaskRows
+from pik_mj.tasks.task import Task, TaskRows, TaskState
 
 ExternalSpec = Sequence[ExternalWrench] | Callable[[mink.Configuration], Sequence[ExternalWrench]]
 
@@ -255,7 +255,9 @@ class ScfrTask(Task):
     # -- cascade contract ---------------------------------------------------
     def compute_rows(self, configuration: mink.Configuration) -> TaskRows:
         region = self._nonempty(self.region(configuration))
-        d = self.distances(configuration, region)
+        return self._rows(configuration, region, self.distances(configuration, region))
+
+    def _rows(self, configuration: mink.Configuration, region: Region, d: np.ndarray) -> TaskRows:
         J = region.halfplanes.A @ com_jacobian(configuration, self.root_body)[:2]
         return TaskRows.inequality(J, self.margin - d, np.inf, self.w)
 
@@ -265,6 +267,19 @@ class ScfrTask(Task):
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
         return bool(np.max(self.compute_error(configuration)) <= self.centroid_thre)
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, error norm and stop test from one region and one evaluation of
+        the edge distances (the values of :meth:`compute_rows`,
+        :meth:`compute_error` and :meth:`is_satisfied`)."""
+        region = self._nonempty(self.region(configuration))
+        d = self.distances(configuration, region)
+        error = np.maximum(self.margin - d, 0.0)
+        return TaskState(
+            self._rows(configuration, region, d),
+            float(np.linalg.norm(error)),
+            bool(np.max(error) <= self.centroid_thre),
+        )
 
     def __repr__(self) -> str:
         kinds = [str(f) if f is not None else "fixed" for f, _ in self.contacts]

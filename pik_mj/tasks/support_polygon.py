@@ -39,7 +39,7 @@ from pik_mj.exceptions import InvalidInput
 from pik_mj.frames import Frame
 from pik_mj.spatial import skew
 from pik_mj.tasks.com import com_jacobian, com_position, robot_root_body
-from pik_mj.tasks.task import Task, TaskRows
+from pik_mj.tasks.task import Task, TaskRows, TaskState
 
 PolygonSpec = Any
 """``(k, 3)`` world points, or ``(frame_name, (k, 3) local points[, frame_type])``."""
@@ -218,6 +218,18 @@ class SupportPolygonTask(Task):
 
     def is_satisfied(self, configuration: mink.Configuration) -> bool:
         return bool(np.max(self.compute_error(configuration)) <= self.centroid_thre)
+
+    def evaluate(self, configuration: mink.Configuration) -> TaskState:
+        """Rows, error norm and stop test from one hull and one pass over its
+        edges (the values of :meth:`compute_rows`, :meth:`compute_error` and
+        :meth:`is_satisfied`)."""
+        d, J = self._distances(configuration, None, jacobian=True)
+        error = np.maximum(self.margin - d, 0.0)
+        return TaskState(
+            TaskRows.inequality(J, self.margin - d, np.inf, self.w),
+            float(np.linalg.norm(error)),
+            bool(np.max(error) <= self.centroid_thre),
+        )
 
     def __repr__(self) -> str:
         kinds = [str(f) if f is not None else "fixed" for f, _ in self.polygons]
