@@ -112,25 +112,17 @@ class TorquePlan:
         if not len(self.sigma):
             return None
         sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
-        k = np.clip(np.searchsorted(self.sigma, sigma, side="right") - 1, 0, len(self.sigma) - 1)
-        nxt = np.minimum(k + 1, len(self.sigma) - 1)
+        last = len(self.sigma) - 1
+        k = np.minimum(np.maximum(np.searchsorted(self.sigma, sigma, side="right") - 1, 0), last)
+        nxt = np.minimum(k + 1, last)
         span = self.sigma[nxt] - self.sigma[k]
-        w = np.where(
-            span > 0, np.clip((sigma - self.sigma[k]) / np.where(span > 0, span, 1), 0, 1), 0
-        )
-        w = w[:, None]
+        ratio = (sigma - self.sigma[k]) / np.where(span > 0, span, 1)
+        w = np.where(span > 0, np.minimum(np.maximum(ratio, 0), 1), 0)[:, None, None]
         rate, accel = np.asarray(rate, float)[:, None], np.asarray(accel, float)[:, None]
-
-        def lerp(a: np.ndarray) -> np.ndarray:
-            a = a if dofs is None else a[:, dofs]
-            return (1 - w) * a[k] + w * a[nxt]
-
-        return (
-            lerp(self.rest)
-            + lerp(self.inertia) * accel
-            + lerp(self.velocity) * rate**2
-            + lerp(self.damping) * rate
-        )
+        terms = np.stack([self.rest, self.inertia, self.velocity, self.damping], axis=1)
+        terms = terms if dofs is None else terms[:, :, dofs]  # (knots, 4, dofs)
+        rest, inertia, velocity, damping = ((1 - w) * terms[k] + w * terms[nxt]).transpose(1, 0, 2)
+        return rest + inertia * accel + velocity * rate**2 + damping * rate
 
 
 class _Knots:

@@ -310,7 +310,8 @@ class MotionReference:
         q = self.q[:, law.qadr][base] + delta
         qd = slope * rate[:, None]
         tau = None if self.torques is None else self.torques.at(sigma, rate, accel, law.dof)
-        ctrl = np.tile(self._ctrl, (len(t), 1))
+        ctrl = np.empty((len(t), len(self._ctrl)))
+        ctrl[:] = self._ctrl
         ctrl[:, law.ids] = law.joint_controls(q, qd, tau)
         return ctrl
 

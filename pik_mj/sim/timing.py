@@ -42,11 +42,12 @@ PEAK_RATE = 15.0 / 8.0
 
 def min_jerk(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``m(τ)``, ``m'(τ)``, ``m''(τ)`` of the minimum-jerk profile, ``τ`` clipped to [0, 1]."""
-    t = np.clip(tau, 0.0, 1.0)
+    t = np.minimum(np.maximum(tau, 0.0), 1.0)
+    t2, rest = t**2, 1.0 - t
     return (
-        t**3 * (10.0 - 15.0 * t + 6.0 * t**2),
-        30.0 * t**2 * (1.0 - t) ** 2,
-        60.0 * t * (1.0 - t) * (1.0 - 2.0 * t),
+        t**3 * (10.0 - 15.0 * t + 6.0 * t2),
+        30.0 * t2 * rest**2,
+        60.0 * t * rest * (1.0 - 2.0 * t),
     )
 
 
@@ -107,21 +108,31 @@ class Timing:
             ]
         )
         self.stretch = np.ones(len(self.first))
+        self._clock: tuple[bytes, np.ndarray, np.ndarray] | None = None
 
     @property
     def durations(self) -> np.ndarray:
         """``D_k`` [s] of each segment."""
-        return self.stretch * PEAK_RATE * (self.span[:, 1] - self.span[:, 0])
+        return self._durations_starts()[0].copy()
 
     @property
     def starts(self) -> np.ndarray:
         """Start time ``t_k`` [s] of each segment, and the end of the last (m + 1,)."""
-        return _starts(self.durations)
+        return self._durations_starts()[1].copy()
 
     @property
     def duration(self) -> float:
         """Time [s] of the whole path."""
-        return float(self.starts[-1])
+        return float(self._durations_starts()[1][-1])
+
+    def _durations_starts(self) -> tuple[np.ndarray, np.ndarray]:
+        """:attr:`durations` and :attr:`starts`, formed again only when
+        :attr:`stretch` changed (read-only: shared by the calls)."""
+        key = self.stretch.tobytes()
+        if self._clock is None or self._clock[0] != key:
+            durations = self.stretch * PEAK_RATE * (self.span[:, 1] - self.span[:, 0])
+            self._clock = (key, durations, _starts(durations))
+        return self._clock[1], self._clock[2]
 
     def segment_of(self, t: np.ndarray) -> np.ndarray:
         """Index of the segment running at each time ``t`` [s] (the last one after the end)."""
@@ -129,10 +140,9 @@ class Timing:
 
     def _segments(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`segment_of`, :attr:`durations` and :attr:`starts` (formed once)."""
-        durations = self.durations
-        starts = _starts(durations)
+        durations, starts = self._durations_starts()
         k = np.searchsorted(starts, np.asarray(t, float), side="right") - 1
-        return np.clip(k, 0, len(self.first) - 1), durations, starts
+        return np.minimum(np.maximum(k, 0), len(self.first) - 1), durations, starts
 
     def progress(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``σ(t)`` [s], ``dσ/dt`` [-] and ``d²σ/dt²`` [1/s] at times ``t`` [s]."""
@@ -141,13 +151,14 @@ class Timing:
         D = durations[k]
         (s0, s1), t0 = self.span[k].T, starts[k]
         moving = D > 0
-        tau = np.where(moving, (t - t0) / np.where(moving, D, 1.0), 1.0)
+        Dsafe = np.where(moving, D, 1.0)
+        tau = np.where(moving, (t - t0) / Dsafe, 1.0)
         m, dm, ddm = min_jerk(tau)
         S = s1 - s0
-        Dsafe = np.where(moving, D, 1.0)
         sigma = s0 + S * m
-        rate = np.where(moving & (tau < 1.0), S / Dsafe * dm, 0.0)
-        accel = np.where(moving & (tau < 1.0), S / Dsafe**2 * ddm, 0.0)
+        live = moving & (tau < 1.0)
+        rate = np.where(live, S / Dsafe * dm, 0.0)
+        accel = np.where(live, S / Dsafe**2 * ddm, 0.0)
         return sigma, rate, accel
 
     def times_of(self, sigma: np.ndarray) -> np.ndarray:
@@ -157,12 +168,12 @@ class Timing:
         sigma = np.atleast_1d(np.asarray(sigma, dtype=float))
         table, m = _INVERSE_TABLE
         k = np.searchsorted(self.span[:, 1], sigma, side="left")
-        k = np.clip(k, 0, len(self.first) - 1)
-        durations = self.durations
-        (s0, s1), t0, D = self.span[k].T, _starts(durations)[k], durations[k]
+        k = np.minimum(np.maximum(k, 0), len(self.first) - 1)
+        durations, starts = self._durations_starts()
+        (s0, s1), t0, D = self.span[k].T, starts[k], durations[k]
         moving = s1 > s0
         frac = np.where(moving, (sigma - s0) / np.where(moving, s1 - s0, 1.0), 1.0)
-        return t0 + D * np.interp(np.clip(frac, 0.0, 1.0), m, table)
+        return t0 + D * np.interp(np.minimum(np.maximum(frac, 0.0), 1.0), m, table)
 
     def stretch_until(
         self,
@@ -209,7 +220,7 @@ class Timing:
         (``α = 0`` on the last waypoint and on steps of zero time)."""
         sigma = np.asarray(sigma, dtype=float)
         n = len(self.nominal)
-        i = np.clip(np.searchsorted(self.nominal, sigma, side="right") - 1, 0, n - 1)
+        i = np.minimum(np.maximum(np.searchsorted(self.nominal, sigma, side="right") - 1, 0), n - 1)
         inside = i < n - 1
         T = np.where(inside, self.steps[np.minimum(i, n - 2)] if n > 1 else 0.0, 0.0)
         alpha = np.where(T > 0, (sigma - self.nominal[i]) / np.where(T > 0, T, 1.0), 0.0)
