@@ -21,7 +21,7 @@ The irteus entry points (:mod:`pik_mj.ik`) and the robot's flat stance
 from __future__ import annotations
 
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import mink
 import mujoco
@@ -85,14 +85,20 @@ def moving_dofs(
 _ANGLE = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 
 
-def _range_gap(model: mujoco.MjModel, dofs: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``clip(q_j, lo, hi) - q_j`` [rad or m] of each dof of ``dofs`` (0 for a dof that
-    is not a limited hinge or slide)."""
+def _range_gap(model: mujoco.MjModel, dofs: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """The function of ``q`` giving ``clip(q_j, lo, hi) - q_j`` [rad or m] of each dof
+    of ``dofs`` (0 for a dof that is not a limited hinge or slide), the model's
+    ranges read once."""
     joints = model.dof_jntid[dofs]
     ranged = model.jnt_limited[joints].astype(bool) & np.isin(model.jnt_type[joints], _ANGLE)
-    value = q[model.jnt_qposadr[joints]]
-    lo, hi = model.jnt_range[joints].T
-    return np.where(ranged, np.clip(value, lo, hi) - value, 0.0)
+    qposadr = model.jnt_qposadr[joints]
+    lo, hi = model.jnt_range[joints].T.copy()
+
+    def gap(q: np.ndarray) -> np.ndarray:
+        value = q[qposadr]
+        return np.where(ranged, np.clip(value, lo, hi) - value, 0.0)
+
+    return gap
 
 
 def hold_task(model: mujoco.MjModel, moving: np.ndarray) -> LinearTask | None:
@@ -105,7 +111,8 @@ def hold_task(model: mujoco.MjModel, moving: np.ndarray) -> LinearTask | None:
         return None
     A = np.zeros((held.size, model.nv))
     A[np.arange(held.size), held] = 1.0
-    return LinearTask(A, lambda c: _range_gap(model, held, c.q), name="frozen_dofs")
+    gap = _range_gap(model, held)
+    return LinearTask(A, lambda c: gap(c.q), name="frozen_dofs")
 
 
 def _joint_name(model: mujoco.MjModel, dof: int) -> str:
@@ -128,7 +135,7 @@ def held_breaches(
     """
     model, q = configuration.model, configuration.q
     held = np.setdiff1d(np.arange(model.nv), moving)
-    gap = _range_gap(model, held, q)
+    gap = _range_gap(model, held)(q)
     what = [
         f"{_joint_name(model, d)} outside its range by {abs(g):.4g} (steps to its bound)"
         for d, g in zip(held.tolist(), gap.tolist(), strict=True)

@@ -146,14 +146,18 @@ class SupportPolygonTask(Task):
 
     def hull(self, configuration: mink.Configuration) -> np.ndarray:
         """Indices into :meth:`points` of the hull vertices, counter-clockwise about n."""
-        uv = self.points(configuration) @ self.E.T
+        return self._hull(self.points(configuration) @ self.E.T)
+
+    def _hull(self, uv: np.ndarray) -> np.ndarray:
+        """:meth:`hull` of the projected points ``uv`` (n, 2): each hull vertex's
+        first index among them."""
         try:
             hull = convex_hull_2d(uv)
         except InvalidInput as exc:
             raise InvalidInput(
                 f"{self.name}: the support points projected along the normal span no area ({exc})"
             ) from exc
-        return np.array([int(np.argmin(np.sum((uv - h) ** 2, axis=1))) for h in hull])
+        return np.argmin(np.sum((uv[None, :, :] - hull[:, None, :]) ** 2, axis=2), axis=1)
 
     def region(self, configuration: mink.Configuration) -> SupportRegion:
         """The support polygon as a :class:`pik_mj.balance.SupportRegion` (unshrunk)."""
@@ -162,9 +166,9 @@ class SupportPolygonTask(Task):
     def _distances(
         self, configuration: mink.Configuration, hull: np.ndarray | None, jacobian: bool
     ):
-        if hull is None:
-            hull = self.hull(configuration)
         uv = self.points(configuration) @ self.E.T
+        if hull is None:
+            hull = self._hull(uv)
         c = self.E @ com_position(configuration, self.root_body)
         if jacobian:
             J_c = self.E @ com_jacobian(configuration, self.root_body)

@@ -74,7 +74,7 @@ class TaskRows(NamedTuple):
         """Equality rows only: cost ``(A x - b)ᵀ diag(w_A) (A x - b)``."""
         A = np.atleast_2d(np.asarray(A, dtype=float))
         b = np.asarray(b, dtype=float).reshape(-1)
-        w = np.broadcast_to(np.asarray(w_A, dtype=float), b.shape).copy()
+        w = _per_row(w_A, len(b))
         z = np.zeros(0)
         return TaskRows(A, b, w, np.zeros((0, A.shape[1])), z, z, z, damping)
 
@@ -88,9 +88,7 @@ class TaskRows(NamedTuple):
         """Inequality rows only: ``d_lower <= C x + ω <= d_upper``, cost ``ωᵀ W_C ω``."""
         C = np.atleast_2d(np.asarray(C, dtype=float))
         m = C.shape[0]
-        lo = np.broadcast_to(np.asarray(d_lower, dtype=float), (m,)).copy()
-        hi = np.broadcast_to(np.asarray(d_upper, dtype=float), (m,)).copy()
-        w = np.broadcast_to(np.asarray(w_C, dtype=float), (m,)).copy()
+        lo, hi, w = _per_row(d_lower, m), _per_row(d_upper, m), _per_row(w_C, m)
         z = np.zeros(0)
         return TaskRows(np.zeros((0, C.shape[1])), z, z, C, lo, hi, w)
 
@@ -215,6 +213,13 @@ class TaskRows(NamedTuple):
                 f"lower {self.d_lower[i]:.6g} > upper {self.d_upper[i]:.6g}"
             )
         raise InvalidInput(f"task {owner}: weights must be >= 0 (equality) and > 0 (slack)")
+
+
+def _per_row(value: np.ndarray | float, m: int) -> np.ndarray:
+    """``value`` (a number, or one per row) as a new array of ``m`` floats."""
+    if isinstance(value, float):
+        return np.full(m, value)
+    return np.broadcast_to(np.asarray(value, dtype=float), (m,)).copy()
 
 
 class TaskState(NamedTuple):
