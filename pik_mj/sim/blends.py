@@ -92,11 +92,11 @@ class BlendedPath:
         after = inside & (s < b[i])
         before = inside & ~after & (s > T - bn) & (bn > 0)
         straight = inside & ~after & ~before
-        if np.any(straight):
+        if straight.any():
             r = rates[i[straight]]
             delta[straight], d1[straight] = s[straight, None] * r, r
         blend = after | before
-        if np.any(blend):  # the blend after waypoint i or before i + 1, both at once
+        if blend.any():  # the blend after waypoint i or before i + 1, both at once
             c = np.where(after, i, i + 1)[blend]
             bw = b[c][:, None]
             v_in, v_out = rates[c - 1], rates[c]

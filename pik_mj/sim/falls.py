@@ -200,9 +200,10 @@ def fall_measures(
     R_ref = np.broadcast_to(np.asarray(R_ref, float).reshape(-1, 3, 3), R_WB.shape)
     axis_B = np.einsum("nji,j->ni", R_ref, up)  # the body axis pointing up in the reference
     cos = np.einsum("nij,nj,i->n", R_WB, axis_B, up)
-    tilt = np.arccos(np.clip(cos, -1.0, 1.0))
+    tilt = np.arccos(np.minimum(np.maximum(cos, -1.0), 1.0))
     dp = p_WB - p_ref
-    drift = np.linalg.norm(dp - np.outer(dp @ up, up), axis=1)
+    across = dp - np.outer(dp @ up, up)
+    drift = np.sqrt(np.add.reduce(across * across, axis=1))  # np.linalg.norm(across, axis=1)
     return tilt, drift, p_WB @ up, p_ref @ up
 
 

@@ -468,7 +468,7 @@ class Physics:
 
     def up(self) -> np.ndarray:
         """Unit vector against gravity (z without gravity)."""
-        gx, gy, gz = self.model.opt.gravity
+        gx, gy, gz = self.model.opt.gravity.tolist()
         n = math.sqrt(gx * gx + gy * gy + gz * gz)
         return np.array([-gx / n, -gy / n, -gz / n]) if n > 0 else np.array([0.0, 0.0, 1.0])
 

@@ -111,10 +111,15 @@ def velocity_limits(
     rm = scene.robot.model
     lo, hi = np.full(rm.nv, -np.inf), np.full(rm.nv, np.inf)
     robot_joint = scene.robot_bodies[rm.jnt_bodyid]
-    for j in np.flatnonzero(robot_joint):
+    dofs: list[int] = []
+    limits: list[float] = []
+    for j in np.flatnonzero(robot_joint).tolist():
         adr = int(rm.jnt_dofadr[j])
-        v = np.array(IRTEUS_MAX_VELOCITY[_JOINT_TYPES[int(rm.jnt_type[j])]])
-        lo[adr : adr + len(v)], hi[adr : adr + len(v)] = -v, v
+        v = IRTEUS_MAX_VELOCITY[_JOINT_TYPES[int(rm.jnt_type[j])]]
+        dofs += range(adr, adr + len(v))
+        limits += v
+    hi[dofs] = limits
+    lo[dofs] = -hi[dofs]
     for dof, (a, b) in (task_bounds or {}).items():
         lo[dof], hi[dof] = a, b
     if max_velocity is not None:
