@@ -80,7 +80,7 @@ class BlendedPath:
         nominal, steps, b = self.timing.nominal, self.timing.steps, self.half_width
         rates = self.rates if dofs is None else self.rates[:, dofs]
         n, nv = len(self.q), rates.shape[1]
-        i, _ = self.timing.piece(sigma)
+        i = self.timing.step_of(sigma)
         k = len(sigma)
         w, delta = i.copy(), np.zeros((k, nv))
         d1, d2 = np.zeros((k, nv)), np.zeros((k, nv))

@@ -117,12 +117,20 @@ class TorquePlan:
         nxt = np.minimum(k + 1, last)
         span = self.sigma[nxt] - self.sigma[k]
         ratio = (sigma - self.sigma[k]) / np.where(span > 0, span, 1)
-        w = np.where(span > 0, np.minimum(np.maximum(ratio, 0), 1), 0)[:, None, None]
+        w = np.where(span > 0, np.minimum(np.maximum(ratio, 0), 1), 0)[:, None]
+        v = 1 - w
         rate, accel = np.asarray(rate, float)[:, None], np.asarray(accel, float)[:, None]
-        terms = np.stack([self.rest, self.inertia, self.velocity, self.damping], axis=1)
-        terms = terms if dofs is None else terms[:, :, dofs]  # (knots, 4, dofs)
-        rest, inertia, velocity, damping = ((1 - w) * terms[k] + w * terms[nxt]).transpose(1, 0, 2)
-        return rest + inertia * accel + velocity * rate**2 + damping * rate
+
+        def lerp(a: np.ndarray) -> np.ndarray:
+            a = a if dofs is None else a[:, dofs]
+            return v * a[k] + w * a[nxt]
+
+        return (
+            lerp(self.rest)
+            + lerp(self.inertia) * accel
+            + lerp(self.velocity) * rate**2
+            + lerp(self.damping) * rate
+        )
 
 
 class _Knots:

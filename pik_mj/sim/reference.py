@@ -113,9 +113,9 @@ def velocity_limits(
     robot_joint = scene.robot_bodies[rm.jnt_bodyid]
     dofs: list[int] = []
     limits: list[float] = []
+    adrs, types = rm.jnt_dofadr.tolist(), rm.jnt_type.tolist()
     for j in np.flatnonzero(robot_joint).tolist():
-        adr = int(rm.jnt_dofadr[j])
-        v = IRTEUS_MAX_VELOCITY[_JOINT_TYPES[int(rm.jnt_type[j])]]
+        adr, v = adrs[j], IRTEUS_MAX_VELOCITY[_JOINT_TYPES[types[j]]]
         dofs += range(adr, adr + len(v))
         limits += v
     hi[dofs] = limits

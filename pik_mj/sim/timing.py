@@ -220,8 +220,15 @@ class Timing:
         (``α = 0`` on the last waypoint and on steps of zero time)."""
         sigma = np.asarray(sigma, dtype=float)
         n = len(self.nominal)
-        i = np.minimum(np.maximum(np.searchsorted(self.nominal, sigma, side="right") - 1, 0), n - 1)
+        i = self.step_of(sigma)
         inside = i < n - 1
         T = np.where(inside, self.steps[np.minimum(i, n - 2)] if n > 1 else 0.0, 0.0)
         alpha = np.where(T > 0, (sigma - self.nominal[i]) / np.where(T > 0, T, 1.0), 0.0)
         return i, alpha
+
+    def step_of(self, sigma: np.ndarray) -> np.ndarray:
+        """The step ``i`` each nominal time ``σ`` [s] falls in (``σ_i ≤ σ < σ_{i+1}``;
+        the first before the start, the last waypoint at and after the end)."""
+        last = len(self.nominal) - 1
+        i = np.searchsorted(self.nominal, np.asarray(sigma, dtype=float), side="right") - 1
+        return np.minimum(np.maximum(i, 0), last)
