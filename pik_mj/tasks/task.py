@@ -219,7 +219,8 @@ def _per_row(value: np.ndarray | float, m: int) -> np.ndarray:
     """``value`` (a number, or one per row) as a new array of ``m`` floats."""
     if isinstance(value, float):
         return np.full(m, value)
-    return np.broadcast_to(np.asarray(value, dtype=float), (m,)).copy()
+    value = np.asarray(value, dtype=float)
+    return value.copy() if value.shape == (m,) else np.broadcast_to(value, (m,)).copy()
 
 
 class TaskState(NamedTuple):
