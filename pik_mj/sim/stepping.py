@@ -121,7 +121,7 @@ class Stepper:
         end = t0 + n * self.model.opt.timestep
         return bool(
             abs(trajectory[-1, 0] - end) < 0.5 * self.model.opt.timestep
-            and np.all(np.isfinite(trajectory[-1]))
+            and np.isfinite(trajectory[-1]).all()
         )
 
     def replay(

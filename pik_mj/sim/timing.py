@@ -146,6 +146,10 @@ class Timing:
 
     def progress(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``σ(t)`` [s], ``dσ/dt`` [-] and ``d²σ/dt²`` [1/s] at times ``t`` [s]."""
+        return self._progress(t)[:3]
+
+    def _progress(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`progress` and :meth:`segment_of` at times ``t`` [s]."""
         t = np.asarray(t, dtype=float)
         k, durations, starts = self._segments(t)
         D = durations[k]
@@ -159,7 +163,7 @@ class Timing:
         live = moving & (tau < 1.0)
         rate = np.where(live, S / Dsafe * dm, 0.0)
         accel = np.where(live, S / Dsafe**2 * ddm, 0.0)
-        return sigma, rate, accel
+        return sigma, rate, accel, k
 
     def times_of(self, sigma: np.ndarray) -> np.ndarray:
         """The time [s] at which the path reaches each nominal time ``σ`` [s]
@@ -190,9 +194,7 @@ class Timing:
         the halvings are tried :data:`_HALVINGS_AT_ONCE` levels at a time, every
         midpoint of those levels in one call). Returns the segments slowed,
         ``{k: c_k}``."""
-        t = self.times_of(sigma)
-        _, rate, accel = self.progress(t)
-        segment = self._segments(t)[0]
+        _, rate, accel, segment = self._progress(self.times_of(sigma))
         out = {}
         for k in np.unique(segment[~fits(rate, accel)]):
             mine = segment == k
