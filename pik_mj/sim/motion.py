@@ -249,15 +249,14 @@ def planned_contacts(scene: Physics, path: Waypoints) -> list[tuple[str, str]]:
     tolerance at a waypoint collides there: it is not planned. A planned pair
     is planned with its partner only: a hand meant to touch a handle that
     sweeps through the counter makes an unexpected contact."""
-    pairs: dict[tuple[str, str], None] = {}
     names = scene.geom_names
-    for w in path.items:  # MuJoCo's contact arrays of each waypoint, read at once
-        geom, dist, exclude, _, _ = scene.probe_contacts(scene.qpos_of(w.q))
-        keep, robot, other, _ = scene.robot_contact_rows(geom, dist, exclude)
-        keep &= dist >= -scene.contact_tolerance
-        for r, o in zip(robot[keep].tolist(), other[keep].tolist(), strict=True):
-            pairs.setdefault((names[r], names[o]))
-    return list(pairs)
+    probes = [scene.probe_contacts(scene.qpos_of(w.q)) for w in path.items]
+    # MuJoCo's contact arrays of every waypoint, stacked in order and read at once
+    geom, dist, exclude = (np.concatenate(x) for x in list(zip(*probes, strict=True))[:3])
+    keep, robot, other, _ = scene.robot_contact_rows(geom, dist, exclude)
+    keep &= dist >= -scene.contact_tolerance
+    pairs = zip(robot[keep].tolist(), other[keep].tolist(), strict=True)
+    return list(dict.fromkeys((names[r], names[o]) for r, o in pairs))
 
 
 def _as_waypoints(path: Waypoints | ArrayLike, nq: int) -> Waypoints:
