@@ -350,10 +350,8 @@ class CollisionAvoidanceTask(Task):
         index = measured.index
         self.row_pairs = np.union1d(self.row_pairs, index)
         n = len(self.row_pairs)  # the witness rows, then 2 RECALL rows per pair
-        C_all, lower_all = (
-            np.zeros((n + 2 * RECALL * n, m.nv)),
-            np.full(n + 2 * RECALL * n, -self.yellow),
-        )
+        size = (1 + 2 * RECALL) * n
+        C_all, lower_all = np.zeros((size, m.nv)), np.full(size, -self.yellow)
         C, lower = C_all[:n], lower_all[:n]
         if len(index):
             g1, g2 = self._g1[index], self._g2[index]
